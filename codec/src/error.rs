@@ -1,0 +1,58 @@
+//! Errors, sorted by who is at fault. Each module keeps a small enum; [`Error`] folds them.
+
+use thiserror::Error;
+
+/// A parameter the caller chose is out of range.
+#[derive(Debug, Error, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum ParamError {
+    #[error("grid of {rows}×{cols} needs {} samples, got {len}", rows.saturating_mul(*cols))]
+    GridShape {
+        rows: usize,
+        cols: usize,
+        len: usize,
+    },
+    #[error("crop {size_r}×{size_c} at ({row}, {col}) does not fit in a {rows}×{cols} grid")]
+    Crop {
+        row: usize,
+        col: usize,
+        size_r: usize,
+        size_c: usize,
+        rows: usize,
+        cols: usize,
+    },
+    #[error("{name} must be {expected}, got {got}")]
+    OutOfRange {
+        name: &'static str,
+        expected: &'static str,
+        got: String,
+    },
+}
+
+/// Bytes from outside (a stream, a container) are malformed, truncated or exceed a limit.
+#[derive(Debug, Error, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum DecodeError {
+    #[error("stream is truncated: {0}")]
+    Truncated(&'static str),
+    #[error("stream is malformed: {0}")]
+    Malformed(String),
+    #[error("stream exceeds a limit: {0}")]
+    Limit(String),
+    #[error("unsupported stream: {0}")]
+    Unsupported(String),
+}
+
+/// The crate's one public error.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum Error {
+    #[error(transparent)]
+    Param(#[from] ParamError),
+    #[error(transparent)]
+    Decode(#[from] DecodeError),
+    #[error(transparent)]
+    Raster(#[from] crate::raster::RasterError),
+}
+
+pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -1,0 +1,1 @@
+//! Embedded zerotree wavelet coder. (Placeholder: being written.)

@@ -1,0 +1,1 @@
+//! Zerotree → adaptive terrain mesh. (Placeholder: being written.)

@@ -1,0 +1,4 @@
+//! zerotile's service and command line. The codec lives in `zerotile-codec`; this crate adds
+//! the command line, evaluation and (later) the HTTP service.
+
+pub mod cli;

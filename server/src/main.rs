@@ -1,0 +1,5 @@
+//! The `zerotile` command line.
+
+fn main() -> std::process::ExitCode {
+    zerotile::cli::run()
+}

@@ -1,0 +1,18 @@
+//! Shared helpers for the end-to-end tests: where the binary and the shared fixtures are.
+
+use std::path::PathBuf;
+
+/// `../shared/data` beside the repository: real rasters and meshes, read in place.
+pub fn shared_data() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data")
+}
+
+/// The `zerotile` binary built for this test profile.
+pub fn zerotile_bin() -> PathBuf {
+    let mut dir = std::env::current_exe().expect("test executable path");
+    dir.pop();
+    if dir.ends_with("deps") {
+        dir.pop();
+    }
+    dir.join(format!("zerotile{}", std::env::consts::EXE_SUFFIX))
+}
