@@ -4,12 +4,15 @@
 //! The pipeline, split by how long each piece of work lives:
 //! - per dataset: [`raster`] reads a heightmap; [`wavelet`] transforms it; [`ezw`] codes it.
 //! - per decoded tile: [`ezw`] decodes a stream prefix to a threshold.
-//! - per threshold: [`zerotree`] turns the decoder's zerotree into a crack-free mesh.
+//! - per threshold: [`zerotree`] turns the decoder's zerotree into a crack-free mesh, and
+//!   [`tile`] stitches neighbouring tiles so their shared edges match.
 
 pub mod error;
 pub mod ezw;
+mod fixtures;
 pub mod grid;
 pub mod raster;
+// pub mod tile; // re-enabled with the zerotree mesher
 pub mod wavelet;
 pub mod zerotree;
 

@@ -1,0 +1,251 @@
+//! Adaptive binary range coder (the LZMA construction: 11-bit probabilities, shift-5
+//! adaptation, carry propagation through a cached byte) with two additions EZW needs:
+//!
+//! - **Minimal termination.** Each pass ends with [`Encoder::finish`], which emits only as
+//!   many bytes as pin a value inside the final interval (usually 1–2), so flushing at every
+//!   pass costs about a byte per pass. The decoder pads a segment with zero bytes.
+//! - **Exact prefixes.** A decoder fed a truncated segment reports, through
+//!   [`Decoder::reliable`], whether every byte it has consumed so far was real. A decision
+//!   taken while that holds is the encoder's decision, so a cut anywhere in a pass decodes
+//!   the symbols before the cut exactly and stops.
+
+/// Probability of a 0 bit, in 1/2048ths.
+pub type Prob = u16;
+
+const PROB_BITS: u32 = 11;
+const PROB_ONE: u32 = 1 << PROB_BITS;
+/// Adaptation speed: larger is slower and steadier.
+const MOVE_BITS: u32 = 5;
+const TOP: u32 = 1 << 24;
+
+/// A context's initial state: even odds.
+pub const PROB_INIT: Prob = (PROB_ONE / 2) as Prob;
+
+/// Range encoder over one segment.
+pub struct Encoder {
+    low: u64,
+    range: u32,
+    cache: u8,
+    /// Bytes waiting for a possible carry: `cache` followed by `pending - 1` bytes of 0xFF.
+    pending: u64,
+    /// The first cached byte of a segment is always zero and is never written.
+    started: bool,
+    out: Vec<u8>,
+}
+
+impl Default for Encoder {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Encoder {
+    pub fn new() -> Self {
+        Self {
+            low: 0,
+            range: u32::MAX,
+            cache: 0,
+            pending: 1,
+            started: false,
+            out: Vec::new(),
+        }
+    }
+
+    /// Codes `bit` with the adaptive probability `p` and updates it.
+    #[inline]
+    pub fn encode(&mut self, p: &mut Prob, bit: bool) {
+        let bound = (self.range >> PROB_BITS) * u32::from(*p);
+        if bit {
+            self.low += u64::from(bound);
+            self.range -= bound;
+            *p -= *p >> MOVE_BITS;
+        } else {
+            self.range = bound;
+            *p += ((PROB_ONE - u32::from(*p)) >> MOVE_BITS) as Prob;
+        }
+        while self.range < TOP {
+            self.range <<= 8;
+            self.shift_low();
+        }
+    }
+
+    /// Codes `bit` at fixed even odds (signs, raw bits).
+    #[inline]
+    pub fn encode_even(&mut self, bit: bool) {
+        let mut p = PROB_INIT;
+        self.encode(&mut p, bit);
+    }
+
+    fn shift_low(&mut self) {
+        if self.low < 0xFF00_0000 || self.low >= 1 << 32 {
+            let carry = (self.low >> 32) as u8;
+            let mut byte = self.cache;
+            loop {
+                if self.started {
+                    self.out.push(byte.wrapping_add(carry));
+                }
+                self.started = true;
+                byte = 0xFF;
+                self.pending -= 1;
+                if self.pending == 0 {
+                    break;
+                }
+            }
+            self.cache = ((self.low >> 24) & 0xFF) as u8;
+        }
+        self.pending += 1;
+        self.low = (self.low & 0x00FF_FFFF) << 8;
+    }
+
+    /// Terminates the segment with the fewest bytes that keep every decision decodable when
+    /// the decoder pads with zeros.
+    pub fn finish(mut self) -> Vec<u8> {
+        // Round `low` up to a multiple of 2^(32 - 8n) that still lies below low + range, for the
+        // smallest n: only the top n bytes of the window then need to be written.
+        let hi = self.low + u64::from(self.range);
+        let mut nbytes = 4;
+        for n in 1..=4u32 {
+            let mask = (1u64 << (32 - 8 * n)) - 1;
+            let v = (self.low + mask) & !mask;
+            if v < hi {
+                self.low = v;
+                nbytes = n;
+                break;
+            }
+        }
+        for _ in 0..=nbytes {
+            self.shift_low();
+        }
+        // Trailing zero bytes are implied by the decoder's padding.
+        while self.out.last() == Some(&0) {
+            self.out.pop();
+        }
+        self.out
+    }
+}
+
+/// Range decoder over one segment (or a truncated prefix of one).
+pub struct Decoder<'a> {
+    bytes: &'a [u8],
+    pos: usize,
+    range: u32,
+    code: u32,
+    /// Set once a padding byte entered the window.
+    overrun: bool,
+}
+
+impl<'a> Decoder<'a> {
+    pub fn new(bytes: &'a [u8]) -> Self {
+        let mut d = Self {
+            bytes,
+            pos: 0,
+            range: u32::MAX,
+            code: 0,
+            overrun: false,
+        };
+        for _ in 0..4 {
+            d.code = (d.code << 8) | u32::from(d.next_byte());
+        }
+        d
+    }
+
+    #[inline]
+    fn next_byte(&mut self) -> u8 {
+        match self.bytes.get(self.pos) {
+            Some(&b) => {
+                self.pos += 1;
+                b
+            }
+            None => {
+                self.overrun = true;
+                0
+            }
+        }
+    }
+
+    /// True while every byte in the window came from the input: the next decision is exact
+    /// even if the segment was cut short.
+    #[inline]
+    pub fn reliable(&self) -> bool {
+        !self.overrun
+    }
+
+    #[inline]
+    pub fn decode(&mut self, p: &mut Prob) -> bool {
+        let bound = (self.range >> PROB_BITS) * u32::from(*p);
+        let bit = if self.code < bound {
+            self.range = bound;
+            *p += ((PROB_ONE - u32::from(*p)) >> MOVE_BITS) as Prob;
+            false
+        } else {
+            self.code -= bound;
+            self.range -= bound;
+            *p -= *p >> MOVE_BITS;
+            true
+        };
+        while self.range < TOP {
+            self.range <<= 8;
+            self.code = (self.code << 8) | u32::from(self.next_byte());
+        }
+        bit
+    }
+
+    #[inline]
+    pub fn decode_even(&mut self) -> bool {
+        let mut p = PROB_INIT;
+        self.decode(&mut p)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn encode_all(bits: &[(usize, bool)], nctx: usize) -> Vec<u8> {
+        let mut ctx = vec![PROB_INIT; nctx];
+        let mut enc = Encoder::new();
+        for &(c, b) in bits {
+            enc.encode(&mut ctx[c], b);
+        }
+        enc.finish()
+    }
+
+    proptest! {
+        #[test]
+        fn round_trip_any_bits(bits in prop::collection::vec((0usize..4, any::<bool>()), 0..3000)) {
+            let bytes = encode_all(&bits, 4);
+            let mut ctx = vec![PROB_INIT; 4];
+            let mut dec = Decoder::new(&bytes);
+            for &(c, b) in &bits {
+                prop_assert_eq!(dec.decode(&mut ctx[c]), b);
+            }
+        }
+
+        #[test]
+        fn any_prefix_decodes_exactly_while_reliable(
+            bits in prop::collection::vec((0usize..3, prop::bool::weighted(0.2)), 1..2000),
+            cut in 0.0f64..1.0,
+        ) {
+            let bytes = encode_all(&bits, 3);
+            let cut = ((bytes.len() as f64) * cut) as usize;
+            let mut ctx = vec![PROB_INIT; 3];
+            let mut dec = Decoder::new(&bytes[..cut]);
+            for &(c, b) in &bits {
+                if !dec.reliable() {
+                    break;
+                }
+                prop_assert_eq!(dec.decode(&mut ctx[c]), b);
+            }
+        }
+    }
+
+    #[test]
+    fn termination_costs_about_a_byte() {
+        // A skewed source compresses, and an empty segment is empty.
+        assert!(encode_all(&[], 1).is_empty());
+        let bits: Vec<_> = (0..10_000).map(|i| (0, i % 50 == 0)).collect();
+        let n = encode_all(&bits, 1).len();
+        assert!(n < 300, "10k bits at p=0.02 took {n} bytes");
+    }
+}

@@ -1,0 +1,186 @@
+use super::*;
+use crate::fixtures::n44w072_crop;
+use proptest::prelude::*;
+
+fn max_abs_diff(a: &Grid<f64>, b: &Grid<f64>) -> f64 {
+    a.data()
+        .iter()
+        .zip(b.data())
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
+}
+
+fn rmse(a: &Grid<f64>, b: &Grid<f64>) -> f64 {
+    let s: f64 = a
+        .data()
+        .iter()
+        .zip(b.data())
+        .map(|(x, y)| (x - y).powi(2))
+        .sum();
+    (s / a.len() as f64).sqrt()
+}
+
+#[test]
+fn lossless_53_is_bit_exact_on_real_terrain() {
+    let g = n44w072_crop(300, 500, 257);
+    let enc = encode(&g, &EncodeParams::new(Wavelet::LeGall53, 1.0)).unwrap();
+    let dec = decode(&enc.bytes, DecodeLimit::All, DEFAULT_MAX_SAMPLES).unwrap();
+    assert_eq!(dec.heights, g);
+    assert_eq!(dec.bytes_used, enc.bytes.len());
+}
+
+#[test]
+fn error_falls_as_more_passes_are_decoded() {
+    let g = n44w072_crop(300, 500, 129);
+    for wavelet in [Wavelet::LeGall53, Wavelet::Cdf97] {
+        let enc = encode(&g, &EncodeParams::new(wavelet, 1.0)).unwrap();
+        let mut last = f64::INFINITY;
+        for p in enc.passes.iter().filter(|p| p.kind == PassKind::Cleanup) {
+            let d = decode(&enc.bytes, DecodeLimit::Bytes(p.end), DEFAULT_MAX_SAMPLES).unwrap();
+            let e = rmse(&d.heights, &g);
+            assert!(
+                e <= last + 1e-9,
+                "{wavelet:?}: rmse rose to {e} after plane {}",
+                p.plane
+            );
+            last = e;
+        }
+        assert!(last < 0.5, "{wavelet:?}: full stream rmse {last}");
+    }
+}
+
+#[test]
+fn decoding_to_a_threshold_reads_exactly_the_passes_above_it() {
+    let g = n44w072_crop(0, 0, 65);
+    let enc = encode(&g, &EncodeParams::new(Wavelet::Cdf97, 1.0)).unwrap();
+    let mid = &enc.passes[enc.passes.len() / 2];
+    let by_t = decode(
+        &enc.bytes,
+        DecodeLimit::Threshold(mid.threshold),
+        DEFAULT_MAX_SAMPLES,
+    )
+    .unwrap();
+    let last_at_t = enc
+        .passes
+        .iter()
+        .filter(|p| p.threshold >= mid.threshold)
+        .last()
+        .unwrap();
+    let by_bytes = decode(
+        &enc.bytes,
+        DecodeLimit::Bytes(last_at_t.end),
+        DEFAULT_MAX_SAMPLES,
+    )
+    .unwrap();
+    assert_eq!(by_t.heights, by_bytes.heights);
+    assert_eq!(by_t.significant, by_bytes.significant);
+    assert_eq!(by_t.threshold, mid.threshold);
+}
+
+#[test]
+fn every_byte_prefix_decodes_and_significance_only_grows() {
+    let g = n44w072_crop(600, 600, 33);
+    let enc = encode(&g, &EncodeParams::new(Wavelet::Cdf97, 1.0)).unwrap();
+    let mut last_sig = 0;
+    for cut in enc.header_len..=enc.bytes.len() {
+        let d = decode(&enc.bytes, DecodeLimit::Bytes(cut), DEFAULT_MAX_SAMPLES).unwrap();
+        let sig = d.significant.data().iter().filter(|&&s| s).count();
+        assert!(sig >= last_sig, "cut {cut}: {sig} significant < {last_sig}");
+        last_sig = sig;
+    }
+    for cut in 0..enc.header_len {
+        assert!(decode(&enc.bytes, DecodeLimit::Bytes(cut), DEFAULT_MAX_SAMPLES).is_err());
+    }
+}
+
+#[test]
+fn max_error_mode_bounds_every_sample() {
+    let g = n44w072_crop(300, 500, 129);
+    for wavelet in [Wavelet::Cdf97, Wavelet::LeGall53] {
+        let mut last_len = usize::MAX;
+        for e in [1.0, 2.0, 4.0, 8.0] {
+            let params = EncodeParams {
+                max_error: Some(e),
+                ..EncodeParams::new(wavelet, 1.0)
+            };
+            let enc = encode(&g, &params).unwrap();
+            let d = decode(&enc.bytes, DecodeLimit::All, DEFAULT_MAX_SAMPLES).unwrap();
+            assert!(d.bounded);
+            let err = max_abs_diff(&d.heights, &g);
+            assert!(err <= e + 1e-9, "{wavelet:?} E={e}: max error {err}");
+            assert!(
+                enc.bytes.len() <= last_len,
+                "{wavelet:?}: looser bound cost more bytes"
+            );
+            last_len = enc.bytes.len();
+        }
+    }
+}
+
+#[test]
+fn max_error_mode_holds_on_real_valued_steps() {
+    // 0.1 m steps (terrain-RGB-like) and a non-integer bound.
+    let g = n44w072_crop(100, 100, 64).map(|h| h * 0.1 + 0.05);
+    let params = EncodeParams {
+        max_error: Some(0.25),
+        ..EncodeParams::new(Wavelet::Cdf97, 0.1)
+    };
+    let enc = encode(&g, &params).unwrap();
+    let d = decode(&enc.bytes, DecodeLimit::All, DEFAULT_MAX_SAMPLES).unwrap();
+    assert!(max_abs_diff(&d.heights, &g) <= 0.25 + 1e-9);
+}
+
+#[test]
+fn flat_and_tiny_grids_round_trip() {
+    for (r, c) in [(1, 1), (1, 2), (2, 1), (3, 3), (1, 257), (5, 2)] {
+        let flat = Grid::new(r, c, vec![42.0; r * c]).unwrap();
+        let ramp = Grid::new(r, c, (0..r * c).map(|i| i as f64 * 3.0 - 7.0).collect()).unwrap();
+        for g in [flat, ramp] {
+            let enc = encode(&g, &EncodeParams::new(Wavelet::LeGall53, 1.0)).unwrap();
+            let d = decode(&enc.bytes, DecodeLimit::All, DEFAULT_MAX_SAMPLES).unwrap();
+            assert_eq!(d.heights, g, "{r}x{c}");
+        }
+    }
+}
+
+#[test]
+fn bad_parameters_are_errors() {
+    let g = Grid::new(2, 2, vec![0.0, f64::NAN, 1.0, 2.0]).unwrap();
+    assert!(encode(&g, &EncodeParams::new(Wavelet::Cdf97, 1.0)).is_err());
+    let g = Grid::new(2, 2, vec![0.0; 4]).unwrap();
+    assert!(encode(&g, &EncodeParams::new(Wavelet::Cdf97, 0.0)).is_err());
+    let params = EncodeParams {
+        max_error: Some(-1.0),
+        ..EncodeParams::new(Wavelet::Cdf97, 1.0)
+    };
+    assert!(encode(&g, &params).is_err());
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    #[test]
+    fn lossless_53_round_trips_random_grids(rows in 1usize..40, cols in 1usize..40, seed in any::<u64>(), amp in 1i64..5000) {
+        let mut s = seed | 1;
+        let data: Vec<f64> = (0..rows * cols).map(|_| {
+            s ^= s << 13; s ^= s >> 7; s ^= s << 17;
+            ((s % (2 * amp as u64 + 1)) as i64 - amp) as f64
+        }).collect();
+        let g = Grid::new(rows, cols, data).unwrap();
+        let enc = encode(&g, &EncodeParams::new(Wavelet::LeGall53, 1.0)).unwrap();
+        let d = decode(&enc.bytes, DecodeLimit::All, DEFAULT_MAX_SAMPLES).unwrap();
+        prop_assert_eq!(d.heights, g);
+    }
+
+    #[test]
+    fn corrupt_streams_never_panic(flips in prop::collection::vec((any::<prop::sample::Index>(), 1u8..=255), 1..8), cut in any::<prop::sample::Index>()) {
+        let g = n44w072_crop(500, 500, 33);
+        let mut bytes = encode(&g, &EncodeParams { max_error: Some(2.0), ..EncodeParams::new(Wavelet::Cdf97, 1.0) }).unwrap().bytes;
+        for (at, x) in flips {
+            let i = at.index(bytes.len());
+            bytes[i] ^= x;
+        }
+        let cut = cut.index(bytes.len() + 1);
+        let _ = decode(&bytes[..cut], DecodeLimit::All, 1 << 20);
+    }
+}
