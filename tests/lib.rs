@@ -1,4 +1,8 @@
 //! Shared helpers for the end-to-end tests: where the binary and the shared fixtures are.
+#![allow(
+    clippy::expect_used,
+    reason = "test support: without its own executable path the run cannot go on"
+)]
 
 use std::path::PathBuf;
 

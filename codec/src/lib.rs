@@ -7,12 +7,13 @@
 //! - per threshold: [`zerotree`] turns the decoder's zerotree into a crack-free mesh, and
 //!   [`tile`] stitches neighbouring tiles so their shared edges match.
 
+pub mod bintree;
 pub mod error;
 pub mod ezw;
 mod fixtures;
 pub mod grid;
 pub mod raster;
-// pub mod tile; // re-enabled with the zerotree mesher
+pub mod tile;
 pub mod wavelet;
 pub mod zerotree;
 

@@ -1,8 +1,13 @@
 //! Command-line parsing: one place where flags become typed options.
 
+use std::path::PathBuf;
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
+use clap::{ArgGroup, Args, Parser, Subcommand};
+use zerotile_codec::raster::Encoding;
+use zerotile_codec::wavelet::Wavelet;
+
+use crate::eval::{self, terrain};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -17,24 +22,113 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 pub enum Command {
-    /// Measure the codec and mesher on one heightmap.
+    /// Measure the codec and mesher on one input.
     #[command(subcommand)]
     Eval(EvalCommand),
 }
 
 #[derive(Subcommand, Debug)]
 pub enum EvalCommand {
-    /// Rate, distortion and mesh figures of the terrain codec (placeholder).
-    Terrain,
+    /// Rate, distortion and zerotree-mesh figures of the terrain codec on one heightmap.
+    Terrain(TerrainArgs),
+}
+
+#[derive(Args, Debug)]
+#[command(group(ArgGroup::new("sweep").required(true).args(["threshold", "bpp", "max_error", "lossless"])))]
+pub struct TerrainArgs {
+    /// Heightmap: .hgt, .tif (GeoTIFF), .png (gray, terrain-RGB, Terrarium), .asc, .npy, .npz.
+    pub input: PathBuf,
+    /// Evaluate the SIZE×SIZE window whose top-left sample is (ROW, COL).
+    #[arg(long, value_name = "ROW,COL,SIZE", value_parser = terrain::parse_crop)]
+    pub crop: Option<(usize, usize, usize)>,
+    /// How colour PNGs encode heights: terrain-rgb | terrarium | gray.
+    #[arg(long)]
+    pub encoding: Option<Encoding>,
+    /// Array name inside an .npz file.
+    #[arg(long)]
+    pub key: Option<String>,
+    /// Wavelet: 53 (reversible LeGall 5/3) or 97 (CDF 9/7, default for lossy modes).
+    #[arg(long)]
+    pub wavelet: Option<Wavelet>,
+    /// Height quantum (default: the file's native step, or 0.01 for float data).
+    #[arg(long)]
+    pub step: Option<f64>,
+    /// Decode to these EZW thresholds (height units), comma-separated.
+    #[arg(long, value_name = "T,..")]
+    pub threshold: Option<String>,
+    /// Truncate the embedded stream at these bits per sample.
+    #[arg(long, value_name = "B,..")]
+    pub bpp: Option<String>,
+    /// Guarantee |error| ≤ E height units with the residual pass.
+    #[arg(long = "max-error", value_name = "E,..")]
+    pub max_error: Option<String>,
+    /// Lossless (reversible 5/3, every pass).
+    #[arg(long)]
+    pub lossless: bool,
+    /// Print one JSON object per operating point.
+    #[arg(long)]
+    pub json: bool,
+    /// Rescale the window to 0..=255 integers first (the paper's 8-bit setting; PSNR peak 255).
+    #[arg(long = "8bit")]
+    pub eight_bit: bool,
+    /// Timed runs per measurement (medians are reported).
+    #[arg(long, default_value_t = 3)]
+    pub repeat: usize,
 }
 
 /// Parses the arguments and runs the command; errors print one line and exit non-zero.
 pub fn run() -> ExitCode {
     let cli = Cli::parse();
-    match cli.command {
-        Command::Eval(EvalCommand::Terrain) => {
-            eprintln!("zerotile: eval terrain is not implemented yet");
-            ExitCode::from(2)
+    let result = match cli.command {
+        Command::Eval(EvalCommand::Terrain(args)) => eval_terrain(args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("zerotile: {e:#}");
+            ExitCode::FAILURE
         }
     }
+}
+
+fn eval_terrain(a: TerrainArgs) -> anyhow::Result<()> {
+    let sweep = if let Some(t) = &a.threshold {
+        terrain::Sweep::Threshold(eval::parse_list("--threshold", t).map_err(anyhow::Error::msg)?)
+    } else if let Some(b) = &a.bpp {
+        terrain::Sweep::Bpp(eval::parse_list("--bpp", b).map_err(anyhow::Error::msg)?)
+    } else if let Some(e) = &a.max_error {
+        let es = eval::parse_list("--max-error", e).map_err(anyhow::Error::msg)?;
+        if es.iter().any(|&e| e <= 0.0) {
+            anyhow::bail!("--max-error: bounds must be > 0 (use --lossless for exact)");
+        }
+        terrain::Sweep::MaxError(es)
+    } else {
+        terrain::Sweep::Lossless
+    };
+    if let Some(s) = a.step {
+        if !(s.is_finite() && s > 0.0) {
+            anyhow::bail!("--step must be finite and > 0, got {s}");
+        }
+    }
+    let eval = terrain::TerrainEval {
+        input: a.input,
+        crop: a.crop,
+        encoding: a.encoding,
+        npz_key: a.key,
+        wavelet: a.wavelet,
+        step: a.step,
+        sweep,
+        repeat: a.repeat.clamp(1, 100),
+        eight_bit: a.eight_bit,
+    };
+    let points = terrain::run(&eval)?;
+    if a.json {
+        for p in &points {
+            println!("{}", serde_json::to_string(p)?);
+        }
+    } else {
+        let full = points.first().map(|p| 2 * (p.rows - 1) * (p.cols - 1));
+        terrain::print_table(&points, full);
+    }
+    Ok(())
 }

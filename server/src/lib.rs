@@ -2,3 +2,4 @@
 //! the command line, evaluation and (later) the HTTP service.
 
 pub mod cli;
+pub mod eval;

@@ -215,7 +215,7 @@ mod tests {
         #[test]
         fn round_trip_any_bits(bits in prop::collection::vec((0usize..4, any::<bool>()), 0..3000)) {
             let bytes = encode_all(&bits, 4);
-            let mut ctx = vec![PROB_INIT; 4];
+            let mut ctx = [PROB_INIT; 4];
             let mut dec = Decoder::new(&bytes);
             for &(c, b) in &bits {
                 prop_assert_eq!(dec.decode(&mut ctx[c]), b);
@@ -229,7 +229,7 @@ mod tests {
         ) {
             let bytes = encode_all(&bits, 3);
             let cut = ((bytes.len() as f64) * cut) as usize;
-            let mut ctx = vec![PROB_INIT; 3];
+            let mut ctx = [PROB_INIT; 3];
             let mut dec = Decoder::new(&bytes[..cut]);
             for &(c, b) in &bits {
                 if !dec.reliable() {

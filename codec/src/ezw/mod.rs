@@ -91,6 +91,10 @@ pub struct Decoded {
     pub heights: Grid<f64>,
     /// Where the decoded wavelet coefficient is nonzero (Mallat layout): the zerotree map.
     pub significant: Grid<bool>,
+    /// The dequantised coefficients (Mallat layout, unweighted, height units; the LL band
+    /// still carries the stream's offset): what the mesher reads the zerotree from, so it
+    /// can cut leaves at any threshold at or above the decoded one.
+    pub coefficients: Grid<f64>,
     pub layout: Layout,
     /// Threshold (height units) of the last pass decoded, whole or in part.
     pub threshold: f64,
@@ -191,15 +195,9 @@ pub fn encode(heights: &Grid<f64>, params: &EncodeParams) -> Result<Encoded, Par
     };
 
     // Max-error mode: keep the cheapest wavelet prefix + residual pass.
-    let residual = match params.max_error {
-        Some(e) => Some(residual::choose_cut(
-            &header,
-            &segments,
-            &centered,
-            e / params.step,
-        )),
-        None => None,
-    };
+    let residual = params
+        .max_error
+        .map(|e| residual::choose_cut(&header, &segments, &centered, e / params.step));
     if let Some(cut) = &residual {
         header.segments.truncate(cut.segments);
         segments.truncate(cut.segments);
@@ -240,6 +238,9 @@ pub fn decode(
     let (mut decoded, header) = decode_centered(bytes, limit, max_samples)?;
     for h in decoded.heights.data_mut() {
         *h = (*h + header.offset) * header.step;
+    }
+    for c in decoded.coefficients.data_mut() {
+        *c *= header.step;
     }
     Ok(decoded)
 }
@@ -309,7 +310,7 @@ fn decode_centered(
     }
 
     // Coefficients back to heights.
-    let mut heights = inverse_magnitudes(&header, &layout, &plan, &state);
+    let (mut heights, coefficients) = inverse_magnitudes(&header, &layout, &plan, &state);
     let mut bounded = false;
     if let (DecodeLimit::All, Some((bound, len)), false) = (limit, header.residual, stopped) {
         let seg_end: usize = header_len + header.segments.iter().sum::<usize>();
@@ -330,6 +331,7 @@ fn decode_centered(
         Decoded {
             heights,
             significant,
+            coefficients,
             layout,
             threshold,
             bytes_used: pos,
@@ -398,8 +400,14 @@ fn forward_magnitudes(
     }
 }
 
-/// Dequantisation and inverse transform: coder units, offset not yet added back.
-fn inverse_magnitudes(header: &Header, layout: &Layout, plan: &Plan, state: &State) -> Grid<f64> {
+/// Dequantisation and inverse transform: heights and unweighted coefficients, both in coder
+/// units with the offset not yet added back.
+fn inverse_magnitudes(
+    header: &Header,
+    layout: &Layout,
+    plan: &Plan,
+    state: &State,
+) -> (Grid<f64>, Grid<f64>) {
     let (rows, cols) = (header.rows, header.cols);
     let signed = |idx: usize, v: f64| if state.neg[idx] { -v } else { v };
     match header.wavelet {
@@ -413,8 +421,9 @@ fn inverse_magnitudes(header: &Header, layout: &Layout, plan: &Plan, state: &Sta
                     *c = signed(idx, v.round()).clamp(-INT53_LIMIT, INT53_LIMIT) as i32;
                 }
             }
+            let coefficients = g.map(|&v| f64::from(v));
             wavelet::inverse_int53(&mut g, layout);
-            g.map(|&v| f64::from(v))
+            (g.map(|&v| f64::from(v)), coefficients)
         }
         Wavelet::Cdf97 => {
             let weights = quantize::real_weights(Wavelet::Cdf97, layout);
@@ -427,8 +436,9 @@ fn inverse_magnitudes(header: &Header, layout: &Layout, plan: &Plan, state: &Sta
                     *c = signed(idx, v);
                 }
             }
+            let coefficients = g.clone();
             wavelet::inverse(&mut g, Wavelet::Cdf97, layout);
-            g
+            (g, coefficients)
         }
     }
 }

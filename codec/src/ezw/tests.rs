@@ -63,8 +63,8 @@ fn decoding_to_a_threshold_reads_exactly_the_passes_above_it() {
     let last_at_t = enc
         .passes
         .iter()
-        .filter(|p| p.threshold >= mid.threshold)
-        .last()
+        .rev()
+        .find(|p| p.threshold >= mid.threshold)
         .unwrap();
     let by_bytes = decode(
         &enc.bytes,

@@ -1,9 +1,125 @@
-//! Heightmap readers. (Placeholder: being written.)
+//! Heightmap readers: one file per format, chosen by the file's extension.
+//!
+//! | extension | reader | samples | georeference |
+//! |---|---|---|---|
+//! | `.hgt` | `hgt`: SRTM 1″/3″ tile | int16, −32768 = void | tile name (`N44W072`) |
+//! | `.tif` `.tiff` | `geotiff`: `tiff` crate | 1 band, (u)int8–32, float32/64 | GeoTIFF tags |
+//! | `.png` | `png`: `image` crate | gray 8/16-bit, terrain-RGB, Terrarium | none |
+//! | `.asc` | `ascii_grid`: ESRI ASCII grid | decimal text | header |
+//! | `.npy` `.npz` | `numpy`: `npyz` crate | 2-D (u)int8–32, float32/64 | `.npz` bounds keys |
+//!
+//! Every reader returns the same [`Heightmap`]: rows top (north) to bottom, no-data as NaN, the
+//! native height step, and a [`Georef`] mapping sample centres. Nothing is allocated for a
+//! raster before its size is checked against [`ReadOptions::max_samples`], and malformed bytes
+//! are a [`RasterError`], never a panic.
+//!
+//! ```no_run
+//! use zerotile_codec::raster::{self, Encoding, ReadOptions};
+//!
+//! let opts = ReadOptions { encoding: Some(Encoding::TerrainRgb), ..ReadOptions::default() };
+//! let map = raster::read_heightmap("fuji.png", &opts)?;
+//! println!("{:?} m", map.min_max());
+//! # Ok::<(), raster::RasterError>(())
+//! ```
 
-/// A heightmap file could not be read.
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum RasterError {
-    #[error("{path}: {message}")]
-    Format { path: String, message: String },
+mod ascii_grid;
+mod encoding;
+mod error;
+mod georef;
+mod geotiff;
+mod heightmap;
+mod hgt;
+mod numpy;
+mod png;
+
+use std::fs::File;
+use std::path::Path;
+
+pub use encoding::Encoding;
+pub use error::RasterError;
+pub use georef::{Crs, Georef};
+pub use heightmap::Heightmap;
+
+/// Default for [`ReadOptions::max_samples`]: 2^28 samples (2 GiB of f64 heights, a
+/// 16384² raster), far above any single tile's source.
+pub const DEFAULT_MAX_SAMPLES: usize = 1 << 28;
+
+/// The extensions [`read_heightmap`] knows, for messages.
+pub const EXTENSIONS: &str = ".hgt, .tif, .tiff, .png, .asc, .npy, .npz";
+
+/// How to read a heightmap. Options that do not apply to a file's format are ignored.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReadOptions {
+    /// How a PNG encodes heights. Needed for colour PNGs; gray PNGs read as
+    /// [`Encoding::Gray`] when it is `None`.
+    pub encoding: Option<Encoding>,
+    /// Which array of an `.npz` to read; `None` picks `elevation`, else the only 2-D array.
+    pub npz_key: Option<String>,
+    /// The largest raster accepted, in samples; a larger one is a [`RasterError::Limit`]
+    /// before anything is allocated for it.
+    pub max_samples: usize,
 }
+
+impl Default for ReadOptions {
+    fn default() -> Self {
+        Self {
+            encoding: None,
+            npz_key: None,
+            max_samples: DEFAULT_MAX_SAMPLES,
+        }
+    }
+}
+
+/// Reads the heightmap at `path`, choosing the reader by extension (case-insensitive).
+///
+/// # Errors
+/// [`RasterError::Io`] when the file cannot be read, [`RasterError::Format`] when its bytes
+/// are malformed or truncated, [`RasterError::Unsupported`] for an extension, sample type or
+/// layout zerotile does not read, [`RasterError::Limit`] above `opts.max_samples`, and
+/// [`RasterError::Parameter`] when `opts` do not fit the file (a colour PNG without an
+/// encoding, an `.npz` key it does not hold).
+pub fn read_heightmap(
+    path: impl AsRef<Path>,
+    opts: &ReadOptions,
+) -> Result<Heightmap, RasterError> {
+    let path = path.as_ref();
+    let extension = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .unwrap_or_default();
+    match extension.as_str() {
+        "hgt" => hgt::read(path, opts),
+        "tif" | "tiff" => geotiff::read(path, opts),
+        "png" => png::read(path, opts),
+        "asc" => ascii_grid::read(path, opts),
+        "npy" => numpy::read_npy(path, opts),
+        "npz" => numpy::read_npz(path, opts),
+        _ => Err(RasterError::unsupported(
+            path,
+            format!("unknown heightmap extension; zerotile reads {EXTENSIONS}"),
+        )),
+    }
+}
+
+/// Opens `path` for reading, naming it in the error.
+fn open(path: &Path) -> Result<File, RasterError> {
+    File::open(path).map_err(|e| RasterError::io(path, e))
+}
+
+/// Converts integer samples to heights, mapping `nodata` (when the file declares one) to NaN.
+fn int_heights<T: Copy + PartialEq + Into<f64>>(samples: &[T], nodata: Option<T>) -> Vec<f64> {
+    samples
+        .iter()
+        .map(|&v| {
+            if Some(v) == nodata {
+                f64::NAN
+            } else {
+                v.into()
+            }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests;

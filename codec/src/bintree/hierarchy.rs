@@ -1,0 +1,186 @@
+//! The right-triangle bintree of a (2^k + 1)² grid, built once per grid size.
+//!
+//! Evans, Kirkpatrick and Townsend, "Right-triangulated irregular networks" (Algorithmica
+//! 30, 2001); Lindstrom et al., "Real-time continuous level of detail rendering of height
+//! fields" (SIGGRAPH 1996); V. Agafonkin's Martini (2019) for the flat, level-ordered layout.
+//!
+//! The square is cut along its diagonal into two right isosceles triangles; a triangle
+//! (a, b, c) with hypotenuse a–b and right angle at c splits at the hypotenuse midpoint m into
+//! (c, a, m) and (b, c, m), which keep the winding. The midpoints of one quadtree level of the
+//! wavelet layout are exactly the split points of two bintree levels: cell centres (the HH
+//! positions) split the cells' diagonals, edge midpoints (HL / LH) split the halves that
+//! follow. Triangles are stored breadth-first, so the children of the i-th triangle of a
+//! level are the (2i)-th and (2i+1)-th of the next.
+
+/// One triangle: sample indices (row-major), hypotenuse `a`–`b`, right angle at `c`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Tri {
+    pub a: u32,
+    pub b: u32,
+    pub c: u32,
+}
+
+/// No parent (a root midpoint, or a sample that is never a midpoint).
+pub(crate) const NONE: u32 = u32::MAX;
+
+/// The whole triangle hierarchy of an `n × n` grid, `n = 2^k + 1`.
+#[derive(Debug)]
+pub struct Hierarchy {
+    n: usize,
+    /// All triangles, level by level from the two roots.
+    pub(crate) tris: Vec<Tri>,
+    /// `level_start[l]..level_start[l + 1]` are the triangles of level `l`; the last level
+    /// holds the unsplittable 1 × 1 halves.
+    pub(crate) level_start: Vec<usize>,
+    /// For each sample, the midpoints of the (at most two) triangles whose split creates the
+    /// triangles this sample splits: a vertex needs both to be vertices first (conformity).
+    pub(crate) parents: Vec<[u32; 2]>,
+}
+
+impl Hierarchy {
+    /// The hierarchy of an `n × n` grid; `None` unless `n = 2^k + 1` with `1 ≤ k ≤ 12`.
+    pub fn new(n: usize) -> Option<Self> {
+        let k = (n.checked_sub(1)?).checked_ilog2()?;
+        if n != (1usize << k) + 1 || !(1..=12).contains(&k) {
+            return None;
+        }
+        let idx = |x: usize, y: usize| (y * n + x) as u32;
+        let last = n - 1;
+        // Roots, counter-clockwise seen from above with north (row 0) up.
+        let mut tris = vec![
+            Tri {
+                a: idx(last, last),
+                b: idx(0, 0),
+                c: idx(0, last),
+            },
+            Tri {
+                a: idx(0, 0),
+                b: idx(last, last),
+                c: idx(last, 0),
+            },
+        ];
+        let mut level_start = vec![0, 2];
+        let mut parents = vec![[NONE; 2]; n * n];
+        // 2k splittable levels: the hypotenuse halves every other level.
+        for _ in 0..2 * k {
+            let (from, to) = (level_start[level_start.len() - 2], tris.len());
+            for t in from..to {
+                let Tri { a, b, c } = tris[t];
+                let m = midpoint(a, b, n);
+                tris.push(Tri { a: c, b: a, c: m });
+                tris.push(Tri { a: b, b: c, c: m });
+            }
+            // The new level's midpoints depend on this level's.
+            for &Tri { a, b, c } in &tris[from..to] {
+                let m = midpoint(a, b, n);
+                for (p, q) in [(c, a), (b, c)] {
+                    if splits(p, q, n) {
+                        add_parent(&mut parents[midpoint(p, q, n) as usize], m);
+                    }
+                }
+            }
+            level_start.push(tris.len());
+        }
+        Some(Self {
+            n,
+            tris,
+            level_start,
+            parents,
+        })
+    }
+
+    /// Samples per side.
+    pub fn side(&self) -> usize {
+        self.n
+    }
+
+    /// Number of levels, the unsplittable last one included.
+    pub(crate) fn levels(&self) -> usize {
+        self.level_start.len() - 1
+    }
+
+    /// Index of the first child of triangle `t` of level `l` (the second follows it).
+    #[inline]
+    pub(crate) fn first_child(&self, l: usize, t: usize) -> usize {
+        self.level_start[l + 1] + 2 * (t - self.level_start[l])
+    }
+
+    #[inline]
+    pub(crate) fn midpoint(&self, t: &Tri) -> u32 {
+        midpoint(t.a, t.b, self.n)
+    }
+}
+
+/// The sample halfway between samples `a` and `b` (the hypotenuse of every splittable
+/// triangle has even extents, so it is a sample).
+#[inline]
+pub(crate) fn midpoint(a: u32, b: u32, n: usize) -> u32 {
+    let n = n as u32;
+    let (ax, ay, bx, by) = (a % n, a / n, b % n, b / n);
+    ((ay + by) / 2) * n + (ax + bx) / 2
+}
+
+/// Whether a hypotenuse from `a` to `b` has a sample at its midpoint (even extents).
+#[inline]
+pub(crate) fn splits(a: u32, b: u32, n: usize) -> bool {
+    let n = n as u32;
+    let (dx, dy) = ((a % n).abs_diff(b % n), (a / n).abs_diff(b / n));
+    dx % 2 == 0 && dy % 2 == 0 && dx + dy > 0
+}
+
+fn add_parent(slot: &mut [u32; 2], m: u32) {
+    if slot[0] == m || slot[1] == m {
+        return;
+    }
+    if slot[0] == NONE {
+        slot[0] = m;
+    } else if slot[1] == NONE {
+        slot[1] = m;
+    } else {
+        debug_assert!(false, "a bintree vertex has at most two parents");
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_two_to_the_k_plus_one_sides_have_a_hierarchy() {
+        for n in [3, 5, 9, 17, 257] {
+            assert!(Hierarchy::new(n).is_some(), "{n}");
+        }
+        for n in [0, 1, 2, 4, 256, 258, 1000] {
+            assert!(Hierarchy::new(n).is_none(), "{n}");
+        }
+    }
+
+    #[test]
+    fn levels_halve_the_area_and_the_last_level_is_unit_halves() {
+        let h = Hierarchy::new(17).unwrap();
+        assert_eq!(h.levels(), 9);
+        for l in 0..h.levels() {
+            assert_eq!(h.level_start[l + 1] - h.level_start[l], 2 << l);
+        }
+        let last = h.level_start[h.levels() - 1];
+        let t = h.tris[last];
+        let m = h.midpoint(&t);
+        assert!(m == t.a || m == t.b, "1 × 1 halves have no midpoint sample");
+    }
+
+    #[test]
+    fn every_non_corner_sample_is_a_midpoint_with_parents_except_the_root_centre() {
+        let n = 33;
+        let h = Hierarchy::new(n).unwrap();
+        let corners = [0, n - 1, n * (n - 1), n * n - 1];
+        let centre = (n / 2) * n + n / 2;
+        for s in 0..n * n {
+            let p = h.parents[s];
+            if corners.contains(&s) || s == centre {
+                assert_eq!(p, [NONE; 2], "sample {s}");
+            } else {
+                assert_ne!(p[0], NONE, "sample {s} has no parent");
+            }
+        }
+    }
+}

@@ -1,0 +1,69 @@
+use super::*;
+use crate::fixtures::n44w072_crop;
+use crate::zerotree::mesh_error;
+use crate::zerotree::terrain_mesh::assert_watertight;
+
+#[test]
+fn real_tile_meshes_are_watertight_and_within_tolerance() {
+    let g = n44w072_crop(300, 500, 257);
+    let h = Hierarchy::new(257).unwrap();
+    let e = TileErrors::new(&h, &g);
+    let mut last = usize::MAX;
+    for tol in [0.0, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 64.0, 1e6] {
+        let m = extract(&h, &e, &g, tol, None);
+        assert_watertight(&m, &format!("tolerance {tol}"));
+        let err = mesh_error(&m, &g);
+        assert_eq!(err.uncovered, 0);
+        assert!(
+            err.max_abs <= tol + 1e-6,
+            "tolerance {tol}: true error {}",
+            err.max_abs
+        );
+        assert!(
+            m.triangle_count() <= last,
+            "more triangles at a larger tolerance"
+        );
+        last = m.triangle_count();
+    }
+    assert_eq!(extract(&h, &e, &g, 1e6, None).triangle_count(), 2);
+}
+
+#[test]
+fn zero_tolerance_on_rough_terrain_is_nearly_the_full_grid() {
+    let g = n44w072_crop(0, 0, 65);
+    let h = Hierarchy::new(65).unwrap();
+    let m = extract(&h, &TileErrors::new(&h, &g), &g, 0.0, None);
+    assert_eq!(mesh_error(&m, &g).max_abs, 0.0);
+    assert!(m.triangle_count() > 2 * 64 * 64 * 8 / 10);
+}
+
+#[test]
+fn forced_border_vertices_appear_and_keep_the_mesh_conforming() {
+    let g = n44w072_crop(300, 500, 129);
+    let h = Hierarchy::new(129).unwrap();
+    let e = TileErrors::new(&h, &g);
+    let border = [1usize, 7, 33, 64, 100, 127];
+    let forced = Forced::new(
+        &h,
+        border
+            .iter()
+            .copied()
+            .chain(border.iter().map(|&r| r * 129 + 128)),
+    );
+    let m = extract(&h, &e, &g, 32.0, Some(&forced));
+    assert_watertight(&m, "forced");
+    for &k in &border {
+        assert!(
+            m.positions.iter().any(|p| p[1] == 0.0 && p[0] == k as f64),
+            "north {k}"
+        );
+        assert!(
+            m.positions
+                .iter()
+                .any(|p| p[0] == 128.0 && p[1] == k as f64),
+            "east {k}"
+        );
+    }
+    let plain = extract(&h, &e, &g, 32.0, None);
+    assert!(m.triangle_count() > plain.triangle_count());
+}

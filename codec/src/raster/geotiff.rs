@@ -1,0 +1,414 @@
+//! GeoTIFF (OGC 19-008r4, "GeoTIFF Standard" 1.1) single-band elevation rasters, decoded by the
+//! `tiff` crate (strips or tiles; uncompressed, LZW, deflate, PackBits; predictors).
+//!
+//! What we take from the GeoTIFF tags:
+//! - placement from ModelTiepoint (33922) + ModelPixelScale (33550), or ModelTransformation
+//!   (34264), read through GTRasterTypeGeoKey (1025): with "pixel is area" (1, the default)
+//!   raster coordinate (0, 0) is the outer corner of the first pixel, with "pixel is point" (2)
+//!   its centre. [`Georef`] is centre-based, so area rasters move by half a pixel;
+//! - the CRS from ProjectedCSTypeGeoKey (3072), else GeographicTypeGeoKey (2048);
+//! - no-data from GDAL's GDAL_NODATA tag (42113, ASCII), compared in the sample type (a
+//!   float32 raster's `-3.4e+38` is the f32 nearest to it); NaN is always no-data.
+
+use std::io::{BufReader, Read, Seek};
+use std::path::Path;
+
+use tiff::decoder::{Decoder, DecodingResult, Limits};
+use tiff::tags::Tag;
+use tiff::{ColorType, TiffError};
+
+use super::error::check_shape;
+use super::{int_heights, open, Crs, Georef, Heightmap, RasterError, ReadOptions};
+use crate::grid::Grid;
+
+/// GeoKey ids and values (GeoTIFF 1.1 §7).
+const GT_RASTER_TYPE_GEO_KEY: u16 = 1025;
+const RASTER_PIXEL_IS_POINT: u16 = 2;
+const GEOGRAPHIC_TYPE_GEO_KEY: u16 = 2048;
+const PROJECTED_CS_TYPE_GEO_KEY: u16 = 3072;
+/// "User-defined": the CRS is spelled out in other keys, which we do not interpret.
+const USER_DEFINED: u16 = 32767;
+
+/// Reads a single-band GeoTIFF.
+pub(super) fn read(path: &Path, opts: &ReadOptions) -> Result<Heightmap, RasterError> {
+    let tiff_err = |e| tiff_error(path, e);
+    let mut decoder = Decoder::new(BufReader::new(open(path)?))
+        .map_err(tiff_err)?
+        .with_limits(limits(opts.max_samples));
+
+    // Size first: refuse before the decoder allocates the image.
+    let (width, height) = decoder.dimensions().map_err(tiff_err)?;
+    check_shape(path, u64::from(height), u64::from(width), opts.max_samples)?;
+
+    // One band of elevations; colour images are not heightmaps.
+    match decoder.colortype().map_err(tiff_err)? {
+        ColorType::Gray(8 | 16 | 32 | 64) => {}
+        ColorType::Gray(bits) => {
+            return Err(RasterError::unsupported(
+                path,
+                format!("{bits}-bit samples; zerotile reads 8, 16, 32 and 64-bit samples"),
+            ))
+        }
+        other => {
+            return Err(RasterError::unsupported(
+                path,
+                format!("{other:?} image; zerotile reads single-band elevation GeoTIFFs"),
+            ))
+        }
+    }
+
+    // The GeoTIFF and GDAL tags.
+    let nodata = gdal_nodata(&mut decoder, path)?;
+    let georef = georef(&mut decoder).map_err(tiff_err)?;
+
+    // Decode, and turn samples into heights with no-data as NaN.
+    let (samples, step) = match decoder.read_image().map_err(tiff_err)? {
+        DecodingResult::U8(v) => (int_heights(&v, int_nodata(nodata)), Some(1.0)),
+        DecodingResult::I8(v) => (int_heights(&v, int_nodata(nodata)), Some(1.0)),
+        DecodingResult::U16(v) => (int_heights(&v, int_nodata(nodata)), Some(1.0)),
+        DecodingResult::I16(v) => (int_heights(&v, int_nodata(nodata)), Some(1.0)),
+        DecodingResult::U32(v) => (int_heights(&v, int_nodata(nodata)), Some(1.0)),
+        DecodingResult::I32(v) => (int_heights(&v, int_nodata(nodata)), Some(1.0)),
+        DecodingResult::F32(v) => {
+            // The declared value as the file stores it: the f32 nearest to the text.
+            let nodata = nodata.map(|n| n as f32);
+            let heights = v
+                .iter()
+                .map(|&h| {
+                    if h.is_nan() || Some(h) == nodata {
+                        f64::NAN
+                    } else {
+                        f64::from(h)
+                    }
+                })
+                .collect();
+            (heights, None)
+        }
+        DecodingResult::F64(v) => {
+            let heights = v
+                .iter()
+                .map(|&h| if Some(h) == nodata { f64::NAN } else { h })
+                .collect();
+            (heights, None)
+        }
+        DecodingResult::U64(_) | DecodingResult::I64(_) => {
+            return Err(RasterError::unsupported(
+                path,
+                "64-bit integer samples; zerotile reads 8/16/32-bit integers and 32/64-bit floats",
+            ))
+        }
+    };
+    let heights = Grid::new(height as usize, width as usize, samples)
+        .map_err(|e| RasterError::format(path, e.to_string()))?;
+    Ok(Heightmap::new(heights, step, georef))
+}
+
+/// The decoder's limits from ours: the whole image in the widest sample type.
+fn limits(max_samples: usize) -> Limits {
+    let mut limits = Limits::default();
+    limits.decoding_buffer_size = max_samples.saturating_mul(std::mem::size_of::<f64>());
+    limits
+}
+
+/// Sorts the `tiff` crate's errors by who is at fault.
+fn tiff_error(path: &Path, e: TiffError) -> RasterError {
+    match e {
+        TiffError::IoError(io) => RasterError::from_read(path, io),
+        TiffError::UnsupportedError(u) => RasterError::unsupported(path, u.to_string()),
+        TiffError::LimitsExceeded => RasterError::limit(
+            path,
+            "the decoder's buffer limit (a strip, tile or tag larger than max_samples allows)",
+        ),
+        e => RasterError::format(path, e.to_string()),
+    }
+}
+
+/// GDAL_NODATA: the no-data value as decimal text, one for all bands.
+fn gdal_nodata<R: Read + Seek>(
+    decoder: &mut Decoder<R>,
+    path: &Path,
+) -> Result<Option<f64>, RasterError> {
+    let Some(value) = decoder
+        .find_tag(Tag::GdalNodata)
+        .map_err(|e| tiff_error(path, e))?
+    else {
+        return Ok(None);
+    };
+    let text = value.into_string().map_err(|e| tiff_error(path, e))?;
+    let text = text.trim_matches(|c: char| c == '\0' || c.is_whitespace());
+    text.parse::<f64>()
+        .map(Some)
+        .map_err(|_| RasterError::format(path, format!("GDAL_NODATA tag {text:?} is not a number")))
+}
+
+/// An integer no-data value in the sample type, when the declared one is representable; a
+/// value outside the type's range cannot match any sample.
+fn int_nodata<T: TryFrom<i64>>(nodata: Option<f64>) -> Option<T> {
+    let n = nodata?;
+    // Integral and inside i64, so the cast is exact.
+    let in_range = n.fract() == 0.0 && n.abs() <= 2f64.powi(53);
+    in_range.then(|| T::try_from(n as i64).ok())?
+}
+
+/// The centre-based georeference from the GeoTIFF tags, `None` when there is none.
+fn georef<R: Read + Seek>(decoder: &mut Decoder<R>) -> Result<Option<Georef>, TiffError> {
+    let keys = geo_keys(decoder)?;
+    let key = |id: u16| keys.iter().find(|k| k.0 == id).map(|k| k.1);
+
+    // Raster space (0, 0): the first pixel's outer corner ("area") or its centre ("point").
+    let centre_offset = if key(GT_RASTER_TYPE_GEO_KEY) == Some(RASTER_PIXEL_IS_POINT) {
+        0.0
+    } else {
+        0.5
+    };
+    let crs = match (key(PROJECTED_CS_TYPE_GEO_KEY), key(GEOGRAPHIC_TYPE_GEO_KEY)) {
+        (Some(code), _) | (None, Some(code)) if code != USER_DEFINED && code != 0 => {
+            Crs::from_epsg(code)
+        }
+        _ => Crs::Unknown,
+    };
+
+    // An affine from raster (i, j) to model (x, y): x = a·i + b·j + c, y = d·i + e·j + f.
+    let affine = if let Some(m) = f64_tag(decoder, Tag::ModelTransformationTag)? {
+        // Row-major 4×4; the first two rows hold the 2-D part.
+        match m.get(..8) {
+            Some(&[a, b, _, c, d, e, _, f]) => Some([a, b, c, d, e, f]),
+            _ => None,
+        }
+    } else {
+        let scale = f64_tag(decoder, Tag::ModelPixelScaleTag)?;
+        let tie = f64_tag(decoder, Tag::ModelTiepointTag)?;
+        match (scale.as_deref(), tie.as_deref()) {
+            // Tiepoint (i, j, k) ↦ (x, y, z); y grows north while j grows south.
+            (Some(&[sx, sy, ..]), Some(&[i, j, _, x, y, ..])) => {
+                Some([sx, 0.0, x - i * sx, 0.0, -sy, y + j * sy])
+            }
+            _ => None,
+        }
+    };
+
+    // Sample (row, col) has its centre at raster (col + offset, row + offset).
+    Ok(affine.map(|[a, b, c, d, e, f]| Georef {
+        crs,
+        transform: [
+            c + centre_offset * (a + b),
+            a,
+            b,
+            f + centre_offset * (d + e),
+            d,
+            e,
+        ],
+    }))
+}
+
+/// The GeoKeyDirectory's short-valued keys as (id, value); others live in the double and
+/// ASCII parameter tags, which we do not need.
+fn geo_keys<R: Read + Seek>(decoder: &mut Decoder<R>) -> Result<Vec<(u16, u16)>, TiffError> {
+    let Some(dir) = decoder.find_tag(Tag::GeoKeyDirectoryTag)? else {
+        return Ok(Vec::new());
+    };
+    let dir = dir.into_u16_vec()?;
+    // Header (version, revision, minor, count), then (id, location, count, value) per key.
+    Ok(dir
+        .get(4..)
+        .unwrap_or_default()
+        .chunks_exact(4)
+        .filter(|k| k[1] == 0)
+        .map(|k| (k[0], k[3]))
+        .collect())
+}
+
+/// A tag of doubles, `None` when absent (the decoder's tag-size limit bounds its length).
+fn f64_tag<R: Read + Seek>(
+    decoder: &mut Decoder<R>,
+    tag: Tag,
+) -> Result<Option<Vec<f64>>, TiffError> {
+    decoder
+        .find_tag(tag)?
+        .map(tiff::decoder::ifd::Value::into_f64_vec)
+        .transpose()
+}
+
+#[cfg(test)]
+mod tests {
+    use std::io::Cursor;
+
+    use tiff::encoder::{colortype, DirectoryEncoder, TiffEncoder, TiffKindStandard};
+
+    use super::*;
+    use crate::fixtures::{scratch_dir, shared_data};
+
+    fn read_dem(name: &str) -> Heightmap {
+        read(
+            &shared_data(&format!("dem/{name}")),
+            &ReadOptions::default(),
+        )
+        .unwrap()
+    }
+
+    fn assert_close(got: f64, want: f64, tol: f64) {
+        assert!((got - want).abs() <= tol, "got {got}, want {want} ± {tol}");
+    }
+
+    #[test]
+    fn reads_terra_elev_int16_lzw_with_nodata() {
+        let map = read_dem("terra_elev.tif");
+        assert_eq!((map.heights.rows(), map.heights.cols()), (90, 95));
+        assert_eq!(map.min_max(), Some((141.0, 547.0)));
+        assert_eq!(map.step, Some(1.0));
+        // GDAL_NODATA −32768 marks the area outside Luxembourg.
+        assert_eq!(map.nodata_count, 3942);
+        // Area raster: the tiepoint is the outer corner, the first centre half a pixel in.
+        let g = map.georef.unwrap();
+        assert_eq!(g.crs, Crs::Geographic);
+        let (x, y) = g.position(0.0, 0.0);
+        assert_close(x, 5.741666666666666 + 0.5 / 120.0, 1e-12);
+        assert_close(y, 50.19166666666666 - 0.5 / 120.0, 1e-12);
+        assert_close(g.transform[1], 1.0 / 120.0, 1e-15);
+    }
+
+    #[test]
+    fn reads_vinschgau_float32_in_utm() {
+        let map = read_dem("terra_elev_vinschgau.tif");
+        assert_eq!((map.heights.rows(), map.heights.cols()), (194, 252));
+        assert_eq!(map.step, None);
+        let (lo, hi) = map.min_max().unwrap();
+        assert!(
+            (388.0..389.0).contains(&lo) && (3862.0..3864.0).contains(&hi),
+            "{lo}..{hi}"
+        );
+        let g = map.georef.unwrap();
+        assert_eq!(g.crs, Crs::Epsg(32632));
+        assert_eq!(
+            g.position(0.0, 0.0),
+            (598_250.0 + 125.0, 5_193_000.0 - 125.0)
+        );
+    }
+
+    #[test]
+    fn reads_pysheds_tiled_tiff_with_its_declared_nodata() {
+        let map = read_dem("pysheds_dem.tif");
+        assert_eq!((map.heights.rows(), map.heights.cols()), (359, 367));
+        // GDAL_NODATA −32768 is declared; no sample inside the image carries it (the edge
+        // tiles' padding does, and is cut off).
+        assert_eq!(map.nodata_count, 0);
+        assert_eq!(map.min_max(), Some((147.0, 298.0)));
+        assert_eq!(map.georef.unwrap().crs, Crs::Geographic);
+    }
+
+    #[test]
+    fn reads_rio_rgbify_in_web_mercator() {
+        let map = read_dem("rio_rgbify_elev.tif");
+        assert_eq!((map.heights.rows(), map.heights.cols()), (512, 512));
+        assert_eq!(map.step, None);
+        let (lo, hi) = map.min_max().unwrap();
+        assert_close(lo, 0.44, 0.01);
+        assert_close(hi, 114.9, 0.05);
+        let g = map.georef.unwrap();
+        assert_eq!(g.crs, Crs::WebMercator);
+        assert_close(g.transform[1], 6.721808968646656, 1e-12);
+        assert_close(g.transform[5], -6.059025744365499, 1e-12);
+    }
+
+    type Directory<'a, 'w> = DirectoryEncoder<'a, &'w mut Cursor<Vec<u8>>, TiffKindStandard>;
+
+    /// Writes a small int16 GeoTIFF with the extra tags `tags` writes.
+    fn write_tiff(
+        path: &Path,
+        (width, height): (u32, u32),
+        samples: &[i16],
+        tags: impl FnOnce(&mut Directory<'_, '_>),
+    ) {
+        let mut bytes = Cursor::new(Vec::new());
+        let mut tiff = TiffEncoder::new(&mut bytes).unwrap();
+        let mut image = tiff.new_image::<colortype::GrayI16>(width, height).unwrap();
+        tags(image.encoder());
+        image.write_data(samples).unwrap();
+        std::fs::write(path, bytes.into_inner()).unwrap();
+    }
+
+    #[test]
+    fn pixel_is_point_places_the_tiepoint_on_the_first_centre() {
+        let path = scratch_dir("tiff_point").join("point.tif");
+        write_tiff(&path, (3, 2), &[1, 2, 3, 4, 5, -9999], |dir| {
+            let keys: [u16; 12] = [1, 1, 0, 2, 1025, 0, 1, 2, 2048, 0, 1, 4326];
+            dir.write_tag(Tag::GeoKeyDirectoryTag, &keys[..]).unwrap();
+            dir.write_tag(Tag::ModelPixelScaleTag, &[0.5, 0.25, 0.0][..])
+                .unwrap();
+            let tie = [0.0, 0.0, 0.0, 10.0, 50.0, 0.0];
+            dir.write_tag(Tag::ModelTiepointTag, &tie[..]).unwrap();
+            dir.write_tag(Tag::GdalNodata, "-9999").unwrap();
+        });
+        let map = read(&path, &ReadOptions::default()).unwrap();
+        assert_eq!(map.nodata_count, 1);
+        assert_eq!(map.min_max(), Some((1.0, 5.0)));
+        let g = map.georef.unwrap();
+        assert_eq!(g, Georef::north_up(Crs::Geographic, 10.0, 50.0, 0.5, 0.25));
+    }
+
+    #[test]
+    fn model_transformation_places_an_area_raster() {
+        let path = scratch_dir("tiff_transform").join("transform.tif");
+        write_tiff(&path, (2, 2), &[1, 2, 3, 4], |dir| {
+            #[rustfmt::skip]
+            let m = [
+                2.0, 0.0, 0.0, 100.0,
+                0.0, -2.0, 0.0, 200.0,
+                0.0, 0.0, 0.0, 0.0,
+                0.0, 0.0, 0.0, 1.0,
+            ];
+            dir.write_tag(Tag::ModelTransformationTag, &m[..]).unwrap();
+        });
+        let g = read(&path, &ReadOptions::default())
+            .unwrap()
+            .georef
+            .unwrap();
+        assert_eq!(g.crs, Crs::Unknown);
+        assert_eq!(g.position(0.0, 0.0), (101.0, 199.0));
+        assert_eq!(g.to_gdal(), [100.0, 2.0, 0.0, 200.0, 0.0, -2.0]);
+    }
+
+    #[test]
+    fn nodata_outside_the_sample_type_matches_nothing() {
+        assert_eq!(int_nodata::<u8>(Some(-32768.0)), None);
+        assert_eq!(int_nodata::<i16>(Some(-32768.0)), Some(i16::MIN));
+        assert_eq!(int_nodata::<i16>(Some(0.5)), None);
+        assert_eq!(int_nodata::<i32>(Some(f64::NAN)), None);
+    }
+
+    #[test]
+    fn a_header_claiming_a_huge_raster_is_a_limit_not_an_allocation() {
+        // A little-endian TIFF whose one IFD claims 100000 × 100000 int16 samples in one strip.
+        let entries: [(u16, u16, u32); 9] = [
+            (256, 4, 100_000),       // ImageWidth, LONG
+            (257, 4, 100_000),       // ImageLength
+            (258, 3, 16),            // BitsPerSample
+            (259, 3, 1),             // Compression: none
+            (262, 3, 1),             // BlackIsZero
+            (273, 4, 8),             // StripOffsets
+            (277, 3, 1),             // SamplesPerPixel
+            (278, 4, 100_000),       // RowsPerStrip
+            (279, 4, 2_000_000_000), // StripByteCounts
+        ];
+        let mut bytes = b"II*\0".to_vec();
+        bytes.extend_from_slice(&8u32.to_le_bytes());
+        bytes.extend_from_slice(&(entries.len() as u16).to_le_bytes());
+        for (tag, kind, value) in entries {
+            bytes.extend_from_slice(&tag.to_le_bytes());
+            bytes.extend_from_slice(&kind.to_le_bytes());
+            bytes.extend_from_slice(&1u32.to_le_bytes());
+            if kind == 3 {
+                bytes.extend_from_slice(&(value as u16).to_le_bytes());
+                bytes.extend_from_slice(&[0, 0]);
+            } else {
+                bytes.extend_from_slice(&value.to_le_bytes());
+            }
+        }
+        bytes.extend_from_slice(&0u32.to_le_bytes());
+        let path = scratch_dir("tiff_huge").join("huge.tif");
+        std::fs::write(&path, bytes).unwrap();
+        let err = read(&path, &ReadOptions::default()).unwrap_err();
+        assert!(matches!(err, RasterError::Limit { .. }), "{err}");
+        assert!(err.to_string().contains("huge.tif"), "{err}");
+    }
+}

@@ -1,0 +1,40 @@
+//! `zerotile eval`: measure the codec and meshers on one input, as the benchmarks and the
+//! papers' tables report them.
+
+pub mod terrain;
+
+use std::time::Instant;
+
+/// Median wall time of `repeat` runs of `f` in milliseconds, and the last result.
+pub fn median_ms<T>(repeat: usize, mut f: impl FnMut() -> T) -> (f64, T) {
+    let mut times = Vec::with_capacity(repeat.max(1));
+    let mut out = None;
+    for _ in 0..repeat.max(1) {
+        let t = Instant::now();
+        out = Some(f());
+        times.push(t.elapsed().as_secs_f64() * 1e3);
+    }
+    times.sort_by(f64::total_cmp);
+    let median = times[times.len() / 2];
+    match out {
+        Some(v) => (median, v),
+        None => unreachable!("at least one run"),
+    }
+}
+
+/// Parses "a,b,c" into numbers, naming the flag in the error.
+pub fn parse_list(flag: &str, s: &str) -> Result<Vec<f64>, String> {
+    s.split(',')
+        .map(|p| {
+            let v: f64 = p
+                .trim()
+                .parse()
+                .map_err(|_| format!("{flag}: '{p}' is not a number"))?;
+            if v.is_finite() && v >= 0.0 {
+                Ok(v)
+            } else {
+                Err(format!("{flag}: '{p}' must be finite and ≥ 0"))
+            }
+        })
+        .collect()
+}

@@ -1,0 +1,321 @@
+//! `zerotile eval terrain`: rate, distortion and zerotree-mesh figures per operating point,
+//! one JSON object per line (the benchmark scripts' contract) or a table like the paper's.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use serde::Serialize;
+use zerotile_codec::ezw::{self, DecodeLimit, EncodeParams};
+use zerotile_codec::raster::{self, Encoding, ReadOptions};
+use zerotile_codec::wavelet::Wavelet;
+use zerotile_codec::zerotree::{self, Complexity};
+use zerotile_codec::Grid;
+
+use super::median_ms;
+
+/// What to sweep.
+#[derive(Clone, Debug)]
+pub enum Sweep {
+    Threshold(Vec<f64>),
+    Bpp(Vec<f64>),
+    MaxError(Vec<f64>),
+    Lossless,
+}
+
+#[derive(Clone, Debug)]
+pub struct TerrainEval {
+    pub input: PathBuf,
+    pub crop: Option<(usize, usize, usize)>,
+    pub encoding: Option<Encoding>,
+    pub npz_key: Option<String>,
+    pub wavelet: Option<Wavelet>,
+    pub step: Option<f64>,
+    pub sweep: Sweep,
+    pub repeat: usize,
+    /// Rescale the window linearly to 0..=255 integers first: the paper's 8-bit setting.
+    pub eight_bit: bool,
+}
+
+/// One operating point, with the field names the benchmark scripts read.
+#[derive(Clone, Debug, Serialize)]
+pub struct Point {
+    pub input: String,
+    pub rows: usize,
+    pub cols: usize,
+    pub wavelet: &'static str,
+    pub mode: &'static str,
+    pub param: Option<f64>,
+    pub threshold: f64,
+    pub bytes: usize,
+    pub bps: f64,
+    pub psnr_db: Option<f64>,
+    pub max_abs_err: f64,
+    pub rmse: f64,
+    pub mesh_triangles: usize,
+    pub mesh_vertices: usize,
+    pub mesh_max_abs_err: f64,
+    pub mesh_rmse: f64,
+    pub mesh_psnr_db: Option<f64>,
+    pub encode_ms: f64,
+    pub decode_ms: f64,
+    pub mesh_ms: f64,
+}
+
+/// Loads the input (cropped) and returns heights, the step and the PSNR peak.
+pub fn load(eval: &TerrainEval) -> Result<(Grid<f64>, f64, f64)> {
+    let opts = ReadOptions {
+        encoding: eval.encoding,
+        npz_key: eval.npz_key.clone(),
+        ..ReadOptions::default()
+    };
+    let mut map = raster::read_heightmap(&eval.input, &opts)?;
+    if let Some((row, col, size)) = eval.crop {
+        map = map
+            .crop(row, col, size, size)
+            .with_context(|| format!("--crop {row},{col},{size}"))?;
+    }
+    if map.has_nodata() {
+        bail!(
+            "{}: the evaluated window holds {} no-data samples; choose a --crop without them",
+            eval.input.display(),
+            map.nodata_count
+        );
+    }
+    let (lo, hi) = map.min_max().context("empty raster")?;
+    if eval.eight_bit {
+        let scale = if hi > lo { 255.0 / (hi - lo) } else { 0.0 };
+        let heights = map.heights.map(|h| ((h - lo) * scale).round());
+        return Ok((heights, 1.0, 255.0));
+    }
+    let step = eval.step.or(map.step).unwrap_or(0.01);
+    // PSNR peak: the window's height range (255 for 8-bit data, as the paper uses).
+    let peak = if is_8bit(&map.heights, map.step) {
+        255.0
+    } else {
+        (hi - lo).max(step)
+    };
+    Ok((map.heights, step, peak))
+}
+
+fn is_8bit(g: &Grid<f64>, step: Option<f64>) -> bool {
+    step == Some(1.0) && g.data().iter().all(|&h| (0.0..=255.0).contains(&h))
+}
+
+/// Runs the sweep and returns one point per parameter.
+pub fn run(eval: &TerrainEval) -> Result<Vec<Point>> {
+    let (heights, step, peak) = load(eval)?;
+    let name = eval.input.display().to_string();
+    let lossy_wavelet = eval.wavelet.unwrap_or(Wavelet::Cdf97);
+    let mut points = Vec::new();
+    match &eval.sweep {
+        Sweep::Threshold(ts) | Sweep::Bpp(ts) => {
+            let params = EncodeParams::new(lossy_wavelet, step);
+            let (encode_ms, enc) = median_ms(eval.repeat, || ezw::encode(&heights, &params));
+            let enc = enc?;
+            let threshold_mode = matches!(eval.sweep, Sweep::Threshold(_));
+            for &p in ts {
+                let limit = if threshold_mode {
+                    DecodeLimit::Threshold(p)
+                } else {
+                    DecodeLimit::Bytes(((p * heights.len() as f64) / 8.0).floor() as usize)
+                };
+                let mode = if threshold_mode { "threshold" } else { "bpp" };
+                points.push(measure(
+                    eval,
+                    &name,
+                    &heights,
+                    peak,
+                    &enc.bytes,
+                    limit,
+                    mode,
+                    Some(p),
+                    encode_ms,
+                )?);
+            }
+        }
+        Sweep::MaxError(es) => {
+            for &e in es {
+                let params = EncodeParams {
+                    max_error: Some(e),
+                    ..EncodeParams::new(lossy_wavelet, step)
+                };
+                let (encode_ms, enc) = median_ms(eval.repeat, || ezw::encode(&heights, &params));
+                let enc = enc?;
+                points.push(measure(
+                    eval,
+                    &name,
+                    &heights,
+                    peak,
+                    &enc.bytes,
+                    DecodeLimit::All,
+                    "max-error",
+                    Some(e),
+                    encode_ms,
+                )?);
+            }
+        }
+        Sweep::Lossless => {
+            if eval.wavelet == Some(Wavelet::Cdf97) {
+                bail!("--lossless needs the reversible 5/3 wavelet (--wavelet 53)");
+            }
+            let params = EncodeParams::new(Wavelet::LeGall53, step);
+            let (encode_ms, enc) = median_ms(eval.repeat, || ezw::encode(&heights, &params));
+            let enc = enc?;
+            let point = measure(
+                eval,
+                &name,
+                &heights,
+                peak,
+                &enc.bytes,
+                DecodeLimit::All,
+                "lossless",
+                None,
+                encode_ms,
+            )?;
+            // Exact means equal in height steps: 0.1 m steps are not exact in binary, so the
+            // decoded (units + offset) × step and the reader's own product may differ in the
+            // last bits of the f64.
+            if point.max_abs_err > step * 1e-6 {
+                bail!(
+                    "internal error: lossless decode differs by {} (please report)",
+                    point.max_abs_err
+                );
+            }
+            points.push(point);
+        }
+    }
+    Ok(points)
+}
+
+#[allow(clippy::too_many_arguments)] // one call site per sweep kind; a struct would only rename them
+fn measure(
+    eval: &TerrainEval,
+    name: &str,
+    heights: &Grid<f64>,
+    peak: f64,
+    bytes: &[u8],
+    limit: DecodeLimit,
+    mode: &'static str,
+    param: Option<f64>,
+    encode_ms: f64,
+) -> Result<Point> {
+    let n = heights.len() as f64;
+    let (decode_ms, dec) = median_ms(eval.repeat, || {
+        ezw::decode(bytes, limit, ezw::DEFAULT_MAX_SAMPLES)
+    });
+    let dec = dec.context("decoding our own stream")?;
+    let (max_abs_err, rmse) = errors(&dec.heights, heights);
+    let mesh_t = match limit {
+        DecodeLimit::Threshold(t) => t,
+        _ => dec.threshold,
+    };
+    let (mesh_ms, mesh) = median_ms(eval.repeat, || {
+        // The decoder's zerotree, cut at the threshold this point decoded to.
+        let leaves = Complexity::new(&dec.layout, &dec.coefficients).leaves(mesh_t);
+        zerotree::triangulate(&leaves, &dec.heights, None)
+    });
+    let merr = zerotree::mesh_error(&mesh, heights);
+    let bytes_used = dec.bytes_used;
+    let wavelet = if mode == "lossless" {
+        Wavelet::LeGall53
+    } else {
+        eval.wavelet.unwrap_or(Wavelet::Cdf97)
+    };
+    Ok(Point {
+        input: name.to_string(),
+        rows: heights.rows(),
+        cols: heights.cols(),
+        wavelet: wavelet.name(),
+        mode,
+        param,
+        threshold: dec.threshold,
+        bytes: bytes_used,
+        bps: bytes_used as f64 * 8.0 / n,
+        psnr_db: psnr(peak, rmse),
+        max_abs_err,
+        rmse,
+        mesh_triangles: mesh.triangle_count(),
+        mesh_vertices: mesh.vertex_count(),
+        mesh_max_abs_err: merr.max_abs,
+        mesh_rmse: merr.rmse,
+        mesh_psnr_db: psnr(peak, merr.rmse),
+        encode_ms,
+        decode_ms,
+        mesh_ms,
+    })
+}
+
+/// Max |a − b| and RMSE over all samples.
+pub fn errors(a: &Grid<f64>, b: &Grid<f64>) -> (f64, f64) {
+    let (mut max, mut sum) = (0.0f64, 0.0);
+    for (x, y) in a.data().iter().zip(b.data()) {
+        let d = (x - y).abs();
+        max = max.max(d);
+        sum += d * d;
+    }
+    (max, (sum / a.len().max(1) as f64).sqrt())
+}
+
+/// 20·log10(peak / RMSE); `None` when lossless.
+pub fn psnr(peak: f64, rmse: f64) -> Option<f64> {
+    (rmse > 0.0).then(|| 20.0 * (peak / rmse).log10())
+}
+
+/// The paper's Table 1 layout, for people.
+pub fn print_table(points: &[Point], full_triangles: Option<usize>) {
+    if let Some(p) = points.first() {
+        println!("{} ({}×{}, {})", p.input, p.rows, p.cols, p.wavelet);
+    }
+    println!(
+        "{:>10} {:>9} {:>9} {:>7} {:>9} {:>9} {:>9} {:>9} {:>10} {:>7} {:>8}",
+        "mode",
+        "param",
+        "T",
+        "bps",
+        "PSNR dB",
+        "max err",
+        "RMSE",
+        "mesh dB",
+        "triangles",
+        "remain",
+        "dec+mesh"
+    );
+    for p in points {
+        let f = |v: Option<f64>| v.map_or("lossless".to_string(), |v| format!("{v:.2}"));
+        let remain = full_triangles.map_or(String::from("-"), |n| {
+            format!("{:.1}%", 100.0 * p.mesh_triangles as f64 / n as f64)
+        });
+        println!(
+            "{:>10} {:>9} {:>9.3} {:>7.3} {:>9} {:>9.3} {:>9.3} {:>9} {:>10} {:>7} {:>6.2}ms",
+            p.mode,
+            p.param.map_or("-".into(), |v| format!("{v}")),
+            p.threshold,
+            p.bps,
+            f(p.psnr_db),
+            p.max_abs_err,
+            p.rmse,
+            f(p.mesh_psnr_db),
+            p.mesh_triangles,
+            remain,
+            p.decode_ms + p.mesh_ms
+        );
+    }
+}
+
+/// Parses `ROW,COL,SIZE`.
+pub fn parse_crop(s: &str) -> Result<(usize, usize, usize), String> {
+    let v: Vec<usize> = s
+        .split(',')
+        .map(|p| p.trim().parse::<usize>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("--crop '{s}': expected ROW,COL,SIZE (whole numbers)"))?;
+    match v.as_slice() {
+        [r, c, n] if *n > 0 => Ok((*r, *c, *n)),
+        _ => Err(format!("--crop '{s}': expected ROW,COL,SIZE with SIZE > 0")),
+    }
+}
+
+/// The input's display name for errors.
+pub fn display(p: &Path) -> String {
+    p.display().to_string()
+}
