@@ -1,30 +1,35 @@
 //! Crack-free meshes across tile borders.
 //!
 //! Two neighbouring tiles share their edge samples (tiles are (2^n + 1)² for this reason),
-//! but each is coded and decoded on its own, so their zerotrees, and hence their border
-//! vertices and decoded border heights, differ. A tile decoded at threshold T is therefore
-//! meshed together with its four edge neighbours decoded at the same T:
+//! but each is coded and decoded on its own, so their error trees, and hence their border
+//! vertices and decoded border heights, differ. A tile decoded at some depth is therefore
+//! meshed together with its four edge neighbours decoded at the same depth:
 //!
-//! - border vertices: the union of both tiles' border vertex sets, inserted by the mesher
-//!   without T-junctions;
+//! - border vertices: the union of the border vertices each tile would have on its own.
+//!   A plain bintree mesh is closed under ancestors and the ancestors of a border sample on
+//!   the border are the same dyadic points seen from either side, so both tiles arrive at
+//!   the same set;
 //! - border heights: the mean of the two decodes, computed as `(a + b) / 2`, which is
 //!   bit-identical whichever tile computes it;
 //! - corner heights: the exact source samples (stored with the tile), identical in all four
 //!   tiles that share a corner.
 //!
 //! Both tiles then emit the same vertices with the same heights along their shared edge.
+//! The triangles are chosen from the centre tile's own errors, so the mesh is within the
+//! tolerance of its own decode plus the largest border change (see [`stitched_mesh`]).
 
+use crate::bintree::{self, Forced, Hierarchy, TileErrors};
 use crate::grid::Grid;
-use crate::zerotree::{self, BorderVertices, SplitMap, TerrainMesh};
+use crate::zerotree::{BorderVertices, TerrainMesh};
 
-/// A decoded tile as the stitcher needs it.
+/// A decoded tile as the stitcher needs it: heights and their error tree.
 #[derive(Clone, Copy)]
 pub struct TileView<'a> {
     pub heights: &'a Grid<f64>,
-    pub split: &'a SplitMap,
+    pub errors: &'a TileErrors,
 }
 
-/// A tile and whichever of its edge neighbours exist, all decoded at the same threshold.
+/// A tile and whichever of its edge neighbours exist, all decoded at the same depth.
 pub struct Neighbourhood<'a> {
     pub center: TileView<'a>,
     pub north: Option<TileView<'a>>,
@@ -39,89 +44,108 @@ pub struct Neighbourhood<'a> {
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
 #[non_exhaustive]
 pub enum StitchError {
-    #[error("{side} neighbour is {got_rows}×{got_cols}, the tile is {rows}×{cols}")]
+    #[error("{side} tile is {got_rows}×{got_cols}, the hierarchy is for {side_len}²")]
     Shape {
         side: &'static str,
-        rows: usize,
-        cols: usize,
+        side_len: usize,
         got_rows: usize,
         got_cols: usize,
     },
 }
 
-/// Meshes the centre tile so that its border matches each neighbour's stitched mesh.
-pub fn stitched_mesh(n: &Neighbourhood) -> Result<TerrainMesh, StitchError> {
-    let c = n.center;
-    let (rows, cols) = (c.heights.rows(), c.heights.cols());
-    for (side, nb) in [
+/// Meshes the centre tile so that its border matches each neighbour's stitched mesh at the
+/// same `tolerance`. Every triangle is within `tolerance` of the centre's own decoded heights
+/// before the border heights move; the move is at most half the two decodes' difference on
+/// an edge, and the corner's own decode error at a corner, so against the source the mesh
+/// is within `tolerance + 2 × (largest decode error of the five tiles)`.
+pub fn stitched_mesh(
+    hierarchy: &Hierarchy,
+    n: &Neighbourhood,
+    tolerance: f64,
+) -> Result<TerrainMesh, StitchError> {
+    let side = hierarchy.side();
+    let sides = [
+        ("centre", Some(n.center)),
         ("north", n.north),
         ("south", n.south),
         ("west", n.west),
         ("east", n.east),
-    ] {
-        if let Some(nb) = nb {
-            if nb.heights.rows() != rows || nb.heights.cols() != cols {
+    ];
+    for (name, view) in sides {
+        if let Some(v) = view {
+            let (r, c) = (v.heights.rows(), v.heights.cols());
+            if r != side || c != side || v.errors.side() != side {
                 return Err(StitchError::Shape {
-                    side,
-                    rows,
-                    cols,
-                    got_rows: nb.heights.rows(),
-                    got_cols: nb.heights.cols(),
+                    side: name,
+                    side_len: side,
+                    got_rows: r,
+                    got_cols: c,
                 });
             }
         }
     }
+    let last = side - 1;
+    let at = |r: usize, c: usize| r * side + c;
 
-    // Border vertices: ours plus what each neighbour has on the shared edge.
-    let own = c.split.border_vertices();
-    let mut extra = own.clone();
-    let empty = |len| vec![false; len];
-    let from = |nb: Option<TileView>, pick: fn(BorderVertices) -> Vec<bool>, len| {
-        nb.map_or_else(|| empty(len), |t| pick(t.split.border_vertices()))
+    // Border vertices each neighbour has on the shared edge, forced into ours.
+    let theirs = |view: Option<TileView>| {
+        view.map(|v| bintree::border_vertices(hierarchy, v.errors, tolerance))
     };
-    let theirs = BorderVertices {
-        north: from(n.north, |b| b.south, cols),
-        south: from(n.south, |b| b.north, cols),
-        west: from(n.west, |b| b.east, rows),
-        east: from(n.east, |b| b.west, rows),
-    };
-    extra = extra.union(&theirs);
+    let mut forced = Vec::new();
+    if let Some(b) = theirs(n.north) {
+        forced.extend(flags(&b.south).map(|c| at(0, c)));
+    }
+    if let Some(b) = theirs(n.south) {
+        forced.extend(flags(&b.north).map(|c| at(last, c)));
+    }
+    if let Some(b) = theirs(n.west) {
+        forced.extend(flags(&b.east).map(|r| at(r, 0)));
+    }
+    if let Some(b) = theirs(n.east) {
+        forced.extend(flags(&b.west).map(|r| at(r, last)));
+    }
+    let forced = Forced::new(hierarchy, forced);
 
     // Border heights: the symmetric mean with each neighbour; corners exact.
-    let mut heights = c.heights.clone();
-    let last_r = rows - 1;
-    let last_c = cols - 1;
+    let mut heights = n.center.heights.clone();
+    let own = n.center.heights;
     if let Some(nb) = n.north {
-        for j in 0..cols {
-            let v = mean(*c.heights.get(0, j), *nb.heights.get(last_r, j));
-            *heights.get_mut(0, j) = v;
+        for c in 0..side {
+            *heights.get_mut(0, c) = mean(*own.get(0, c), *nb.heights.get(last, c));
         }
     }
     if let Some(nb) = n.south {
-        for j in 0..cols {
-            let v = mean(*c.heights.get(last_r, j), *nb.heights.get(0, j));
-            *heights.get_mut(last_r, j) = v;
+        for c in 0..side {
+            *heights.get_mut(last, c) = mean(*own.get(last, c), *nb.heights.get(0, c));
         }
     }
     if let Some(nb) = n.west {
-        for i in 0..rows {
-            let v = mean(*c.heights.get(i, 0), *nb.heights.get(i, last_c));
-            *heights.get_mut(i, 0) = v;
+        for r in 0..side {
+            *heights.get_mut(r, 0) = mean(*own.get(r, 0), *nb.heights.get(r, last));
         }
     }
     if let Some(nb) = n.east {
-        for i in 0..rows {
-            let v = mean(*c.heights.get(i, last_c), *nb.heights.get(i, 0));
-            *heights.get_mut(i, last_c) = v;
+        for r in 0..side {
+            *heights.get_mut(r, last) = mean(*own.get(r, last), *nb.heights.get(r, 0));
         }
     }
     if let Some([nw, ne, sw, se]) = n.corners {
         *heights.get_mut(0, 0) = nw;
-        *heights.get_mut(0, last_c) = ne;
-        *heights.get_mut(last_r, 0) = sw;
-        *heights.get_mut(last_r, last_c) = se;
+        *heights.get_mut(0, last) = ne;
+        *heights.get_mut(last, 0) = sw;
+        *heights.get_mut(last, last) = se;
     }
-    Ok(zerotree::triangulate(c.split, &heights, Some(&extra)))
+    Ok(bintree::extract(
+        hierarchy,
+        n.center.errors,
+        &heights,
+        tolerance,
+        Some(&forced),
+    ))
+}
+
+fn flags(v: &[bool]) -> impl Iterator<Item = usize> + '_ {
+    v.iter().enumerate().filter(|(_, &f)| f).map(|(k, _)| k)
 }
 
 /// The mean of two border samples, the same bits whichever tile computes it.
@@ -130,21 +154,27 @@ fn mean(a: f64, b: f64) -> f64 {
     (a + b) / 2.0
 }
 
+/// The border vertices of a plain mesh, as [`BorderVertices`] (for callers that cache them).
+pub fn border_vertices(h: &Hierarchy, errors: &TileErrors, tolerance: f64) -> BorderVertices {
+    bintree::border_vertices(h, errors, tolerance)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::ezw::{self, DecodeLimit, EncodeParams};
     use crate::fixtures::n44w072;
     use crate::wavelet::Wavelet;
-    use crate::zerotree::Complexity;
+    use crate::zerotree::terrain_mesh::assert_watertight;
+    use crate::zerotree::{mesh_error, TerrainMesh};
 
     struct Decoded {
         heights: Grid<f64>,
-        split: SplitMap,
+        errors: TileErrors,
     }
 
     /// 2×2 neighbouring 257² tiles of N44W072 sharing edges, decoded at threshold `t`.
-    fn tiles(t: f64, wavelet: Wavelet) -> (Vec<Decoded>, Vec<[f64; 4]>) {
+    fn tiles(h: &Hierarchy, t: f64, wavelet: Wavelet) -> (Vec<Decoded>, Vec<[f64; 4]>, Grid<f64>) {
         let dem = n44w072();
         let mut out = Vec::new();
         let mut corners = Vec::new();
@@ -163,23 +193,29 @@ mod tests {
                 ezw::DEFAULT_MAX_SAMPLES,
             )
             .unwrap();
-            let split = Complexity::new(&d.layout, &d.coefficients).leaves(t);
+            let errors = TileErrors::new(h, &d.heights);
             out.push(Decoded {
                 heights: d.heights,
-                split,
+                errors,
             });
         }
-        (out, corners)
+        (out, corners, dem)
     }
 
     fn view(d: &Decoded) -> TileView<'_> {
         TileView {
             heights: &d.heights,
-            split: &d.split,
+            errors: &d.errors,
         }
     }
 
-    fn mesh_of(t: &[Decoded], corners: &[[f64; 4]], k: usize) -> TerrainMesh {
+    fn mesh_of(
+        h: &Hierarchy,
+        t: &[Decoded],
+        corners: &[[f64; 4]],
+        k: usize,
+        tol: f64,
+    ) -> TerrainMesh {
         // Layout: 0 = NW, 1 = NE, 2 = SW, 3 = SE.
         let nb = |i: Option<usize>| i.map(|i| view(&t[i]));
         let (north, south, west, east) = match k {
@@ -196,7 +232,7 @@ mod tests {
             east: nb(east),
             corners: Some(corners[k]),
         };
-        stitched_mesh(&n).unwrap()
+        stitched_mesh(h, &n, tol).unwrap()
     }
 
     /// Vertices on one side of a mesh: (position along the edge, height), sorted.
@@ -212,76 +248,76 @@ mod tests {
 
     #[test]
     fn neighbouring_real_tiles_share_identical_edge_vertices() {
+        let h = Hierarchy::new(257).unwrap();
+        type Side = dyn Fn(&[f64; 3]) -> Option<f64>;
+        let east: &Side = &|p| (p[0] == 256.0).then_some(p[1]);
+        let west: &Side = &|p| (p[0] == 0.0).then_some(p[1]);
+        let south: &Side = &|p| (p[1] == 256.0).then_some(p[0]);
+        let north: &Side = &|p| (p[1] == 0.0).then_some(p[0]);
         for wavelet in [Wavelet::Cdf97, Wavelet::LeGall53] {
-            for t in [0.5, 2.0, 8.0, 32.0] {
-                let (tiles, corners) = tiles(t, wavelet);
-                let meshes: Vec<TerrainMesh> =
-                    (0..4).map(|k| mesh_of(&tiles, &corners, k)).collect();
-                let east = |p: &[f64; 3]| (p[0] == 256.0).then_some(p[1]);
-                let west = |p: &[f64; 3]| (p[0] == 0.0).then_some(p[1]);
-                let south = |p: &[f64; 3]| (p[1] == 256.0).then_some(p[0]);
-                let north = |p: &[f64; 3]| (p[1] == 0.0).then_some(p[0]);
-                for (a, b, sa, sb) in [
-                    (
-                        0,
-                        1,
-                        &east as &dyn Fn(&[f64; 3]) -> Option<f64>,
-                        &west as &dyn Fn(&[f64; 3]) -> Option<f64>,
-                    ),
-                    (2, 3, &east, &west),
-                    (0, 2, &south, &north),
-                    (1, 3, &south, &north),
-                ] {
-                    let ea = edge(&meshes[a], sa);
-                    let eb = edge(&meshes[b], sb);
-                    assert!(ea.len() >= 2);
-                    assert_eq!(
-                        ea, eb,
-                        "{wavelet:?} T={t}: tiles {a} and {b} disagree on their shared edge"
-                    );
+            for t in [0.5, 4.0, 32.0] {
+                let (tiles, corners, _) = tiles(&h, t, wavelet);
+                for tol in [1.0, 4.0, 16.0, 64.0] {
+                    let meshes: Vec<TerrainMesh> = (0..4)
+                        .map(|k| mesh_of(&h, &tiles, &corners, k, tol))
+                        .collect();
+                    for (a, b, sa, sb) in [
+                        (0, 1, east, west),
+                        (2, 3, east, west),
+                        (0, 2, south, north),
+                        (1, 3, south, north),
+                    ] {
+                        let (ea, eb) = (edge(&meshes[a], sa), edge(&meshes[b], sb));
+                        assert!(ea.len() >= 2);
+                        assert_eq!(
+                            ea, eb,
+                            "{wavelet:?} T={t} tol={tol}: tiles {a} and {b} disagree on their edge"
+                        );
+                    }
                 }
             }
         }
     }
 
     #[test]
-    fn stitched_tiles_are_watertight_inside() {
-        let (tiles, corners) = tiles(4.0, Wavelet::Cdf97);
+    fn stitched_tiles_are_watertight_and_within_the_stated_bound() {
+        let h = Hierarchy::new(257).unwrap();
+        let (tiles, corners, dem) = tiles(&h, 1.0, Wavelet::Cdf97);
+        let origins = [(300, 400), (300, 656), (556, 400), (556, 656)];
         for k in 0..4 {
-            let m = mesh_of(&tiles, &corners, k);
-            let mut edges = std::collections::HashMap::new();
-            let mut area = 0.0;
-            for t in &m.triangles {
-                // Upward (counter-clockwise, north up) triangles only: the areas add up.
-                area += m.signed_area2(*t) / 2.0;
-                for e in 0..3 {
-                    let (a, b) = (t[e], t[(e + 1) % 3]);
-                    *edges.entry((a.min(b), a.max(b))).or_insert(0) += 1;
-                }
-            }
-            assert!((area - 256.0 * 256.0).abs() < 1e-6, "tile {k}: area {area}");
-            for ((a, b), n) in edges {
-                let (pa, pb) = (m.positions[a as usize], m.positions[b as usize]);
-                let same_line = |a: f64, b: f64| a == b && (a == 0.0 || a == 256.0);
-                let border_edge = same_line(pa[0], pb[0]) || same_line(pa[1], pb[1]);
-                assert_eq!(
-                    n,
-                    if border_edge { 1 } else { 2 },
-                    "tile {k}: edge {pa:?}-{pb:?} used {n} times"
-                );
-            }
+            let m = mesh_of(&h, &tiles, &corners, k, 8.0);
+            assert_watertight(&m, &format!("tile {k}"));
+            let (r, c) = origins[k];
+            let source = dem.crop(r, c, 257, 257).unwrap();
+            let decode_error = (0..4)
+                .map(|i| {
+                    let (r, c) = origins[i];
+                    let s = dem.crop(r, c, 257, 257).unwrap();
+                    s.data()
+                        .iter()
+                        .zip(tiles[i].heights.data())
+                        .map(|(a, b)| (a - b).abs())
+                        .fold(0.0, f64::max)
+                })
+                .fold(0.0, f64::max);
+            let e = mesh_error(&m, &source);
+            assert!(
+                e.max_abs <= 8.0 + 2.0 * decode_error,
+                "tile {k}: {e:?}, decode {decode_error}"
+            );
         }
     }
 
     #[test]
     fn mismatched_neighbour_is_an_error() {
-        let (tiles, _) = tiles(8.0, Wavelet::Cdf97);
+        let h = Hierarchy::new(257).unwrap();
+        let (tiles, _, _) = tiles(&h, 8.0, Wavelet::Cdf97);
         let small = Grid::<f64>::zeros(3, 3);
         let n = Neighbourhood {
             center: view(&tiles[0]),
             north: Some(TileView {
                 heights: &small,
-                split: &tiles[1].split,
+                errors: &tiles[1].errors,
             }),
             south: None,
             west: None,
@@ -289,7 +325,7 @@ mod tests {
             corners: None,
         };
         assert!(matches!(
-            stitched_mesh(&n),
+            stitched_mesh(&h, &n, 4.0),
             Err(StitchError::Shape { side: "north", .. })
         ));
     }

@@ -8,7 +8,7 @@
 use super::errors::TileErrors;
 use super::hierarchy::{Hierarchy, Tri, NONE};
 use crate::grid::Grid;
-use crate::zerotree::TerrainMesh;
+use crate::zerotree::{BorderVertices, TerrainMesh};
 
 /// Samples that must be vertices whatever the tolerance (grid's row-major indices).
 #[derive(Clone, Debug, Default)]
@@ -69,7 +69,7 @@ pub fn extract(
     let walk = Walk {
         hierarchy,
         value: &errors.value,
-        tolerance: tolerance as f32,
+        tolerance,
         forced,
         splittable: hierarchy.levels() - 1,
     };
@@ -105,15 +105,94 @@ pub fn extract(
     mesh
 }
 
+/// The samples on each border edge that the plain mesh at `tolerance` has as vertices: what
+/// a neighbouring tile must force onto the shared edge. Walks only the triangles that have
+/// an edge on the border.
+pub fn border_vertices(
+    hierarchy: &Hierarchy,
+    errors: &TileErrors,
+    tolerance: f64,
+) -> BorderVertices {
+    let n = hierarchy.side();
+    let mut out = BorderVertices::empty(n, n);
+    if errors.side() != n {
+        debug_assert!(false, "border_vertices: shapes differ");
+        return out;
+    }
+    let walk = Walk {
+        hierarchy,
+        value: &errors.value,
+        tolerance,
+        forced: None,
+        splittable: hierarchy.levels() - 1,
+    };
+    let last = (n - 1) as u32;
+    let xy = |s: u32| (s % n as u32, s / n as u32);
+    walk.border_leaves(n, &mut |t: &Tri| {
+        for (p, q) in [(t.a, t.b), (t.b, t.c), (t.c, t.a)] {
+            let ((px, py), (qx, qy)) = (xy(p), xy(q));
+            for (x, y) in [(px, py), (qx, qy)] {
+                if py == qy && py == 0 {
+                    out.north[x as usize] = true;
+                }
+                if py == qy && py == last {
+                    out.south[x as usize] = true;
+                }
+                if px == qx && px == 0 {
+                    out.west[y as usize] = true;
+                }
+                if px == qx && px == last {
+                    out.east[y as usize] = true;
+                }
+            }
+        }
+    });
+    out
+}
+
 struct Walk<'a> {
     hierarchy: &'a Hierarchy,
     value: &'a [f32],
-    tolerance: f32,
+    tolerance: f64,
     forced: Option<&'a Forced>,
     splittable: usize,
 }
 
 impl Walk<'_> {
+    /// Whether the hypotenuse midpoint of triangle `t` (level `l`) is split.
+    #[inline]
+    fn splits(&self, l: usize, tri: &Tri) -> bool {
+        l < self.splittable
+            && (f64::from(self.value[tri.m as usize]) > self.tolerance
+                || self.forced.is_some_and(|f| f.get(tri.m)))
+    }
+
+    /// Calls `emit` for every leaf triangle with an edge on the grid's border.
+    fn border_leaves(&self, n: usize, emit: &mut impl FnMut(&Tri)) {
+        let last = (n - 1) as u32;
+        let on_border = |t: &Tri| {
+            let xy = |s: u32| (s % n as u32, s / n as u32);
+            [(t.a, t.b), (t.b, t.c), (t.c, t.a)].iter().any(|&(p, q)| {
+                let ((px, py), (qx, qy)) = (xy(p), xy(q));
+                (py == qy && (py == 0 || py == last)) || (px == qx && (px == 0 || px == last))
+            })
+        };
+        let mut stack = vec![(0usize, 1usize), (0, 0)];
+        while let Some((l, t)) = stack.pop() {
+            let tri = &self.hierarchy.tris[t];
+            if !on_border(tri) {
+                continue;
+            }
+            if self.splits(l, tri) {
+                let first = self.hierarchy.first_child(l, t);
+                stack.push((l + 1, first + 1));
+                stack.push((l + 1, first));
+            } else {
+                emit(tri);
+            }
+        }
+    }
+
     /// Calls `emit` for every leaf triangle, depth first from the two roots.
     fn leaves(&self, emit: &mut impl FnMut(&Tri)) {
         let mut stack: Vec<(usize, usize)> = Vec::with_capacity(2 * self.splittable + 2);
@@ -121,16 +200,11 @@ impl Walk<'_> {
         stack.push((0, 0));
         while let Some((l, t)) = stack.pop() {
             let tri = &self.hierarchy.tris[t];
-            if l < self.splittable {
-                let m = self.hierarchy.midpoint(tri);
-                let split = self.value[m as usize] > self.tolerance
-                    || self.forced.is_some_and(|f| f.get(m));
-                if split {
-                    let first = self.hierarchy.first_child(l, t);
-                    stack.push((l + 1, first + 1));
-                    stack.push((l + 1, first));
-                    continue;
-                }
+            if self.splits(l, tri) {
+                let first = self.hierarchy.first_child(l, t);
+                stack.push((l + 1, first + 1));
+                stack.push((l + 1, first));
+                continue;
             }
             emit(tri);
         }

@@ -12,12 +12,26 @@
 //! follow. Triangles are stored breadth-first, so the children of the i-th triangle of a
 //! level are the (2i)-th and (2i+1)-th of the next.
 
-/// One triangle: sample indices (row-major), hypotenuse `a`–`b`, right angle at `c`.
+/// One triangle: sample indices (row-major), hypotenuse `a`–`b`, right angle at `c`, and
+/// the hypotenuse midpoint `m` ([`NONE`] on the unsplittable last level), kept so the hot
+/// loops never divide to find it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct Tri {
     pub a: u32,
     pub b: u32,
     pub c: u32,
+    pub m: u32,
+}
+
+impl Tri {
+    fn new(a: u32, b: u32, c: u32, n: usize) -> Self {
+        let m = if splits(a, b, n) {
+            midpoint(a, b, n)
+        } else {
+            NONE
+        };
+        Self { a, b, c, m }
+    }
 }
 
 /// No parent (a root midpoint, or a sample that is never a midpoint).
@@ -48,16 +62,8 @@ impl Hierarchy {
         let last = n - 1;
         // Roots, counter-clockwise seen from above with north (row 0) up.
         let mut tris = vec![
-            Tri {
-                a: idx(last, last),
-                b: idx(0, 0),
-                c: idx(0, last),
-            },
-            Tri {
-                a: idx(0, 0),
-                b: idx(last, last),
-                c: idx(last, 0),
-            },
+            Tri::new(idx(last, last), idx(0, 0), idx(0, last), n),
+            Tri::new(idx(0, 0), idx(last, last), idx(last, 0), n),
         ];
         let mut level_start = vec![0, 2];
         let mut parents = vec![[NONE; 2]; n * n];
@@ -65,14 +71,12 @@ impl Hierarchy {
         for _ in 0..2 * k {
             let (from, to) = (level_start[level_start.len() - 2], tris.len());
             for t in from..to {
-                let Tri { a, b, c } = tris[t];
-                let m = midpoint(a, b, n);
-                tris.push(Tri { a: c, b: a, c: m });
-                tris.push(Tri { a: b, b: c, c: m });
+                let Tri { a, b, c, m } = tris[t];
+                tris.push(Tri::new(c, a, m, n));
+                tris.push(Tri::new(b, c, m, n));
             }
             // The new level's midpoints depend on this level's.
-            for &Tri { a, b, c } in &tris[from..to] {
-                let m = midpoint(a, b, n);
+            for &Tri { a, b, c, m } in &tris[from..to] {
                 for (p, q) in [(c, a), (b, c)] {
                     if splits(p, q, n) {
                         add_parent(&mut parents[midpoint(p, q, n) as usize], m);
@@ -103,11 +107,6 @@ impl Hierarchy {
     #[inline]
     pub(crate) fn first_child(&self, l: usize, t: usize) -> usize {
         self.level_start[l + 1] + 2 * (t - self.level_start[l])
-    }
-
-    #[inline]
-    pub(crate) fn midpoint(&self, t: &Tri) -> u32 {
-        midpoint(t.a, t.b, self.n)
     }
 }
 
@@ -163,9 +162,11 @@ mod tests {
             assert_eq!(h.level_start[l + 1] - h.level_start[l], 2 << l);
         }
         let last = h.level_start[h.levels() - 1];
-        let t = h.tris[last];
-        let m = h.midpoint(&t);
-        assert!(m == t.a || m == t.b, "1 × 1 halves have no midpoint sample");
+        assert!(
+            h.tris[last..].iter().all(|t| t.m == NONE),
+            "1 × 1 halves do not split"
+        );
+        assert!(h.tris[..last].iter().all(|t| t.m != NONE));
     }
 
     #[test]

@@ -35,7 +35,7 @@ mod extract;
 mod hierarchy;
 
 pub use errors::TileErrors;
-pub use extract::{extract, Forced};
+pub use extract::{border_vertices, extract, Forced};
 pub use hierarchy::Hierarchy;
 
 #[cfg(test)]
