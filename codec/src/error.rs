@@ -53,6 +53,8 @@ pub enum Error {
     Decode(#[from] DecodeError),
     #[error(transparent)]
     Raster(#[from] crate::raster::RasterError),
+    #[error(transparent)]
+    Container(#[from] crate::container::ContainerError),
 }
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -8,6 +8,7 @@
 //!   [`tile`] stitches neighbouring tiles so their shared edges match.
 
 pub mod bintree;
+pub mod container;
 pub mod error;
 pub mod ezw;
 mod fixtures;

@@ -71,6 +71,10 @@ pub struct TerrainArgs {
     /// Rescale the window to 0..=255 integers first (the paper's 8-bit setting; PSNR peak 255).
     #[arg(long = "8bit")]
     pub eight_bit: bool,
+    /// Terrain mesher: bintree (exact error, default on (2^k+1)² grids) or zerotree (the
+    /// paper's quadtree from the decoder's significance map).
+    #[arg(long, value_enum)]
+    pub mesher: Option<terrain::Mesher>,
     /// Timed runs per measurement (medians are reported).
     #[arg(long, default_value_t = 3)]
     pub repeat: usize,
@@ -120,6 +124,7 @@ fn eval_terrain(a: TerrainArgs) -> anyhow::Result<()> {
         sweep,
         repeat: a.repeat.clamp(1, 100),
         eight_bit: a.eight_bit,
+        mesher: a.mesher,
     };
     let points = terrain::run(&eval)?;
     if a.json {

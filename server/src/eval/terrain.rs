@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
+use zerotile_codec::bintree::{self, Hierarchy, TileErrors};
 use zerotile_codec::ezw::{self, DecodeLimit, EncodeParams};
 use zerotile_codec::raster::{self, Encoding, ReadOptions};
 use zerotile_codec::wavelet::Wavelet;
@@ -34,7 +35,23 @@ pub struct TerrainEval {
     pub repeat: usize,
     /// Rescale the window linearly to 0..=255 integers first: the paper's 8-bit setting.
     pub eight_bit: bool,
+    /// Which mesher; `None` picks the bintree on (2^k + 1)² grids, the zerotree elsewhere.
+    pub mesher: Option<Mesher>,
 }
+
+/// The two terrain meshers (see `zerotile_codec::bintree` for why there are two).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Mesher {
+    /// The paper's: quadtree leaves where the decoder's zerotree is insignificant at T.
+    Zerotree,
+    /// Exact-error right-triangle bintree over the decoded heights: T is the true max error.
+    Bintree,
+}
+
+/// Share of a threshold-mode error budget T spent on decoding: the stream is read to T/8 and
+/// the mesh gets what the decode left (T − its max error), so the mesh's true error stays
+/// within T. Reading deeper buys few triangles and costs bytes and time.
+const DECODE_SHARE: f64 = 0.125;
 
 /// One operating point, with the field names the benchmark scripts read.
 #[derive(Clone, Debug, Serialize)]
@@ -200,20 +217,48 @@ fn measure(
     encode_ms: f64,
 ) -> Result<Point> {
     let n = heights.len() as f64;
+    let side = heights.rows();
+    let hierarchy = (heights.cols() == side)
+        .then(|| Hierarchy::new(side))
+        .flatten();
+    let mesher = eval.mesher.unwrap_or(if hierarchy.is_some() {
+        Mesher::Bintree
+    } else {
+        Mesher::Zerotree
+    });
+    // The bintree spends T on decode and mesh together (see DECODE_SHARE).
+    let limit = match (mesher, limit) {
+        (Mesher::Bintree, DecodeLimit::Threshold(t)) => DecodeLimit::Threshold(t * DECODE_SHARE),
+        (_, l) => l,
+    };
     let (decode_ms, dec) = median_ms(eval.repeat, || {
         ezw::decode(bytes, limit, ezw::DEFAULT_MAX_SAMPLES)
     });
     let dec = dec.context("decoding our own stream")?;
     let (max_abs_err, rmse) = errors(&dec.heights, heights);
-    let mesh_t = match limit {
-        DecodeLimit::Threshold(t) => t,
-        _ => dec.threshold,
+    let mesh_t = match (mesher, param) {
+        // Budget minus the decode's measured error (eval knows the source; the server reads
+        // the bound the stream records).
+        (Mesher::Bintree, Some(t)) if mode == "threshold" => (t - max_abs_err).max(0.0),
+        _ => match limit {
+            DecodeLimit::Threshold(t) => t,
+            _ => dec.threshold,
+        },
     };
-    let (mesh_ms, mesh) = median_ms(eval.repeat, || {
-        // The decoder's zerotree, cut at the threshold this point decoded to.
-        let leaves = Complexity::new(&dec.layout, &dec.coefficients).leaves(mesh_t);
-        zerotree::triangulate(&leaves, &dec.heights, None)
-    });
+    let (mesh_ms, mesh) = match (mesher, &hierarchy) {
+        (Mesher::Bintree, Some(h)) => median_ms(eval.repeat, || {
+            let errors = TileErrors::new(h, &dec.heights);
+            bintree::extract(h, &errors, &dec.heights, mesh_t, None)
+        }),
+        (Mesher::Bintree, None) => {
+            bail!("--mesher bintree needs a square (2^k + 1)-sample grid (e.g. --crop R,C,257)")
+        }
+        (Mesher::Zerotree, _) => median_ms(eval.repeat, || {
+            // The decoder's zerotree, cut at the threshold this point decoded to.
+            let leaves = Complexity::new(&dec.layout, &dec.coefficients).leaves(mesh_t);
+            zerotree::triangulate(&leaves, &dec.heights, None)
+        }),
+    };
     let merr = zerotree::mesh_error(&mesh, heights);
     let bytes_used = dec.bytes_used;
     let wavelet = if mode == "lossless" {
