@@ -1,15 +1,18 @@
-//! Per-request work on a real 257² tile (N44W072): decode the EZW stream to a threshold and
-//! mesh the decoder's zerotree. The peer (Martini's createTile + getMesh on the same tile)
-//! runs in `../shared/bench/terrain_mesh.py`; this bench gives the criterion medians.
+//! Per-request work on a real 257² tile (N44W072 rows 300.., cols 500..): decode the EZW
+//! stream for an error budget T (to T/8, as `eval terrain` does) and mesh it with the
+//! exact-error bintree within the rest of the budget. The peer, Martini's createTile +
+//! getMesh on the same tile, runs in `../shared/bench/terrain_mesh.py` (pymartini and
+//! @mapbox/martini); compare its medians with these.
 
 #![allow(
     clippy::expect_used,
     reason = "a bench without its data file should stop loudly"
 )]
+
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use zerotile_codec::bintree::{self, Hierarchy, TileErrors};
 use zerotile_codec::ezw::{self, DecodeLimit, EncodeParams};
 use zerotile_codec::wavelet::Wavelet;
-use zerotile_codec::zerotree::{self, Complexity};
 use zerotile_codec::Grid;
 
 fn tile() -> Grid<f64> {
@@ -28,31 +31,35 @@ fn tile() -> Grid<f64> {
 
 fn decode_and_mesh(c: &mut Criterion) {
     let g = tile();
-    let mut group = c.benchmark_group("decode_to_T_and_mesh_257");
+    let hierarchy = Hierarchy::new(257).expect("257 = 2^8 + 1");
+    let mut group = c.benchmark_group("decode_and_mesh_257");
     for wavelet in [Wavelet::Cdf97, Wavelet::LeGall53] {
         let enc = ezw::encode(&g, &EncodeParams::new(wavelet, 1.0)).expect("encode");
-        for t in [1.0, 4.0, 16.0] {
-            let id = BenchmarkId::new(wavelet.name(), format!("T={t}"));
-            group.bench_with_input(id, &t, |b, &t| {
+        for budget in [4.0, 16.0, 64.0] {
+            let id = BenchmarkId::new(wavelet.name(), format!("T={budget}"));
+            group.bench_with_input(id, &budget, |b, &budget| {
                 b.iter(|| {
-                    let d = ezw::decode(
-                        &enc.bytes,
-                        DecodeLimit::Threshold(t),
-                        ezw::DEFAULT_MAX_SAMPLES,
-                    )
-                    .expect("decode");
-                    let leaves = Complexity::new(&d.layout, &d.coefficients).leaves(t);
-                    zerotree::triangulate(&leaves, &d.heights, None)
+                    let limit = DecodeLimit::Threshold(budget / 8.0);
+                    let d =
+                        ezw::decode(&enc.bytes, limit, ezw::DEFAULT_MAX_SAMPLES).expect("decode");
+                    let errors = TileErrors::new(&hierarchy, &d.heights);
+                    bintree::extract(&hierarchy, &errors, &d.heights, budget * 0.75, None)
                 })
             });
         }
     }
     group.finish();
 
-    let mut group = c.benchmark_group("encode_257");
-    for wavelet in [Wavelet::Cdf97, Wavelet::LeGall53] {
-        group.bench_function(wavelet.name(), |b| {
-            b.iter(|| ezw::encode(&g, &EncodeParams::new(wavelet, 1.0)).expect("encode"))
+    // The parts, so a regression says where it is.
+    let mut group = c.benchmark_group("parts_257");
+    group.bench_function("hierarchy_new", |b| b.iter(|| Hierarchy::new(257)));
+    group.bench_function("tile_errors", |b| {
+        b.iter(|| TileErrors::new(&hierarchy, &g))
+    });
+    let errors = TileErrors::new(&hierarchy, &g);
+    for tolerance in [2.0, 16.0] {
+        group.bench_function(format!("extract_tol_{tolerance}"), |b| {
+            b.iter(|| bintree::extract(&hierarchy, &errors, &g, tolerance, None))
         });
     }
     group.finish();
