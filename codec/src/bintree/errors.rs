@@ -89,11 +89,7 @@ impl TileErrors {
 fn plane_error(t: &Tri, h: &[f64], n: usize) -> f64 {
     let xy = |s: u32| ((s as usize % n) as i64, (s as usize / n) as i64);
     let (pa, pb, pc) = (xy(t.a), xy(t.b), xy(t.c));
-    let (za, zb, zc) = (
-        f64::from(h[t.a as usize]),
-        f64::from(h[t.b as usize]),
-        f64::from(h[t.c as usize]),
-    );
+    let (za, zb, zc) = (h[t.a as usize], h[t.b as usize], h[t.c as usize]);
 
     // Plane z = z_a + gx·(x − x_a) + gy·(y − y_a).
     let (ux, uy, uz) = ((pb.0 - pa.0) as f64, (pb.1 - pa.1) as f64, zb - za);
