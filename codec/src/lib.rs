@@ -13,6 +13,7 @@ pub mod error;
 pub mod ezw;
 mod fixtures;
 pub mod grid;
+pub mod pyramid;
 pub mod raster;
 pub mod tile;
 pub mod wavelet;

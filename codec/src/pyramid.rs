@@ -1,0 +1,146 @@
+//! Tile pyramids: one sample lattice per zoom level, cut into (2^n + 1)² tiles that share
+//! their edge samples.
+//!
+//! A level's lattice is the next finer one's wavelet low-pass: one level of the real
+//! LeGall 5/3 analysis (DESIGN.md §2.1: "lower zoom levels come from the wavelet low-pass, a
+//! proper downsample, never nearest-neighbour skipping"). With the codec's normalisation the
+//! low-pass has DC gain 1, so it is a height grid again, and its samples sit on the even
+//! samples of the finer lattice: a tile's four children cover exactly its area.
+
+use crate::grid::Grid;
+use crate::wavelet::{self, Layout, Wavelet};
+
+/// One zoom level: a lattice whose sample (0, 0) is the top-left sample of tile
+/// (`tile_x0`, `tile_y0`), covering whole tiles.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Level {
+    pub zoom: u8,
+    pub tile_x0: u32,
+    pub tile_y0: u32,
+    pub heights: Grid<f64>,
+}
+
+impl Level {
+    /// Tiles across and down: the lattice is `tiles·(side − 1) + 1` samples per axis.
+    pub fn tiles(&self, side: usize) -> (u32, u32) {
+        let per = |n: usize| (n.saturating_sub(1) / (side - 1)) as u32;
+        (per(self.heights.cols()), per(self.heights.rows()))
+    }
+
+    /// The `side × side` samples of tile (`x`, `y`) (absolute tile indices), if this level
+    /// covers it.
+    pub fn tile(&self, x: u32, y: u32, side: usize) -> Option<Grid<f64>> {
+        let (dx, dy) = (x.checked_sub(self.tile_x0)?, y.checked_sub(self.tile_y0)?);
+        let (w, h) = self.tiles(side);
+        if dx >= w || dy >= h {
+            return None;
+        }
+        let step = side - 1;
+        self.heights
+            .crop(dy as usize * step, dx as usize * step, side, side)
+            .ok()
+    }
+
+    /// The next coarser level: pad to an even tile origin and an even tile count with the
+    /// edge samples repeated, then keep the 5/3 low-pass.
+    pub fn coarser(&self, side: usize) -> Level {
+        let step = side - 1;
+        let (w, h) = self.tiles(side);
+        let (pad_left, pad_top) = ((self.tile_x0 % 2) as usize, (self.tile_y0 % 2) as usize);
+        let (tiles_x, tiles_y) = (
+            (w as usize + pad_left).div_ceil(2) * 2,
+            (h as usize + pad_top).div_ceil(2) * 2,
+        );
+        let (cols, rows) = (tiles_x * step + 1, tiles_y * step + 1);
+        let src = &self.heights;
+        let clamp = |v: isize, n: usize| v.clamp(0, n as isize - 1) as usize;
+        let padded: Vec<f64> = (0..rows * cols)
+            .map(|k| {
+                let r = clamp((k / cols) as isize - (pad_top * step) as isize, src.rows());
+                let c = clamp((k % cols) as isize - (pad_left * step) as isize, src.cols());
+                *src.get(r, c)
+            })
+            .collect();
+        let mut g = Grid::new(rows, cols, padded).unwrap_or_else(|_| Grid::zeros(rows, cols));
+        let layout = Layout::new(rows, cols, 1);
+        wavelet::forward(&mut g, Wavelet::LeGall53, &layout);
+        let low = layout.ll();
+        let heights = g
+            .crop(0, 0, low.rows, low.cols)
+            .unwrap_or_else(|_| Grid::zeros(low.rows, low.cols));
+        Level {
+            zoom: self.zoom.saturating_sub(1),
+            tile_x0: (self.tile_x0 - pad_left as u32) / 2,
+            tile_y0: (self.tile_y0 - pad_top as u32) / 2,
+            heights,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ramp(rows: usize, cols: usize) -> Grid<f64> {
+        Grid::new(
+            rows,
+            cols,
+            (0..rows * cols)
+                .map(|k| (k / cols) as f64 * 2.0 + (k % cols) as f64)
+                .collect(),
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn neighbouring_tiles_share_their_edge_samples() {
+        let level = Level {
+            zoom: 3,
+            tile_x0: 0,
+            tile_y0: 0,
+            heights: crate::fixtures::n44w072_crop(0, 0, 33),
+        };
+        assert_eq!(level.tiles(9), (4, 4));
+        let (a, b) = (level.tile(1, 2, 9).unwrap(), level.tile(2, 2, 9).unwrap());
+        for r in 0..9 {
+            assert_eq!(a.get(r, 8), b.get(r, 0));
+        }
+        assert!(level.tile(4, 0, 9).is_none());
+    }
+
+    #[test]
+    fn a_coarser_level_keeps_a_plane_and_halves_the_tiles() {
+        // A plane survives the low-pass exactly (DC gain 1, linear interpolation predict),
+        // away from the repeated padding.
+        let level = Level {
+            zoom: 5,
+            tile_x0: 2,
+            tile_y0: 4,
+            heights: ramp(33, 65),
+        };
+        let up = level.coarser(9);
+        assert_eq!((up.zoom, up.tile_x0, up.tile_y0), (4, 1, 2));
+        assert_eq!(up.tiles(9), (4, 2));
+        // Coarse sample (i, j) sits on fine sample (2i, 2j).
+        for i in 2..14 {
+            for j in 2..30 {
+                let want = ramp(33, 65).get(2 * i, 2 * j).to_owned();
+                assert!((up.heights.get(i, j) - want).abs() < 1e-9, "({i}, {j})");
+            }
+        }
+    }
+
+    #[test]
+    fn an_odd_origin_is_padded_so_children_nest() {
+        let level = Level {
+            zoom: 2,
+            tile_x0: 1,
+            tile_y0: 3,
+            heights: ramp(17, 25),
+        };
+        let up = level.coarser(9);
+        assert_eq!((up.tile_x0, up.tile_y0), (0, 1));
+        // Tiles 1..=3 × 3..=4 at zoom 2 pad to 0..=3 × 2..=5: 2 × 2 parents.
+        assert_eq!(up.tiles(9), (2, 2));
+    }
+}
