@@ -22,9 +22,45 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 pub enum Command {
+    /// Build a dataset (an EZW tile pyramid in one container file) from a heightmap.
+    Ingest(IngestArgs),
     /// Measure the codec and mesher on one input.
     #[command(subcommand)]
     Eval(EvalCommand),
+}
+
+#[derive(Args, Debug)]
+pub struct IngestArgs {
+    /// Heightmap: .hgt, .tif (GeoTIFF), .png (gray, terrain-RGB, Terrarium), .asc, .npy, .npz.
+    pub input: PathBuf,
+    /// Dataset name (A–Z, a–z, 0–9, '-', '_'): the file is DATA/NAME.ztd.
+    #[arg(long)]
+    pub name: String,
+    /// Folder of datasets.
+    #[arg(long, default_value = "data")]
+    pub data: PathBuf,
+    /// Tiling: local (the source grid; geodetic and mercator come with the tile server).
+    #[arg(long, default_value = "local")]
+    pub scheme: String,
+    /// Wavelet: 97 (CDF 9/7, default) or 53 (reversible LeGall 5/3).
+    #[arg(long, default_value = "97")]
+    pub wavelet: Wavelet,
+    /// Guarantee |stored − source| ≤ METRES with the residual pass (default: keep every
+    /// bit plane).
+    #[arg(long, value_name = "METRES")]
+    pub precision: Option<f64>,
+    /// How colour PNGs encode heights: terrain-rgb | terrarium | gray.
+    #[arg(long)]
+    pub encoding: Option<Encoding>,
+    /// Array name inside an .npz file.
+    #[arg(long)]
+    pub key: Option<String>,
+    /// Height for samples without data (default: the lowest valid height).
+    #[arg(long, value_name = "METRES")]
+    pub fill: Option<f64>,
+    /// No progress bar.
+    #[arg(long)]
+    pub quiet: bool,
 }
 
 #[derive(Subcommand, Debug)]
@@ -85,6 +121,7 @@ pub fn run() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Eval(EvalCommand::Terrain(args)) => eval_terrain(args),
+        Command::Ingest(args) => ingest(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -93,6 +130,39 @@ pub fn run() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+fn ingest(a: IngestArgs) -> anyhow::Result<()> {
+    let job = crate::ingest::Ingest {
+        input: a.input,
+        name: a.name,
+        data: a.data,
+        scheme: a.scheme,
+        wavelet: a.wavelet,
+        precision: a.precision,
+        encoding: a.encoding,
+        npz_key: a.key,
+        fill: a.fill,
+        progress: !a.quiet,
+    };
+    let started = std::time::Instant::now();
+    let (path, m) = crate::ingest::run(&job)?;
+    let tiles: usize = m
+        .available
+        .iter()
+        .flatten()
+        .map(|a| ((a.end_x - a.start_x + 1) * (a.end_y - a.start_y + 1)) as usize)
+        .sum();
+    println!(
+        "{}: {tiles} tiles, zooms {}..={}, {} stream bytes ({:.3} bits/sample), {:.1} s",
+        path.display(),
+        m.min_zoom,
+        m.max_zoom,
+        m.stream_bytes,
+        m.stream_bytes as f64 * 8.0 / m.samples.max(1) as f64,
+        started.elapsed().as_secs_f64()
+    );
+    Ok(())
 }
 
 fn eval_terrain(a: TerrainArgs) -> anyhow::Result<()> {

@@ -9,11 +9,12 @@ use std::path::{Path, PathBuf};
 #[non_exhaustive]
 pub enum RasterError {
     /// The file could not be opened or read (missing, permissions, disk error).
-    #[error("{}: {source}", path.display())]
+    /// The cause is part of the message, not a `source`, so a chained report does not say
+    /// it twice.
+    #[error("{}: {error}", path.display())]
     Io {
         path: PathBuf,
-        #[source]
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// The file's bytes are malformed or truncated.
     #[error("{}: malformed file: {message}", path.display())]
@@ -33,7 +34,7 @@ impl RasterError {
     pub(crate) fn io(path: &Path, source: std::io::Error) -> Self {
         Self::Io {
             path: path.to_path_buf(),
-            source,
+            error: source,
         }
     }
 

@@ -1,0 +1,317 @@
+//! `zerotile ingest`: a heightmap in, one dataset container out, written atomically.
+//!
+//! Steps: read the raster; fill samples without data; lay the full-resolution lattice over
+//! whole tiles (edge samples repeated); build every coarser level from the wavelet low-pass
+//! (`zerotile_codec::pyramid`); EZW-encode every tile in parallel; write the container to a
+//! temporary file beside the target, sync it, and rename it over the target. A failed or
+//! killed ingest leaves the previous dataset of that name untouched.
+//!
+//! Partial: only the `local` scheme (the source grid itself) is built so far; `geodetic` and
+//! `mercator` need the tiling and reprojection module and are refused with a clear error.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use indicatif::{ProgressBar, ProgressStyle};
+use rayon::prelude::*;
+use zerotile_codec::container::{Availability, Metadata, TileId, ViewParams, Writer};
+use zerotile_codec::ezw::{self, EncodeParams};
+use zerotile_codec::pyramid::Level;
+use zerotile_codec::raster::{self, Encoding, ReadOptions};
+use zerotile_codec::wavelet::Wavelet;
+use zerotile_codec::Grid;
+
+/// Samples per tile side: 2^8 + 1.
+pub const TILE_SIDE: usize = 257;
+/// Container file extension.
+pub const EXTENSION: &str = "ztd";
+
+/// What to ingest and how.
+#[derive(Clone, Debug)]
+pub struct Ingest {
+    pub input: PathBuf,
+    pub name: String,
+    pub data: PathBuf,
+    pub scheme: String,
+    pub wavelet: Wavelet,
+    /// Max |stored − source| in metres; `None` keeps every bit plane (lossless to the step
+    /// with 5/3).
+    pub precision: Option<f64>,
+    pub encoding: Option<Encoding>,
+    pub npz_key: Option<String>,
+    pub fill: Option<f64>,
+    pub progress: bool,
+}
+
+/// Dataset names become file names: keep them to a safe alphabet.
+pub fn check_name(name: &str) -> Result<()> {
+    let ok = !name.is_empty()
+        && name.len() <= 64
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_');
+    if !ok {
+        bail!("dataset name {name:?}: use 1–64 characters from A–Z, a–z, 0–9, '-' and '_'");
+    }
+    Ok(())
+}
+
+/// Builds the dataset and returns where it was written and its metadata.
+pub fn run(job: &Ingest) -> Result<(PathBuf, Metadata)> {
+    check_name(&job.name)?;
+    if job.scheme != "local" {
+        bail!(
+            "--scheme {}: only `local` is built in this version (geodetic and mercator \
+             need the tiling module, coming with the tile server)",
+            job.scheme
+        );
+    }
+    if let Some(p) = job.precision {
+        if !(p.is_finite() && p > 0.0) {
+            bail!("--precision must be finite and > 0 metres, got {p}");
+        }
+    }
+
+    // Read and fill.
+    let opts = ReadOptions {
+        encoding: job.encoding,
+        npz_key: job.npz_key.clone(),
+        ..ReadOptions::default()
+    };
+    let map = raster::read_heightmap(&job.input, &opts)?;
+    let (lo, hi) = map
+        .min_max()
+        .with_context(|| format!("{}: no valid samples", job.input.display()))?;
+    let fill = job.fill.unwrap_or(lo);
+    let step = map.step.unwrap_or(0.01);
+    let heights = map.heights.map(|&h| if h.is_finite() { h } else { fill });
+
+    // Levels: full resolution first, then low-passes until one tile covers everything.
+    let mut levels = vec![full_resolution(&heights)];
+    while levels.last().is_some_and(|l| l.tiles(TILE_SIDE) != (1, 1)) {
+        let next = levels[levels.len() - 1].coarser(TILE_SIDE);
+        levels.push(next);
+    }
+    let max_zoom = u8::try_from(levels.len() - 1).context("too many zoom levels")?;
+    for (k, level) in levels.iter_mut().enumerate() {
+        level.zoom = max_zoom - k as u8;
+    }
+
+    // Tiles that hold source samples, every level.
+    let mut jobs = Vec::new();
+    let mut available = vec![Vec::new(); levels.len()];
+    for level in &levels {
+        let scale = 1usize << (max_zoom - level.zoom);
+        let span = (TILE_SIDE - 1) * scale;
+        let (w, h) = level.tiles(TILE_SIDE);
+        let inside_x = ((map.heights.cols() - 1).div_ceil(span).max(1) as u32).min(w);
+        let inside_y = ((map.heights.rows() - 1).div_ceil(span).max(1) as u32).min(h);
+        available[level.zoom as usize].push(Availability {
+            start_x: 0,
+            start_y: 0,
+            end_x: inside_x - 1,
+            end_y: inside_y - 1,
+        });
+        for y in 0..inside_y {
+            for x in 0..inside_x {
+                jobs.push((level, x, y));
+            }
+        }
+    }
+
+    // Encode in parallel.
+    let bar = progress_bar(job.progress, jobs.len() as u64);
+    let params = EncodeParams {
+        max_error: job.precision,
+        ..EncodeParams::new(job.wavelet, step)
+    };
+    let encoded: Vec<(TileId, [f64; 4], Vec<u8>)> = jobs
+        .par_iter()
+        .map(|&(level, x, y)| {
+            let tile = level
+                .tile(x, y, TILE_SIDE)
+                .with_context(|| format!("tile {}/{x}/{y} outside its level", level.zoom))?;
+            let corners = corners(&tile);
+            let stream = ezw::encode(&tile, &params)
+                .with_context(|| format!("encoding tile {}/{x}/{y}", level.zoom))?;
+            bar.inc(1);
+            Ok((
+                TileId {
+                    z: level.zoom,
+                    x,
+                    y,
+                },
+                corners,
+                stream.bytes,
+            ))
+        })
+        .collect::<Result<_>>()?;
+    bar.finish_and_clear();
+
+    // Container, written atomically.
+    let mut writer = Writer::new();
+    let mut stream_bytes = 0u64;
+    for (id, c, bytes) in &encoded {
+        stream_bytes += bytes.len() as u64;
+        writer.add(*id, *c, bytes);
+    }
+    let (rows, cols) = (map.heights.rows(), map.heights.cols());
+    let metadata = Metadata {
+        name: job.name.clone(),
+        scheme: job.scheme.clone(),
+        tile_side: TILE_SIDE,
+        min_zoom: 0,
+        max_zoom,
+        bounds: [0.0, (rows - 1) as f64, (cols - 1) as f64, 0.0],
+        source_size: [rows, cols],
+        wavelet: job.wavelet,
+        step,
+        precision: job.precision,
+        height_range: [lo, hi],
+        fill,
+        view: ViewParams {
+            a: (hi - lo) / 32.0,
+            b: 0.0,
+        },
+        available,
+        source: job
+            .input
+            .file_name()
+            .map_or_else(String::new, |f| f.to_string_lossy().into_owned()),
+        source_crs: map.georef.map_or("none".into(), |g| g.crs.to_string()),
+        samples: (encoded.len() * TILE_SIDE * TILE_SIDE) as u64,
+        stream_bytes,
+        created: now_rfc3339(),
+    };
+    let bytes = writer.finish(&metadata)?;
+    let target = job.data.join(format!("{}.{EXTENSION}", job.name));
+    write_atomically(&target, &bytes)?;
+    Ok((target, metadata))
+}
+
+/// The full-resolution lattice: the source padded to whole tiles by repeating its last row
+/// and column.
+fn full_resolution(heights: &Grid<f64>) -> Level {
+    let step = TILE_SIDE - 1;
+    let tiles = |n: usize| n.saturating_sub(1).div_ceil(step).max(1);
+    let (rows, cols) = (
+        tiles(heights.rows()) * step + 1,
+        tiles(heights.cols()) * step + 1,
+    );
+    let data = (0..rows * cols)
+        .map(|k| {
+            let r = (k / cols).min(heights.rows() - 1);
+            let c = (k % cols).min(heights.cols() - 1);
+            *heights.get(r, c)
+        })
+        .collect();
+    Level {
+        zoom: 0,
+        tile_x0: 0,
+        tile_y0: 0,
+        heights: Grid::new(rows, cols, data).unwrap_or_else(|_| Grid::zeros(rows, cols)),
+    }
+}
+
+/// North-west, north-east, south-west, south-east samples of a tile.
+fn corners(tile: &Grid<f64>) -> [f64; 4] {
+    let (r, c) = (tile.rows() - 1, tile.cols() - 1);
+    [
+        *tile.get(0, 0),
+        *tile.get(0, c),
+        *tile.get(r, 0),
+        *tile.get(r, c),
+    ]
+}
+
+fn progress_bar(show: bool, len: u64) -> ProgressBar {
+    if !show {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::new(len);
+    if let Ok(style) = ProgressStyle::with_template("encoding {bar:40} {pos}/{len} tiles {eta}") {
+        bar.set_style(style);
+    }
+    bar
+}
+
+/// Writes `bytes` to a temporary file in `target`'s folder, syncs it and renames it over
+/// `target`: readers see the old file or the new one, never a partial one.
+pub fn write_atomically(target: &Path, bytes: &[u8]) -> Result<()> {
+    let dir = target
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let tmp = dir.join(format!(
+        ".{}.tmp-{}",
+        target
+            .file_name()
+            .map_or_else(String::new, |f| f.to_string_lossy().into_owned()),
+        std::process::id()
+    ));
+    let result = (|| -> Result<()> {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, target)?;
+        Ok(())
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result.with_context(|| format!("writing {}", target.display()))
+}
+
+/// Seconds since the epoch as RFC 3339 UTC, without a date-time dependency.
+fn now_rfc3339() -> String {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs());
+    let (days, rem) = (secs / 86_400, secs % 86_400);
+    // Civil date from days since 1970-01-01 (H. Hinnant's algorithm).
+    let z = days as i64 + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    format!(
+        "{y:04}-{m:02}-{d:02}T{:02}:{:02}:{:02}Z",
+        rem / 3600,
+        rem % 3600 / 60,
+        rem % 60
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_are_checked() {
+        assert!(check_name("n44w072_srtm-3").is_ok());
+        for bad in ["", "../etc", "a/b", "x y", "é", &"x".repeat(65)] {
+            assert!(check_name(bad).is_err(), "{bad:?}");
+        }
+    }
+
+    #[test]
+    fn full_resolution_pads_to_whole_tiles() {
+        let g = Grid::new(300, 10, (0..3000).map(f64::from).collect()).unwrap();
+        let l = full_resolution(&g);
+        assert_eq!((l.heights.rows(), l.heights.cols()), (513, 257));
+        assert_eq!(*l.heights.get(512, 256), *g.get(299, 9));
+    }
+
+    #[test]
+    fn rfc3339_has_the_right_shape() {
+        let t = now_rfc3339();
+        assert_eq!(t.len(), 20);
+        assert!(t.starts_with("20") && t.ends_with('Z'));
+    }
+}
