@@ -1,4 +1,8 @@
 //! `zerotile ingest` run as a user would, on real SRTM data.
+#![allow(
+    clippy::unwrap_used,
+    reason = "test helpers: a failure to spawn the binary should fail the test loudly"
+)]
 
 use std::path::{Path, PathBuf};
 use std::process::Command;

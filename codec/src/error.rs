@@ -55,6 +55,16 @@ pub enum Error {
     Raster(#[from] crate::raster::RasterError),
     #[error(transparent)]
     Container(#[from] crate::container::ContainerError),
+    #[error(transparent)]
+    Tiling(#[from] crate::geo::TilingError),
+    #[error(transparent)]
+    QuantizedMesh(#[from] crate::formats::quantized_mesh::QmError),
+    #[error(transparent)]
+    LayerJson(#[from] crate::formats::layer_json::LayerJsonError),
+    #[error(transparent)]
+    TerrainRgb(#[from] crate::formats::terrain_rgb::TerrainRgbError),
+    #[error(transparent)]
+    MeshBin(#[from] crate::formats::mesh_bin::MeshBinError),
 }
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -12,6 +12,8 @@ pub mod container;
 pub mod error;
 pub mod ezw;
 mod fixtures;
+pub mod formats;
+pub mod geo;
 pub mod grid;
 pub mod pyramid;
 pub mod raster;

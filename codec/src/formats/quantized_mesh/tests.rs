@@ -1,0 +1,769 @@
+//! Encoder ↔ decoder round trips, the real tin-terrain tiles in shared/data, and bad bytes.
+
+use glam::DVec3;
+
+use super::*;
+use crate::fixtures::{n44w072_crop, shared_data};
+use crate::geo::{is_scaled_point_visible, Ellipsoid, Scheme, TileId, Tiling};
+use crate::zerotree::TerrainMesh;
+
+/// A full regular triangulation of a `rows` × `cols` grid, counter-clockwise seen from above
+/// with north up (south-west, south-east, north-east; south-west, north-east, north-west).
+fn grid_mesh(rows: usize, cols: usize, height: impl Fn(usize, usize) -> f64) -> TerrainMesh {
+    let mut positions = Vec::with_capacity(rows * cols);
+    for r in 0..rows {
+        for c in 0..cols {
+            positions.push([c as f64, r as f64, height(r, c)]);
+        }
+    }
+    let id = |r: usize, c: usize| (r * cols + c) as u32;
+    let mut triangles = Vec::new();
+    for r in 0..rows - 1 {
+        for c in 0..cols - 1 {
+            let (nw, ne, sw, se) = (id(r, c), id(r, c + 1), id(r + 1, c), id(r + 1, c + 1));
+            triangles.push([sw, se, ne]);
+            triangles.push([sw, ne, nw]);
+        }
+    }
+    let mesh = TerrainMesh {
+        rows,
+        cols,
+        positions,
+        triangles,
+    };
+    assert!(mesh.triangles.iter().all(|&t| mesh.signed_area2(t) > 0.0));
+    mesh
+}
+
+fn bumpy(r: usize, c: usize) -> f64 {
+    200.0 + 37.0 * ((r as f64) * 0.7).sin() * ((c as f64) * 0.4).cos() + (r * c % 5) as f64
+}
+
+fn all_extensions() -> QmOptions {
+    QmOptions {
+        octvertexnormals: true,
+        watermask: Some(WaterMask::Grid(
+            (0..65_536).map(|i| (i % 251) as u8).collect(),
+        )),
+        metadata: Some(serde_json::json!({
+            "available": [[{"startX": 4, "startY": 2, "endX": 5, "endY": 3}]]
+        })),
+    }
+}
+
+fn uv_area2(m: &QuantizedMesh, [a, b, c]: [u32; 3]) -> i64 {
+    let p = |i: u32| (i64::from(m.u[i as usize]), i64::from(m.v[i as usize]));
+    let ((ax, ay), (bx, by), (cx, cy)) = (p(a), p(b), p(c));
+    (bx - ax) * (cy - ay) - (cx - ax) * (by - ay)
+}
+
+fn ecef_of(m: &QuantizedMesh, i: usize, tile: &TileGeo) -> DVec3 {
+    let [lon, lat, h] = m.lonlat_height(i, tile).unwrap();
+    Ellipsoid::WGS84.to_ecef(lon, lat, h)
+}
+
+fn sample_tile(name: &str) -> Vec<u8> {
+    let path = shared_data(&format!("dem/quantized-mesh/{name}"));
+    std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+#[test]
+fn round_trip_preserves_every_field() {
+    let mesh = grid_mesh(17, 17, bumpy);
+    let tile = TileGeo::geodetic(10.0, 45.0, 10.5, 45.5);
+    let opts = all_extensions();
+    let m = decode(&encode(&mesh, &tile, &opts).unwrap()).unwrap();
+
+    // Vertices: every grid sample once, at its quantised position and height.
+    assert_eq!((m.vertex_count(), m.triangles.len()), (289, 512));
+    let (lo, hi) = mesh.height_range().unwrap();
+    assert!(f64::from(m.header.min_height) <= lo && f64::from(m.header.max_height) >= hi);
+    assert!(
+        f64::from(m.header.max_height) - hi < 1e-4 && lo - f64::from(m.header.min_height) < 1e-4
+    );
+    let step = (hi - lo) / 32767.0;
+    let mut original_of = Vec::with_capacity(m.vertex_count());
+    for i in 0..m.vertex_count() {
+        let (u, v) = (u32::from(m.u[i]), u32::from(m.v[i]));
+        let c = (f64::from(u) / 32767.0 * 16.0).round() as usize;
+        let r = 16 - (f64::from(v) / 32767.0 * 16.0).round() as usize;
+        assert_eq!(
+            u,
+            (c as f64 / 16.0 * 32767.0).round() as u32,
+            "vertex {i} off the grid"
+        );
+        let orig = r * 17 + c;
+        original_of.push(orig as u32);
+        let h = m.height_m(i).unwrap();
+        assert!(
+            (h - mesh.positions[orig][2]).abs() <= step / 2.0 + 1e-6,
+            "vertex {i}: {h}"
+        );
+    }
+
+    // Triangles: the same triangles in the same order, renumbered.
+    let back: Vec<[u32; 3]> = m
+        .triangles
+        .iter()
+        .map(|t| t.map(|i| original_of[i as usize]))
+        .collect();
+    assert_eq!(back, mesh.triangles);
+
+    // Edges: every border vertex, sorted along the border.
+    for (list, on, key) in [
+        (
+            &m.west,
+            Box::new(|i: usize| m.u[i] == 0) as Box<dyn Fn(usize) -> bool>,
+            &m.v,
+        ),
+        (&m.south, Box::new(|i: usize| m.v[i] == 0), &m.u),
+        (&m.east, Box::new(|i: usize| m.u[i] == QUANTIZED_MAX), &m.v),
+        (&m.north, Box::new(|i: usize| m.v[i] == QUANTIZED_MAX), &m.u),
+    ] {
+        assert_eq!(list.len(), 17);
+        assert!(list.iter().all(|&i| on(i as usize)));
+        assert!(list
+            .windows(2)
+            .all(|w| key[w[0] as usize] < key[w[1] as usize]));
+    }
+
+    // Extensions: as given.
+    assert_eq!(m.normals.as_ref().map(Vec::len), Some(289));
+    assert_eq!(m.water_mask, opts.watermask);
+    assert_eq!(m.metadata, opts.metadata);
+    assert!(m.unknown_extensions.is_empty());
+
+    // Header: the sphere holds what the client draws; the centre is the tile's middle.
+    let sphere_c = DVec3::from_array(m.header.bounding_sphere_center);
+    for i in 0..m.vertex_count() {
+        let p = ecef_of(&m, i, &tile);
+        assert!(p.distance(sphere_c) <= m.header.bounding_sphere_radius + 1e-6);
+    }
+    let [lon, lat, h] = Ellipsoid::WGS84.to_geodetic(DVec3::from_array(m.header.center));
+    assert!(
+        (lon - 10.25).abs() < 1e-9
+            && (lat - 45.25).abs() < 1e-9
+            && (h - (lo + hi) / 2.0).abs() < 1e-3
+    );
+    assert!(m
+        .header
+        .horizon_occlusion_point
+        .iter()
+        .all(|v| v.is_finite()));
+}
+
+#[test]
+fn triangles_wind_counter_clockwise_in_uv() {
+    let m = decode(
+        &encode(
+            &grid_mesh(9, 5, bumpy),
+            &TileGeo::geodetic(-3.0, -2.0, -1.0, 0.0),
+            &QmOptions::default(),
+        )
+        .unwrap(),
+    )
+    .unwrap();
+    assert!(m.triangles.iter().all(|&t| uv_area2(&m, t) > 0));
+}
+
+#[test]
+fn flat_tile_quantises_every_height_to_zero() {
+    let m = decode(
+        &encode(
+            &grid_mesh(5, 5, |_, _| 123.25),
+            &TileGeo::geodetic(0.0, 0.0, 1.0, 1.0),
+            &QmOptions::default(),
+        )
+        .unwrap(),
+    )
+    .unwrap();
+    assert_eq!((m.header.min_height, m.header.max_height), (123.25, 123.25));
+    assert!(m.height.iter().all(|&h| h == 0));
+    assert_eq!(m.height_m(7), Some(123.25));
+}
+
+#[test]
+fn vertex_count_decides_index_width_and_padding() {
+    let tile = TileGeo::geodetic(0.0, 0.0, 1.0, 1.0);
+    // 256² = 65 536 vertices: still 16-bit, and the index data starts right after them.
+    let narrow = encode(&grid_mesh(256, 256, bumpy), &tile, &QmOptions::default()).unwrap();
+    let n = 65_536usize;
+    let t = u32::from_le_bytes(narrow[92 + 6 * n..96 + 6 * n].try_into().unwrap());
+    assert_eq!(t as usize, 2 * 255 * 255);
+    assert_eq!(
+        narrow.len(),
+        92 + 6 * n + 4 + 6 * t as usize + 4 * 4 + 2 * 4 * 256
+    );
+    // 257² = 66 049 vertices: 32-bit, after 2 bytes of padding (92 + 6n ≡ 2 mod 4).
+    let wide_mesh = grid_mesh(257, 257, bumpy);
+    let wide = encode(&wide_mesh, &tile, &QmOptions::default()).unwrap();
+    let n = 66_049usize;
+    assert_eq!((92 + 6 * n) % 4, 2);
+    assert_eq!(&wide[92 + 6 * n..94 + 6 * n], &[0, 0]);
+    let t = u32::from_le_bytes(wide[94 + 6 * n..98 + 6 * n].try_into().unwrap());
+    assert_eq!(t as usize, wide_mesh.triangles.len());
+    assert_eq!(
+        wide.len(),
+        94 + 6 * n + 4 + 12 * t as usize + 4 * 4 + 4 * 4 * 257
+    );
+    for bytes in [&narrow, &wide] {
+        let m = decode(bytes).unwrap();
+        assert!(m.triangles.iter().all(|&t| uv_area2(&m, t) > 0));
+    }
+}
+
+#[test]
+fn vertices_are_renumbered_by_first_use_and_unused_ones_go_last() {
+    // Reversed vertex order, plus a vertex no triangle uses.
+    let mut mesh = grid_mesh(3, 3, bumpy);
+    mesh.positions.reverse();
+    for t in &mut mesh.triangles {
+        *t = t.map(|i| 8 - i);
+    }
+    mesh.positions.push([1.0, 1.0, 500.0]);
+    let tile = TileGeo::geodetic(0.0, 0.0, 1.0, 1.0);
+    let m = decode(&encode(&mesh, &tile, &QmOptions::default()).unwrap()).unwrap();
+    assert_eq!(m.vertex_count(), 10);
+    // The unused vertex is last and highest.
+    assert_eq!(m.height[9], QUANTIZED_MAX);
+    // Each decoded triangle sits where the original did.
+    for (dt, ot) in m.triangles.iter().zip(&mesh.triangles) {
+        for (&d, &o) in dt.iter().zip(ot) {
+            let [x, y, _] = mesh.positions[o as usize];
+            assert_eq!(m.u[d as usize], (x / 2.0 * 32767.0).round() as u16);
+            assert_eq!(m.v[d as usize], ((2.0 - y) / 2.0 * 32767.0).round() as u16);
+        }
+    }
+}
+
+#[test]
+fn mercator_rows_quantise_by_latitude() {
+    let tiling = Tiling::new(Scheme::Mercator, 9).unwrap();
+    let id = TileId::new(3, 2, 1);
+    let tile = tiling.tile_geo(id).unwrap();
+    let m =
+        decode(&encode(&grid_mesh(9, 9, bumpy), &tile, &QmOptions::default()).unwrap()).unwrap();
+    let lat_step = (tile.north - tile.south) / 32767.0;
+    for i in 0..m.vertex_count() {
+        let [lon, lat, _] = m.lonlat_height(i, &tile).unwrap();
+        let c = ((lon - tile.west) / (tile.east - tile.west) * 8.0).round() as u32;
+        // The row whose mercator latitude is nearest.
+        let (row, want) = (0..9)
+            .map(|r| (r, tiling.sample_lonlat(id, r, c).unwrap()[1]))
+            .min_by(|a, b| (a.1 - lat).abs().total_cmp(&(b.1 - lat).abs()))
+            .unwrap();
+        assert!(
+            (lat - want).abs() <= lat_step / 2.0 + 1e-9,
+            "vertex {i} row {row}: {lat} vs {want}"
+        );
+    }
+    // Mid rows are not mid latitudes on a mercator tile.
+    let mid = (0..m.vertex_count())
+        .find(|&i| m.u[i] == 0 && m.v[i] != 0 && m.v[i] != QUANTIZED_MAX)
+        .unwrap();
+    assert_ne!(u32::from(m.v[mid]) % 4096, 0);
+}
+
+#[test]
+fn normals_of_a_flat_tile_are_the_ellipsoid_normal() {
+    let tile = TileGeo::geodetic(30.0, 60.0, 30.1, 60.1);
+    let opts = QmOptions {
+        octvertexnormals: true,
+        ..QmOptions::default()
+    };
+    let m = decode(&encode(&grid_mesh(5, 5, |_, _| 0.0), &tile, &opts).unwrap()).unwrap();
+    let normals = m.normals.as_ref().unwrap();
+    for (i, &n) in normals.iter().enumerate() {
+        let [lon, lat, _] = m.lonlat_height(i, &tile).unwrap();
+        let angle = oct_decode(n).angle_between(Ellipsoid::WGS84.surface_normal(lon, lat));
+        assert!(
+            angle.to_degrees() < 1.0,
+            "vertex {i}: {}°",
+            angle.to_degrees()
+        );
+    }
+}
+
+#[test]
+fn srtm_tile_header_bounds_what_cesium_draws() {
+    // A 257² crop of N44W072 (White Mountains), every sample a vertex: the real-data header.
+    let grid = n44w072_crop(300, 500, 257);
+    let mesh = grid_mesh(257, 257, |r, c| *grid.get(r, c));
+    let deg = |samples: f64| samples / 1200.0;
+    let tile = TileGeo::geodetic(
+        -72.0 + deg(500.0),
+        45.0 - deg(556.0),
+        -72.0 + deg(756.0),
+        45.0 - deg(300.0),
+    );
+    let m = decode(&encode(&mesh, &tile, &QmOptions::default()).unwrap()).unwrap();
+    let (lo, hi) = mesh.height_range().unwrap();
+    assert_eq!(
+        (
+            f64::from(m.header.min_height),
+            f64::from(m.header.max_height)
+        ),
+        (lo, hi)
+    );
+
+    let e = Ellipsoid::WGS84;
+    let points: Vec<DVec3> = (0..m.vertex_count())
+        .map(|i| ecef_of(&m, i, &tile))
+        .collect();
+    let c = DVec3::from_array(m.header.bounding_sphere_center);
+    assert!(points
+        .iter()
+        .all(|p| p.distance(c) <= m.header.bounding_sphere_radius + 1e-6));
+    // The crop is ~16.9 km × 23.7 km: the sphere's radius is about half its diagonal.
+    assert!(
+        (14_000.0..16_000.0).contains(&m.header.bounding_sphere_radius),
+        "{}",
+        m.header.bounding_sphere_radius
+    );
+
+    // Culled by the occlusion point ⇒ every vertex hidden, for cameras all round the Earth.
+    let hop = DVec3::from_array(m.header.horizon_occlusion_point);
+    let mut culled = 0;
+    for lon in (-180..180).step_by(20) {
+        for lat in (-80..=80).step_by(20) {
+            for h in [500.0, 50_000.0, 5e6] {
+                let cam = e.to_ecef(f64::from(lon), f64::from(lat), h);
+                if !is_scaled_point_visible(&e, cam, hop) {
+                    culled += 1;
+                    assert!(points.iter().step_by(97).all(|&p| !is_scaled_point_visible(
+                        &e,
+                        cam,
+                        e.to_scaled_space(p)
+                    )));
+                }
+            }
+        }
+    }
+    assert!(culled > 100);
+}
+
+#[test]
+fn neighbour_tiles_agree_on_their_shared_edge_within_quantisation() {
+    // Two geodetic zoom-10 tiles side by side, cut from one SRTM grid so that the west
+    // tile's last column is the east tile's first.
+    let tiling = Tiling::new(Scheme::Geodetic, 129).unwrap();
+    let grid = n44w072_crop(300, 500, 257);
+    let (west_id, east_id) = (TileId::new(10, 600, 700), TileId::new(10, 601, 700));
+    let tiles = [(west_id, 0), (east_id, 128)].map(|(id, col0)| {
+        let mesh = grid_mesh(129, 129, |r, c| *grid.get(r, col0 + c));
+        let geo = tiling.tile_geo(id).unwrap();
+        (
+            decode(&encode(&mesh, &geo, &QmOptions::default()).unwrap()).unwrap(),
+            geo,
+        )
+    });
+    let [(w, wg), (e, eg)] = &tiles;
+    assert_eq!(wg.east, eg.west);
+    // Same vertices (u = 32767 against u = 0, equal v); heights differ only by each tile's
+    // own quantisation step, half a step each at most.
+    let half_steps =
+        |m: &QuantizedMesh| f64::from(m.header.max_height - m.header.min_height) / 65_534.0;
+    let tolerance = half_steps(w) + half_steps(e) + 1e-6;
+    assert_eq!(w.east.len(), 129);
+    for (&a, &b) in w.east.iter().zip(&e.west) {
+        let (pa, pb) = (ecef_of(w, a as usize, wg), ecef_of(e, b as usize, eg));
+        let [lon_a, lat_a, h_a] = w.lonlat_height(a as usize, wg).unwrap();
+        let [lon_b, lat_b, h_b] = e.lonlat_height(b as usize, eg).unwrap();
+        assert_eq!((lon_a, lat_a), (lon_b, lat_b));
+        assert!((h_a - h_b).abs() <= tolerance, "{h_a} vs {h_b}");
+        assert!(pa.distance(pb) <= tolerance);
+    }
+}
+
+#[test]
+fn hemisphere_tile_has_no_occlusion_point_and_is_never_culled() {
+    // Level-0 geodetic tile 0/0/0 (lon −180..0): no finite point exists.
+    let m = decode(
+        &encode(
+            &grid_mesh(5, 5, bumpy),
+            &TileGeo::geodetic(-180.0, -90.0, 0.0, 90.0),
+            &QmOptions::default(),
+        )
+        .unwrap(),
+    )
+    .unwrap();
+    let hop = DVec3::from_array(m.header.horizon_occlusion_point);
+    assert!(hop.is_nan());
+    let e = Ellipsoid::WGS84;
+    for lon in [-90.0, 0.0, 90.0, 180.0] {
+        assert!(is_scaled_point_visible(&e, e.to_ecef(lon, 0.0, 1e4), hop));
+    }
+}
+
+/// (file, vertices, triangles, west/south/east/north list lengths), counted with an
+/// independent Python reader of the README's layout.
+const SAMPLES: [(&str, usize, usize, [usize; 4]); 3] = [
+    ("7_20_80.terrain", 2481, 4791, [0, 94, 0, 0]),
+    ("7_20_81.terrain", 409, 681, [0, 0, 0, 91]),
+    ("13_1311_5175.terrain", 2238, 4164, [0, 80, 105, 118]),
+];
+
+#[test]
+fn real_tin_terrain_tiles_decode_with_their_counts() {
+    let merc = Tiling::new(Scheme::Mercator, 257).unwrap();
+    for (name, n, t, edges) in SAMPLES {
+        let m = decode(&sample_tile(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!((m.vertex_count(), m.triangles.len()), (n, t), "{name}");
+        let lens = [m.west.len(), m.south.len(), m.east.len(), m.north.len()];
+        assert_eq!(lens, edges, "{name}");
+        assert!(
+            m.normals.is_none() && m.water_mask.is_none() && m.metadata.is_none(),
+            "{name}"
+        );
+
+        // Sane header: ordered heights, a real sphere.
+        let h = m.header;
+        assert!(
+            h.min_height.is_finite() && h.min_height <= h.max_height,
+            "{name}: {h:?}"
+        );
+        assert!(h.bounding_sphere_radius > 0.0, "{name}");
+        // tin-terrain wrote EPSG:3857 metres (not ECEF) into the centre: it lies inside the
+        // tile's mercator bounds once TMS y is flipped to XYZ (the data README says
+        // "geodetic"; the numbers say Web Mercator).
+        let mut parts = name
+            .trim_end_matches(".terrain")
+            .split('_')
+            .map(|s| s.parse::<u32>().unwrap());
+        let (z, x, y_tms) = (
+            parts.next().unwrap() as u8,
+            parts.next().unwrap(),
+            parts.next().unwrap(),
+        );
+        let b = merc
+            .tile_bounds(TileId::new(z, x, (1 << z) - 1 - y_tms))
+            .unwrap();
+        let [cx, cy, _] = h.center;
+        assert!(
+            (b.min_x..=b.max_x).contains(&cx) && (b.min_y..=b.max_y).contains(&cy),
+            "{name}: {h:?} vs {b:?}"
+        );
+
+        // Every non-degenerate triangle is counter-clockwise in (u, v), as the README says.
+        let areas: Vec<i64> = m.triangles.iter().map(|&tri| uv_area2(&m, tri)).collect();
+        assert!(
+            areas.iter().all(|&a| a >= 0),
+            "{name}: a clockwise triangle"
+        );
+        assert!(areas.iter().filter(|&&a| a == 0).count() <= 2, "{name}");
+
+        // Edge lists name border vertices (tin-terrain swaps its south and north lists and
+        // leaves them unsorted; clients re-sort, so only membership is checked).
+        for &i in m.west.iter().chain(&m.south).chain(&m.east).chain(&m.north) {
+            let (u, v) = (m.u[i as usize], m.v[i as usize]);
+            assert!(
+                u == 0 || u == QUANTIZED_MAX || v == 0 || v == QUANTIZED_MAX,
+                "{name}: vertex {i}"
+            );
+        }
+    }
+}
+
+#[test]
+fn real_neighbour_tiles_share_their_common_edge() {
+    // 7/20/80 and 7/20/81 (TMS) are north–south neighbours: 80's north edge is 81's south.
+    let south = decode(&sample_tile("7_20_80.terrain")).unwrap();
+    let north = decode(&sample_tile("7_20_81.terrain")).unwrap();
+    let edge = |m: &QuantizedMesh, v: u16| {
+        let mut e: Vec<(u16, u64)> = (0..m.vertex_count())
+            .filter(|&i| m.v[i] == v)
+            .map(|i| (m.u[i], m.height_m(i).unwrap().to_bits()))
+            .collect();
+        e.sort_unstable();
+        e.dedup();
+        e
+    };
+    let (a, b) = (edge(&south, QUANTIZED_MAX), edge(&north, 0));
+    assert_eq!(a.len(), 89);
+    assert_eq!(a, b);
+}
+
+#[test]
+fn re_encoding_a_real_tile_reproduces_its_vertex_and_index_bytes() {
+    for (name, ..) in SAMPLES {
+        let bytes = sample_tile(name);
+        let m = decode(&bytes).unwrap();
+        // The decoded tile as a mesh on a 32768² grid whose columns and rows are u and v.
+        let positions = (0..m.vertex_count())
+            .map(|i| {
+                [
+                    f64::from(m.u[i]),
+                    f64::from(QUANTIZED_MAX - m.v[i]),
+                    m.height_m(i).unwrap(),
+                ]
+            })
+            .collect();
+        let mesh = TerrainMesh {
+            rows: 32_768,
+            cols: 32_768,
+            positions,
+            triangles: m.triangles.clone(),
+        };
+        let again = encode(
+            &mesh,
+            &TileGeo::geodetic(0.0, 0.0, 1.0, 1.0),
+            &QmOptions::default(),
+        )
+        .unwrap();
+        // The file is in first-use order already, so vertices and indices come out identical.
+        let end = 92 + 6 * m.vertex_count() + 4 + 6 * m.triangles.len();
+        let full_range = m.height.contains(&0) && m.height.contains(&QUANTIZED_MAX);
+        if full_range {
+            assert_eq!(&again[88..end], &bytes[88..end], "{name}");
+        } else {
+            // A tile whose heights do not reach its header's range re-quantises them: compare
+            // u, v and the index data only.
+            let n = m.vertex_count();
+            assert_eq!(&again[88..92 + 4 * n], &bytes[88..92 + 4 * n], "{name}");
+            assert_eq!(&again[92 + 6 * n..end], &bytes[92 + 6 * n..end], "{name}");
+        }
+    }
+}
+
+#[test]
+fn every_strict_prefix_of_a_real_tile_is_an_error() {
+    let bytes = sample_tile("7_20_81.terrain");
+    for cut in 0..bytes.len() {
+        assert!(
+            decode(&bytes[..cut]).is_err(),
+            "prefix of {cut} bytes decoded"
+        );
+    }
+}
+
+#[test]
+fn truncated_extensions_are_errors() {
+    let mesh = grid_mesh(5, 5, bumpy);
+    let bytes = encode(
+        &mesh,
+        &TileGeo::geodetic(0.0, 0.0, 1.0, 1.0),
+        &all_extensions(),
+    )
+    .unwrap();
+    let full = decode(&bytes).unwrap();
+    for cut in 0..bytes.len() {
+        // A cut between extensions is a valid tile with fewer of them; any other is an error.
+        if let Ok(m) = decode(&bytes[..cut]) {
+            assert_eq!(
+                (&m.u, &m.triangles, &m.north),
+                (&full.u, &full.triangles, &full.north)
+            );
+            assert!(m.metadata.is_none(), "cut {cut}");
+        }
+    }
+}
+
+/// xorshift64*: a fixed-seed byte mutator, so a failure replays.
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
+    }
+}
+
+#[test]
+fn mutated_bytes_never_panic() {
+    let encoded = encode(
+        &grid_mesh(9, 9, bumpy),
+        &TileGeo::geodetic(0.0, 0.0, 1.0, 1.0),
+        &all_extensions(),
+    )
+    .unwrap();
+    let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+    for original in [sample_tile("7_20_81.terrain"), encoded] {
+        for _ in 0..3000 {
+            let mut bytes = original.clone();
+            for _ in 0..1 + rng.next() % 8 {
+                let at = (rng.next() % bytes.len() as u64) as usize;
+                bytes[at] = rng.next() as u8;
+            }
+            // Either outcome is fine; a panic fails the test.
+            let _ = decode(&bytes);
+        }
+    }
+}
+
+/// A hand-built tile from the README: 3 vertices, 1 triangle, empty edge lists.
+fn minimal_tile() -> Vec<u8> {
+    let mut b = vec![0u8; 88];
+    b.extend_from_slice(&3u32.to_le_bytes());
+    // u: 0, 32767, 0 → deltas 0, +32767, −32767 → zig-zag 0, 65534, 65533.
+    for code in [0u16, 65_534, 65_533, 0, 0, 65_534, 0, 0, 0] {
+        b.extend_from_slice(&code.to_le_bytes());
+    }
+    b.extend_from_slice(&1u32.to_le_bytes());
+    for code in [0u16, 0, 0] {
+        b.extend_from_slice(&code.to_le_bytes());
+    }
+    for _ in 0..4 {
+        b.extend_from_slice(&0u32.to_le_bytes());
+    }
+    b
+}
+
+#[test]
+fn malformed_fields_are_named_errors() {
+    let ok = minimal_tile();
+    let m = decode(&ok).unwrap();
+    assert_eq!(
+        (m.u.clone(), m.v.clone(), m.triangles.clone()),
+        (vec![0, 32767, 0], vec![0, 0, 32767], vec![[0, 1, 2]])
+    );
+    let tri_at = 92 + 18 + 4;
+
+    // A vertex count no input could hold: refused before allocating.
+    let mut b = ok.clone();
+    b[88..92].copy_from_slice(&u32::MAX.to_le_bytes());
+    assert!(matches!(
+        decode(&b),
+        Err(QmError::Truncated {
+            what: "vertex count",
+            ..
+        })
+    ));
+    // A first delta of −1.
+    let mut b = ok.clone();
+    b[92..94].copy_from_slice(&1u16.to_le_bytes());
+    assert!(matches!(decode(&b), Err(QmError::Malformed(m)) if m.contains("outside 0..=32767")));
+    // A high-water-mark code above the mark.
+    let mut b = ok.clone();
+    b[tri_at + 2..tri_at + 4].copy_from_slice(&5u16.to_le_bytes());
+    assert!(matches!(decode(&b), Err(QmError::Malformed(m)) if m.contains("high-water mark")));
+    // A fourth new vertex in a 3-vertex tile.
+    let mut b = ok.clone();
+    b[tri_at - 4..tri_at].copy_from_slice(&2u32.to_le_bytes());
+    b.splice(tri_at + 6..tri_at + 6, [0u8; 6]);
+    assert!(matches!(decode(&b), Err(QmError::Malformed(m)) if m.contains("past the 3 vertices")));
+    // An edge index past the vertices.
+    let mut b = ok.clone();
+    let west = tri_at + 6;
+    b[west..west + 4].copy_from_slice(&1u32.to_le_bytes());
+    b.splice(west + 4..west + 4, 7u16.to_le_bytes());
+    assert!(matches!(decode(&b), Err(QmError::Malformed(m)) if m.contains("west edge index 7")));
+
+    // Extensions: lengths, sizes, JSON, repeats, unknown ids.
+    let with = |id: u8, data: &[u8]| {
+        let mut b = ok.clone();
+        b.push(id);
+        b.extend_from_slice(&(data.len() as u32).to_le_bytes());
+        b.extend_from_slice(data);
+        b
+    };
+    let mut b = with(1, &[1, 2, 3, 4, 5, 6]);
+    assert_eq!(
+        decode(&b).unwrap().normals,
+        Some(vec![[1, 2], [3, 4], [5, 6]])
+    );
+    b.truncate(b.len() - 1);
+    assert!(matches!(
+        decode(&b),
+        Err(QmError::Truncated {
+            what: "extension data",
+            ..
+        })
+    ));
+    assert!(matches!(
+        decode(&with(1, &[1, 2])),
+        Err(QmError::Malformed(_))
+    ));
+    assert!(matches!(
+        decode(&with(2, &[0, 0])),
+        Err(QmError::Malformed(_))
+    ));
+    assert_eq!(
+        decode(&with(2, &[255])).unwrap().water_mask,
+        Some(WaterMask::Uniform(255))
+    );
+    let json = br#"{"a":1}"#;
+    let mut meta = (json.len() as u32).to_le_bytes().to_vec();
+    meta.extend_from_slice(json);
+    assert_eq!(
+        decode(&with(4, &meta)).unwrap().metadata,
+        Some(serde_json::json!({"a": 1}))
+    );
+    let mut bad_json = meta.clone();
+    bad_json[5] = b'!';
+    assert!(
+        matches!(decode(&with(4, &bad_json)), Err(QmError::Malformed(m)) if m.contains("not JSON"))
+    );
+    let mut long_json = meta.clone();
+    long_json[0] = 200;
+    assert!(matches!(
+        decode(&with(4, &long_json)),
+        Err(QmError::Truncated {
+            what: "metadata JSON",
+            ..
+        })
+    ));
+    let mut twice = with(2, &[0]);
+    twice.extend_from_slice(&[2, 1, 0, 0, 0, 0]);
+    assert!(matches!(decode(&twice), Err(QmError::Malformed(m)) if m.contains("twice")));
+    assert_eq!(
+        decode(&with(9, &[1, 2, 3])).unwrap().unknown_extensions,
+        vec![9]
+    );
+    let mut stub = ok.clone();
+    stub.extend_from_slice(&[1, 0, 0]);
+    assert!(matches!(
+        decode(&stub),
+        Err(QmError::Truncated {
+            what: "extension length",
+            ..
+        })
+    ));
+}
+
+#[test]
+fn encoder_rejects_meshes_that_break_the_contract() {
+    let tile = TileGeo::geodetic(0.0, 0.0, 1.0, 1.0);
+    let o = QmOptions::default();
+    let good = grid_mesh(3, 3, bumpy);
+    let mut m = good.clone();
+    m.triangles.clear();
+    assert!(matches!(
+        encode(&m, &tile, &o),
+        Err(QmError::InvalidMesh(_))
+    ));
+    let mut m = good.clone();
+    m.triangles[2][1] = 9;
+    assert!(
+        matches!(encode(&m, &tile, &o), Err(QmError::InvalidMesh(s)) if s.contains("points past"))
+    );
+    let mut m = good.clone();
+    m.positions[4][2] = f64::NAN;
+    assert!(
+        matches!(encode(&m, &tile, &o), Err(QmError::InvalidMesh(s)) if s.contains("not finite"))
+    );
+    let mut m = good.clone();
+    m.positions[4][0] = 2.5;
+    assert!(matches!(encode(&m, &tile, &o), Err(QmError::InvalidMesh(s)) if s.contains("outside")));
+    let mut m = good.clone();
+    m.rows = 1;
+    assert!(encode(&m, &tile, &o).is_err());
+    for bad in [
+        TileGeo::geodetic(1.0, 0.0, 0.0, 1.0),
+        TileGeo::geodetic(0.0, 0.0, 1.0, 91.0),
+        TileGeo::geodetic(f64::NAN, 0.0, 1.0, 1.0),
+    ] {
+        assert!(
+            matches!(encode(&good, &bad, &o), Err(QmError::Parameter { .. })),
+            "{bad:?}"
+        );
+    }
+    let small_mask = QmOptions {
+        watermask: Some(WaterMask::Grid(vec![0; 100])),
+        ..QmOptions::default()
+    };
+    assert!(matches!(
+        encode(&good, &tile, &small_mask),
+        Err(QmError::Parameter { .. })
+    ));
+}
