@@ -65,6 +65,8 @@ pub enum Error {
     TerrainRgb(#[from] crate::formats::terrain_rgb::TerrainRgbError),
     #[error(transparent)]
     MeshBin(#[from] crate::formats::mesh_bin::MeshBinError),
+    #[error(transparent)]
+    Mesh(#[from] crate::mesh::MeshError),
 }
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;

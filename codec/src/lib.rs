@@ -15,6 +15,7 @@ mod fixtures;
 pub mod formats;
 pub mod geo;
 pub mod grid;
+pub mod mesh;
 pub mod pyramid;
 pub mod raster;
 pub mod tile;

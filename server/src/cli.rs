@@ -67,6 +67,8 @@ pub struct IngestArgs {
 pub enum EvalCommand {
     /// Rate, distortion and zerotree-mesh figures of the terrain codec on one heightmap.
     Terrain(TerrainArgs),
+    /// Simplify one object mesh: counts, time and Metro distances to the input.
+    Mesh(eval::mesh::MeshArgs),
 }
 
 #[derive(Args, Debug)]
@@ -121,6 +123,7 @@ pub fn run() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Eval(EvalCommand::Terrain(args)) => eval_terrain(args),
+        Command::Eval(EvalCommand::Mesh(args)) => eval::mesh::run(&args),
         Command::Ingest(args) => ingest(args),
     };
     match result {

@@ -202,7 +202,7 @@ fn synthesize_row<T: Copy, S: Scheme<T>>(row: &mut [T], scratch: &mut [T], schem
 /// Row index of scratch block `k` ↔ grid row: even rows go to the low block, odd rows after it.
 #[inline]
 fn split_block(r: usize, ns: usize) -> usize {
-    if r % 2 == 0 {
+    if r.is_multiple_of(2) {
         r / 2
     } else {
         ns + r / 2

@@ -1,6 +1,7 @@
 //! `zerotile eval`: measure the codec and meshers on one input, as the benchmarks and the
 //! papers' tables report them.
 
+pub mod mesh;
 pub mod terrain;
 
 use std::time::Instant;

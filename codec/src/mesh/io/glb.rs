@@ -1,0 +1,112 @@
+//! glTF 2.0 binary (GLB) writer, after the Khronos glTF 2.0 specification (§4.4 GLB file
+//! format): a 12-byte header, a JSON chunk padded with spaces and a BIN chunk padded with
+//! zeros, both to 4 bytes. One mesh, one triangle primitive: f32 POSITION (with the `min` /
+//! `max` the specification requires), unit f32 NORMAL, u32 indices.
+
+use std::io::Write;
+
+use glam::Vec3;
+use serde_json::json;
+
+use crate::mesh::error::MeshError;
+use crate::mesh::indexed::TriMesh;
+
+const FORMAT: &str = "GLB";
+const MAGIC: u32 = 0x4654_6C67; // "glTF"
+const VERSION: u32 = 2;
+const CHUNK_JSON: u32 = 0x4E4F_534A; // "JSON"
+const CHUNK_BIN: u32 = 0x004E_4942; // "BIN\0"
+const FLOAT: u32 = 5126;
+const UNSIGNED_INT: u32 = 5125;
+const ARRAY_BUFFER: u32 = 34962;
+const ELEMENT_ARRAY_BUFFER: u32 = 34963;
+const TRIANGLES: u32 = 4;
+
+fn encode_error(what: impl Into<String>) -> MeshError {
+    MeshError::Encode {
+        format: FORMAT,
+        what: what.into(),
+    }
+}
+
+pub(super) fn write(mesh: &TriMesh, out: &mut impl Write) -> Result<(), MeshError> {
+    if mesh.faces.is_empty() || mesh.positions.is_empty() {
+        // glTF accessors must have count ≥ 1.
+        return Err(encode_error("glTF cannot hold an empty mesh"));
+    }
+    // Binary payload: positions, normals, indices, each 4-byte aligned by construction.
+    let positions: Vec<Vec3> = mesh.positions.iter().map(|p| p.as_vec3()).collect();
+    let normals: Vec<Vec3> = mesh.vertex_normals().iter().map(|n| n.as_vec3()).collect();
+    let mut bin = Vec::with_capacity(24 * positions.len() + 12 * mesh.faces.len());
+    for v in positions.iter().chain(&normals) {
+        for c in v.to_array() {
+            bin.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    for i in mesh.faces.iter().flatten() {
+        bin.extend_from_slice(&i.to_le_bytes());
+    }
+    // The accessors' bounds are those of the stored f32 values, as validators recompute them.
+    let (min, max) = positions
+        .iter()
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| {
+            (lo.min(p), hi.max(p))
+        });
+    let (v, vbytes) = (positions.len(), 12 * positions.len());
+    let doc = json!({
+        "asset": {"version": "2.0", "generator": "zerotile"},
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [{
+            "attributes": {"POSITION": 0, "NORMAL": 1},
+            "indices": 2,
+            "mode": TRIANGLES,
+        }]}],
+        "buffers": [{"byteLength": bin.len()}],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": vbytes, "target": ARRAY_BUFFER},
+            {"buffer": 0, "byteOffset": vbytes, "byteLength": vbytes, "target": ARRAY_BUFFER},
+            {"buffer": 0, "byteOffset": 2 * vbytes, "byteLength": 12 * mesh.faces.len(),
+             "target": ELEMENT_ARRAY_BUFFER},
+        ],
+        "accessors": [
+            {"bufferView": 0, "componentType": FLOAT, "count": v, "type": "VEC3",
+             "min": min.to_array(), "max": max.to_array()},
+            {"bufferView": 1, "componentType": FLOAT, "count": v, "type": "VEC3"},
+            {"bufferView": 2, "componentType": UNSIGNED_INT, "count": 3 * mesh.faces.len(),
+             "type": "SCALAR"},
+        ],
+    });
+    let mut text = serde_json::to_vec(&doc).map_err(|e| encode_error(e.to_string()))?;
+    pad(&mut text, b' ');
+    pad(&mut bin, 0);
+    // Container: header, JSON chunk, BIN chunk; every length must fit the u32 fields.
+    let total = 12 + 8 + text.len() + 8 + bin.len();
+    let u32_len = |n: usize| {
+        u32::try_from(n).map_err(|_| encode_error(format!("{total} bytes exceed GLB's 4 GiB")))
+    };
+    let mut w = std::io::BufWriter::new(out);
+    for word in [
+        MAGIC,
+        VERSION,
+        u32_len(total)?,
+        u32_len(text.len())?,
+        CHUNK_JSON,
+    ] {
+        w.write_all(&word.to_le_bytes())?;
+    }
+    w.write_all(&text)?;
+    for word in [u32_len(bin.len())?, CHUNK_BIN] {
+        w.write_all(&word.to_le_bytes())?;
+    }
+    w.write_all(&bin)?;
+    w.flush()?;
+    Ok(())
+}
+
+fn pad(bytes: &mut Vec<u8>, with: u8) {
+    while !bytes.len().is_multiple_of(4) {
+        bytes.push(with);
+    }
+}

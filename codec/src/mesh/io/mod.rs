@@ -1,0 +1,253 @@
+//! Reading and writing object meshes: OBJ, PLY (ASCII and binary), STL (ASCII and binary) and
+//! JSON in; OBJ, binary PLY, GLB (glTF 2.0 binary) and JSON out.
+//!
+//! Parsing is left to well-kept crates (`tobj`, `ply-rs-bw`, `stl_io`); this module adds what a
+//! server needs around them: a format chosen by extension or by magic bytes, [`MeshLimits`]
+//! checked before anything is sized from a header, polygons fanned into triangles, and the
+//! [`TriMesh::check`] contract (finite coordinates, indices in range) on every mesh returned.
+
+mod glb;
+mod json;
+mod obj;
+mod ply;
+mod stl;
+
+use std::io::Write;
+use std::path::Path;
+
+use super::error::{InvalidMesh, MeshError};
+use super::indexed::TriMesh;
+
+/// The mesh file formats this module knows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Format {
+    Obj,
+    Ply,
+    Stl,
+    /// glTF 2.0 binary container (write only).
+    Glb,
+    /// `{"positions": [x, y, z, ...], "indices": [a, b, c, ...]}`.
+    Json,
+}
+
+impl Format {
+    /// The format a file name's extension names (case-insensitive), if any.
+    pub fn from_path(path: &Path) -> Option<Self> {
+        let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+        Self::from_extension(&ext)
+    }
+
+    /// `"obj"`, `"ply"`, `"stl"`, `"glb"`, `"json"` (case-insensitive).
+    pub fn from_extension(ext: &str) -> Option<Self> {
+        match ext.to_ascii_lowercase().as_str() {
+            "obj" => Some(Self::Obj),
+            "ply" => Some(Self::Ply),
+            "stl" => Some(Self::Stl),
+            "glb" => Some(Self::Glb),
+            "json" => Some(Self::Json),
+            _ => None,
+        }
+    }
+
+    /// Guesses the format from the first bytes, for uploads that carry no file name.
+    /// Binary STL has no magic: it is recognised by its exact length (84 + 50 × count).
+    pub fn sniff(bytes: &[u8]) -> Option<Self> {
+        let text = skip_bom_and_space(bytes);
+        if bytes.starts_with(b"ply") {
+            Some(Self::Ply)
+        } else if bytes.starts_with(b"glTF") {
+            Some(Self::Glb)
+        } else if stl::is_binary(bytes) || text.starts_with(b"solid") {
+            Some(Self::Stl)
+        } else if text.starts_with(b"{") {
+            Some(Self::Json)
+        } else if obj::looks_like_obj(text) {
+            Some(Self::Obj)
+        } else {
+            None
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Obj => "OBJ",
+            Self::Ply => "PLY",
+            Self::Stl => "STL",
+            Self::Glb => "GLB",
+            Self::Json => "JSON",
+        }
+    }
+}
+
+fn skip_bom_and_space(bytes: &[u8]) -> &[u8] {
+    let b = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+    let start = b
+        .iter()
+        .position(|c| !c.is_ascii_whitespace())
+        .unwrap_or(b.len());
+    &b[start..]
+}
+
+/// Resource limits for reading untrusted meshes. Checked against header counts before any
+/// buffer is sized from them, and against the result after parsing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MeshLimits {
+    /// Most vertices accepted (after welding where the format welds, as STL does).
+    pub max_vertices: usize,
+    /// Most triangles accepted, after polygons are fanned into triangles.
+    pub max_faces: usize,
+    /// Largest input in bytes.
+    pub max_bytes: u64,
+}
+
+/// 5 million triangles: a 1.1 M-face scan with room to spare, ~250 MB of OBJ text.
+pub const DEFAULT_MAX_FACES: usize = 5_000_000;
+/// As many vertices as faces: closed meshes have half as many, unwelded ones up to three times.
+pub const DEFAULT_MAX_VERTICES: usize = 5_000_000;
+/// 512 MiB of input.
+pub const DEFAULT_MAX_BYTES: u64 = 512 << 20;
+
+impl Default for MeshLimits {
+    fn default() -> Self {
+        Self {
+            max_vertices: DEFAULT_MAX_VERTICES,
+            max_faces: DEFAULT_MAX_FACES,
+            max_bytes: DEFAULT_MAX_BYTES,
+        }
+    }
+}
+
+impl MeshLimits {
+    fn vertices(&self, n: u64) -> Result<(), MeshError> {
+        limit("vertices", n, self.max_vertices as u64)
+    }
+
+    fn faces(&self, n: u64) -> Result<(), MeshError> {
+        limit("faces", n, self.max_faces as u64)
+    }
+
+    fn bytes(&self, n: u64) -> Result<(), MeshError> {
+        limit("bytes", n, self.max_bytes)
+    }
+}
+
+fn limit(what: &'static str, got: u64, limit: u64) -> Result<(), MeshError> {
+    if got > limit {
+        Err(MeshError::Limit { what, got, limit })
+    } else {
+        Ok(())
+    }
+}
+
+/// Reads a mesh file, choosing the format by extension (or by content when the extension is
+/// unknown). The file's size is checked against `limits` before it is read.
+pub fn read_path(path: &Path, limits: &MeshLimits) -> Result<TriMesh, MeshError> {
+    // Refuse oversized files before reading them into memory.
+    limits.bytes(std::fs::metadata(path)?.len())?;
+    let bytes = std::fs::read(path)?;
+    read_bytes(&bytes, Format::from_path(path), limits)
+}
+
+/// Reads a mesh from bytes in `format`, or in the format [`Format::sniff`] recognises when
+/// `format` is `None`.
+pub fn read_bytes(
+    bytes: &[u8],
+    format: Option<Format>,
+    limits: &MeshLimits,
+) -> Result<TriMesh, MeshError> {
+    // Size first: every parser below is bounded by the input length.
+    limits.bytes(bytes.len() as u64)?;
+    if bytes.iter().all(u8::is_ascii_whitespace) {
+        return Err(MeshError::decode("mesh", "the input is empty"));
+    }
+    let format = match format.or_else(|| Format::sniff(bytes)) {
+        Some(f) => f,
+        None => {
+            return Err(MeshError::Unsupported(
+                "unrecognised mesh bytes (expected OBJ, PLY, STL or JSON)".into(),
+            ))
+        }
+    };
+    // Parse with the format's crate, counts checked against the limits on the way.
+    let mesh = match format {
+        Format::Obj => obj::read(bytes, limits)?,
+        Format::Ply => ply::read(bytes, limits)?,
+        Format::Stl => stl::read(bytes, limits)?,
+        Format::Json => json::read(bytes, limits)?,
+        Format::Glb => {
+            return Err(MeshError::Unsupported(
+                "reading GLB is not supported; send OBJ, PLY, STL or JSON".into(),
+            ))
+        }
+    };
+    // The contract every algorithm relies on: finite numbers, indices in range, some faces.
+    limits.vertices(mesh.positions.len() as u64)?;
+    limits.faces(mesh.faces.len() as u64)?;
+    mesh.check()?;
+    if mesh.faces.is_empty() {
+        return Err(InvalidMesh::Empty.into());
+    }
+    Ok(mesh)
+}
+
+/// Encodes `mesh` in `format`. Coordinates are written as f64 where the format allows (OBJ,
+/// JSON) and f32 where it does not (PLY, GLB).
+pub fn write_bytes(mesh: &TriMesh, format: Format) -> Result<Vec<u8>, MeshError> {
+    let mut out = Vec::new();
+    write_to(mesh, format, &mut out)?;
+    Ok(out)
+}
+
+/// Encodes `mesh` in `format` into any writer.
+pub fn write_to(mesh: &TriMesh, format: Format, out: &mut impl Write) -> Result<(), MeshError> {
+    match format {
+        Format::Obj => obj::write(mesh, out),
+        Format::Ply => ply::write(mesh, out),
+        Format::Glb => glb::write(mesh, out),
+        Format::Json => json::write(mesh, out),
+        Format::Stl => Err(MeshError::Unsupported(
+            "writing STL is not supported; use OBJ, PLY, GLB or JSON".into(),
+        )),
+    }
+}
+
+/// Writes `mesh` to `path` in the format its extension names, atomically: the bytes go to a
+/// temporary file beside it which is then renamed over `path`, so readers never see half a file.
+pub fn write_path(mesh: &TriMesh, path: &Path) -> Result<(), MeshError> {
+    let format = Format::from_path(path).ok_or_else(|| {
+        MeshError::Unsupported(format!(
+            "{}: unknown extension (use .obj, .ply, .glb or .json)",
+            path.display()
+        ))
+    })?;
+    let bytes = write_bytes(mesh, format)?;
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
+    let written = std::fs::File::create(&tmp).and_then(|mut f| {
+        f.write_all(&bytes)?;
+        f.sync_all()
+    });
+    match written.and_then(|()| std::fs::rename(&tmp, path)) {
+        Ok(()) => Ok(()),
+        Err(e) => {
+            // Best effort: the write already failed, a leftover temp file is all we can fix.
+            let _ = std::fs::remove_file(&tmp);
+            Err(e.into())
+        }
+    }
+}
+
+/// Fans a polygon (`n ≥ 3` corners) into `n − 2` triangles, pushing them onto `faces`.
+fn push_fan(faces: &mut Vec<[u32; 3]>, poly: &[u32]) {
+    if let Some((&first, rest)) = poly.split_first() {
+        for w in rest.windows(2) {
+            faces.push([first, w[0], w[1]]);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,130 @@
+//! Wavefront OBJ through `tobj`: positions and faces only (normals, texture coordinates and
+//! materials are ignored), polygons fanned into triangles.
+
+use std::io::Write;
+
+use glam::DVec3;
+
+use super::{push_fan, MeshLimits};
+use crate::mesh::error::MeshError;
+use crate::mesh::indexed::TriMesh;
+
+const FORMAT: &str = "OBJ";
+
+/// A text whose first meaningful line is an OBJ statement.
+pub(super) fn looks_like_obj(text: &[u8]) -> bool {
+    const STATEMENTS: [&[u8]; 10] = [
+        b"#", b"v ", b"v\t", b"vn", b"vt", b"f ", b"o ", b"g ", b"mtllib", b"usemtl",
+    ];
+    STATEMENTS.iter().any(|s| text.starts_with(s))
+}
+
+pub(super) fn read(bytes: &[u8], limits: &MeshLimits) -> Result<TriMesh, MeshError> {
+    // Count statements before tobj allocates: a cheap bound for the limits.
+    let (v_lines, f_lines) = count_statements(bytes);
+    limits.vertices(v_lines)?;
+    limits.faces(f_lines)?;
+    // Parse: positions indexed per model, polygons fanned by tobj.
+    let options = tobj::LoadOptions {
+        triangulate: true,
+        ignore_points: true,
+        ignore_lines: true,
+        ..tobj::LoadOptions::default()
+    };
+    let mut reader = bytes;
+    let (models, _materials) = tobj::load_obj_buf(&mut reader, &options, |_| {
+        // Material libraries are never opened: a mesh upload must not read other files.
+        Err(tobj::LoadError::GenericFailure)
+    })
+    .map_err(|e| MeshError::decode(FORMAT, e.to_string()))?;
+    // Concatenate models; tobj gives each its own copy of the vertices it uses.
+    let mut positions = Vec::new();
+    let mut faces = Vec::new();
+    let mut model_of = Vec::new();
+    for (m, model) in models.iter().enumerate() {
+        let base = positions.len() as u32;
+        let mesh = &model.mesh;
+        positions.extend(
+            mesh.positions
+                .chunks_exact(3)
+                .map(|p| DVec3::new(p[0], p[1], p[2])),
+        );
+        model_of.resize(positions.len(), m as u32);
+        for t in mesh.indices.chunks(3) {
+            if t.len() == 3 {
+                push_fan(&mut faces, &[base + t[0], base + t[1], base + t[2]]);
+            }
+        }
+    }
+    let mut out = TriMesh::new(positions, faces);
+    if models.len() > 1 {
+        rejoin_models(&mut out, &model_of);
+    }
+    Ok(out)
+}
+
+/// Lines starting `v ` and `f `: upper bounds of vertices and lower bounds of triangles.
+fn count_statements(bytes: &[u8]) -> (u64, u64) {
+    let (mut v, mut f) = (0, 0);
+    for line in bytes.split(|&c| c == b'\n') {
+        let line = line.trim_ascii_start();
+        match line {
+            [b'v', b' ' | b'\t', ..] => v += 1,
+            [b'f', b' ' | b'\t', ..] => f += 1,
+            _ => {}
+        }
+    }
+    (v, f)
+}
+
+/// Re-shares vertices that tobj duplicated across `o`/`g` groups: a position that appears once
+/// in each of several models is one file vertex. Duplicates inside one model are kept, so a file
+/// that is unwelded on purpose stays unwelded.
+fn rejoin_models(mesh: &mut TriMesh, model_of: &[u32]) {
+    let key = |p: DVec3| p.to_array().map(|c| (c + 0.0).to_bits());
+    let mut order: Vec<u32> = (0..mesh.positions.len() as u32).collect();
+    order.sort_unstable_by_key(|&i| (key(mesh.positions[i as usize]), i));
+    let mut canon: Vec<u32> = (0..mesh.positions.len() as u32).collect();
+    let mut start = 0;
+    while start < order.len() {
+        let k = key(mesh.positions[order[start] as usize]);
+        let end = order[start..]
+            .iter()
+            .position(|&i| key(mesh.positions[i as usize]) != k)
+            .map_or(order.len(), |n| start + n);
+        let run = &order[start..end];
+        let mut models: Vec<u32> = run.iter().map(|&i| model_of[i as usize]).collect();
+        models.sort_unstable();
+        let distinct = models.windows(2).all(|w| w[0] != w[1]);
+        if run.len() > 1 && distinct {
+            for &i in run {
+                canon[i as usize] = run[0];
+            }
+        }
+        start = end;
+    }
+    for i in mesh.faces.iter_mut().flatten() {
+        *i = canon[*i as usize];
+    }
+    mesh.drop_unreferenced();
+}
+
+pub(super) fn write(mesh: &TriMesh, out: &mut impl Write) -> Result<(), MeshError> {
+    let mut w = std::io::BufWriter::new(out);
+    writeln!(
+        w,
+        "# zerotile: {} vertices, {} faces",
+        mesh.positions.len(),
+        mesh.faces.len()
+    )?;
+    // f64 Display is the shortest text that reads back to the same number.
+    for p in &mesh.positions {
+        writeln!(w, "v {} {} {}", p.x, p.y, p.z)?;
+    }
+    for t in &mesh.faces {
+        let [a, b, c] = t.map(|i| u64::from(i) + 1);
+        writeln!(w, "f {a} {b} {c}")?;
+    }
+    w.flush()?;
+    Ok(())
+}

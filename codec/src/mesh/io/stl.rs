@@ -1,0 +1,71 @@
+//! STL through `stl_io` (ASCII and binary in). STL stores every triangle with its own three
+//! corners; `stl_io` welds bit-identical corners, which is the mesh the file means.
+
+use std::io::Cursor;
+
+use glam::DVec3;
+
+use super::MeshLimits;
+use crate::mesh::error::MeshError;
+use crate::mesh::indexed::TriMesh;
+
+const FORMAT: &str = "STL";
+/// 80-byte header and a little-endian u32 triangle count.
+const HEADER: usize = 84;
+/// Normal, three corners (12 f32) and a u16 attribute word.
+const RECORD: u64 = 50;
+
+/// The triangle count a binary STL header claims, if the bytes are long enough to hold it.
+fn claimed(bytes: &[u8]) -> Option<u64> {
+    let count: [u8; 4] = bytes.get(80..HEADER)?.try_into().ok()?;
+    Some(u64::from(u32::from_le_bytes(count)))
+}
+
+/// Binary STL has no magic number: its length must be exactly 84 + 50 × the claimed count.
+pub(super) fn is_binary(bytes: &[u8]) -> bool {
+    claimed(bytes).is_some_and(|n| HEADER as u64 + RECORD * n == bytes.len() as u64)
+}
+
+pub(super) fn read(bytes: &[u8], limits: &MeshLimits) -> Result<TriMesh, MeshError> {
+    let ascii = bytes.starts_with(b"solid ") && !is_binary(bytes);
+    let mesh = if ascii {
+        stl_io::read_stl(&mut Cursor::new(bytes))
+    } else {
+        // The claimed count against the limits and the bytes present, before reading.
+        let n = claimed(bytes).ok_or_else(|| {
+            MeshError::decode(
+                FORMAT,
+                format!("truncated: {} bytes, no header", bytes.len()),
+            )
+        })?;
+        limits.faces(n)?;
+        let need = HEADER as u64 + RECORD * n;
+        if (bytes.len() as u64) < need {
+            return Err(MeshError::decode(
+                FORMAT,
+                format!(
+                    "truncated: the header claims {n} triangles ({need} bytes), the file has {}",
+                    bytes.len()
+                ),
+            ));
+        }
+        // A binary header may itself begin with "solid ": blank it so stl_io reads binary.
+        let mut copy = bytes.to_vec();
+        copy[..5].fill(0);
+        stl_io::read_stl(&mut Cursor::new(copy))
+    }
+    .map_err(|e| MeshError::decode(FORMAT, e.to_string()))?;
+    limits.vertices(mesh.vertices.len() as u64)?;
+    limits.faces(mesh.faces.len() as u64)?;
+    let positions = mesh
+        .vertices
+        .iter()
+        .map(|v| DVec3::new(f64::from(v[0]), f64::from(v[1]), f64::from(v[2])))
+        .collect();
+    let faces = mesh
+        .faces
+        .iter()
+        .map(|t| t.vertices.map(|i| u32::try_from(i).unwrap_or(u32::MAX)))
+        .collect();
+    Ok(TriMesh::new(positions, faces))
+}

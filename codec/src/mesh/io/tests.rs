@@ -1,0 +1,300 @@
+//! Format round trips and bad inputs.
+
+use glam::DVec3;
+
+use super::*;
+use crate::mesh::error::{InvalidMesh, MeshError};
+
+fn shared(name: &str) -> std::path::PathBuf {
+    crate::fixtures::shared_data(&format!("meshes/{name}"))
+}
+
+fn limits() -> MeshLimits {
+    MeshLimits::default()
+}
+
+fn quad() -> TriMesh {
+    TriMesh::new(
+        vec![DVec3::ZERO, DVec3::X, DVec3::new(1.0, 1.0, 0.5), DVec3::Y],
+        vec![[0, 1, 2], [0, 2, 3]],
+    )
+}
+
+/// Same faces, positions equal to f32 precision (PLY and GLB store f32).
+fn assert_same_f32(a: &TriMesh, b: &TriMesh) {
+    assert_eq!(a.faces, b.faces);
+    assert_eq!(a.positions.len(), b.positions.len());
+    for (p, q) in a.positions.iter().zip(&b.positions) {
+        assert_eq!(p.as_vec3(), q.as_vec3());
+    }
+}
+
+#[test]
+fn obj_to_ply_to_obj_round_trips_fandisk() {
+    let obj = read_path(&shared("fandisk.obj"), &limits()).expect("fandisk");
+    let ply = write_bytes(&obj, Format::Ply).expect("ply");
+    let back = read_bytes(&ply, None, &limits()).expect("ply reads");
+    assert_same_f32(&obj, &back);
+    let text = write_bytes(&back, Format::Obj).expect("obj");
+    let again = read_bytes(&text, Some(Format::Obj), &limits()).expect("obj reads");
+    // OBJ text holds f64 exactly: the second hop changes nothing.
+    assert_eq!(again, back);
+}
+
+#[test]
+fn obj_and_json_keep_f64_exactly() {
+    let mut m = quad();
+    m.positions[2] = DVec3::new(0.1, 1.0 / 3.0, -1e-300);
+    for format in [Format::Obj, Format::Json] {
+        let bytes = write_bytes(&m, format).expect("encodes");
+        assert_eq!(Format::sniff(&bytes), Some(format));
+        assert_eq!(read_bytes(&bytes, None, &limits()).expect("decodes"), m);
+    }
+}
+
+#[test]
+fn ascii_and_big_endian_ply_read() {
+    let ascii = b"ply\nformat ascii 1.0\ncomment hi\nelement vertex 4\nproperty float x\n\
+property float y\nproperty float z\nproperty uchar red\nelement face 1\n\
+property list uchar int vertex_indices\nend_header\n0 0 0 1\n1 0 0 2\n1 1 0.5 3\n0 1 0 4\n\
+4 0 1 2 3\n";
+    let m = read_bytes(ascii, None, &limits()).expect("ascii ply");
+    assert_eq!(m, quad());
+    let mut be = b"ply\nformat binary_big_endian 1.0\nelement vertex 3\nproperty double x\n\
+property double y\nproperty double z\nelement face 1\nproperty list uchar uint vertex_indices\n\
+end_header\n"
+        .to_vec();
+    for v in [0.0f64, 0., 0., 1., 0., 0., 0., 1., 0.] {
+        be.extend_from_slice(&v.to_be_bytes());
+    }
+    be.push(3);
+    for i in [0u32, 1, 2] {
+        be.extend_from_slice(&i.to_be_bytes());
+    }
+    let m = read_bytes(&be, Some(Format::Ply), &limits()).expect("big-endian ply");
+    assert_eq!(m.faces, vec![[0, 1, 2]]);
+    assert_eq!(m.positions[1], DVec3::X);
+}
+
+#[test]
+fn stl_binary_and_ascii_read_and_weld() {
+    let ascii = b"solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n\
+vertex 1 1 0.5\nendloop\nendfacet\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n\
+vertex 1 1 0.5\nvertex 0 1 0\nendloop\nendfacet\nendsolid t\n";
+    let m = read_bytes(ascii, None, &limits()).expect("ascii stl");
+    assert_eq!(m, quad());
+    let bin = binary_stl(&quad(), b"solid but actually binary");
+    assert_eq!(Format::sniff(&bin), Some(Format::Stl));
+    assert_eq!(
+        read_bytes(&bin, None, &limits()).expect("binary stl"),
+        quad()
+    );
+}
+
+fn binary_stl(m: &TriMesh, header: &[u8]) -> Vec<u8> {
+    let mut b = vec![0u8; 80];
+    b[..header.len()].copy_from_slice(header);
+    b.extend_from_slice(&(m.faces.len() as u32).to_le_bytes());
+    for t in &m.faces {
+        b.extend_from_slice(&[0u8; 12]);
+        for &i in t {
+            for c in m.positions[i as usize].as_vec3().to_array() {
+                b.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+        b.extend_from_slice(&[0, 0]);
+    }
+    b
+}
+
+#[test]
+fn glb_has_a_valid_container_and_bounds() {
+    let bytes = write_bytes(&quad(), Format::Glb).expect("glb");
+    assert_eq!(&bytes[..4], b"glTF");
+    let word = |i: usize| u32::from_le_bytes(bytes[i..i + 4].try_into().expect("4 bytes"));
+    assert_eq!(word(4), 2);
+    assert_eq!(word(8) as usize, bytes.len());
+    let json_len = word(12) as usize;
+    assert_eq!(&bytes[16..20], b"JSON");
+    assert_eq!(json_len % 4, 0);
+    let doc: serde_json::Value =
+        serde_json::from_slice(&bytes[20..20 + json_len]).expect("json chunk");
+    assert_eq!(
+        doc["accessors"][0]["max"],
+        serde_json::json!([1.0, 1.0, 0.5])
+    );
+    assert_eq!(doc["accessors"][2]["count"], 6);
+    let bin_at = 20 + json_len;
+    assert_eq!(&bytes[bin_at + 4..bin_at + 8], b"BIN\0");
+    assert_eq!(word(bin_at) as usize, bytes.len() - bin_at - 8);
+    assert_eq!(doc["buffers"][0]["byteLength"], 4 * 12 * 2 + 2 * 12);
+}
+
+#[test]
+fn write_path_replaces_atomically_by_extension() {
+    let dir = crate::fixtures::scratch_dir("mesh-write-path");
+    for ext in ["obj", "ply", "glb", "json"] {
+        let path = dir.join(format!("q.{ext}"));
+        write_path(&quad(), &path).expect("writes");
+        assert!(path.metadata().expect("exists").len() > 0);
+    }
+    let leftovers = std::fs::read_dir(&dir)
+        .expect("dir")
+        .filter(|e| {
+            e.as_ref()
+                .is_ok_and(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+        })
+        .count();
+    assert_eq!(leftovers, 0);
+    assert!(matches!(
+        write_path(&quad(), &dir.join("q.xyz")),
+        Err(MeshError::Unsupported(_))
+    ));
+}
+
+#[test]
+fn empty_input_is_an_error() {
+    for bytes in [&b""[..], b"  \n\n", b"# only a comment\n"] {
+        assert!(read_bytes(bytes, Some(Format::Obj), &limits()).is_err());
+    }
+    assert!(matches!(
+        read_bytes(b"v 0 0 0\n", Some(Format::Obj), &limits()),
+        Err(MeshError::Invalid(InvalidMesh::Empty))
+    ));
+}
+
+#[test]
+fn nan_coordinates_are_rejected() {
+    let obj = b"v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n";
+    assert!(matches!(
+        read_bytes(obj, None, &limits()),
+        Err(MeshError::Invalid(InvalidMesh::NonFiniteCoordinates {
+            count: 1,
+            first: 1
+        }))
+    ));
+    let json = br#"{"positions": [0,0,0, 1,0,0, 0,1,0], "indices": [0,1,7]}"#;
+    assert!(matches!(
+        read_bytes(json, None, &limits()),
+        Err(MeshError::Invalid(InvalidMesh::IndexOutOfRange {
+            index: 7,
+            ..
+        }))
+    ));
+}
+
+#[test]
+fn out_of_range_indices_are_rejected_in_every_format() {
+    let obj = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n";
+    assert!(read_bytes(obj, None, &limits()).is_err());
+    let mut bad = quad();
+    bad.faces[1][2] = 9;
+    let ply = write_bytes(&bad, Format::Ply).expect("ply encodes any indices");
+    assert!(matches!(
+        read_bytes(&ply, None, &limits()),
+        Err(MeshError::Invalid(InvalidMesh::IndexOutOfRange {
+            index: 9,
+            ..
+        }))
+    ));
+}
+
+#[test]
+fn truncated_binary_ply_and_stl_are_errors() {
+    let ply = write_bytes(&quad(), Format::Ply).expect("ply");
+    for cut in [ply.len() - 1, ply.len() - 13, ply.len() / 2, 40] {
+        assert!(
+            read_bytes(&ply[..cut], Some(Format::Ply), &limits()).is_err(),
+            "cut {cut}"
+        );
+    }
+    let stl = binary_stl(&quad(), b"x");
+    for cut in [stl.len() - 1, 90, 84, 50, 0] {
+        let r = read_bytes(&stl[..cut], Some(Format::Stl), &limits());
+        assert!(
+            matches!(r, Err(MeshError::Decode { .. })),
+            "cut {cut}: {r:?}"
+        );
+    }
+}
+
+#[test]
+fn huge_claimed_counts_fail_before_allocating() {
+    let ply = b"ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\n\
+property float x\nproperty float y\nproperty float z\nend_header\n\0\0\0\0";
+    assert!(matches!(
+        read_bytes(ply, None, &limits()),
+        Err(MeshError::Limit {
+            what: "vertices",
+            ..
+        })
+    ));
+    let generous = MeshLimits {
+        max_vertices: usize::MAX,
+        max_faces: usize::MAX,
+        max_bytes: u64::MAX,
+    };
+    assert!(matches!(
+        read_bytes(ply, None, &generous),
+        Err(MeshError::Decode { .. })
+    ));
+    // A binary list that claims 4 billion entries.
+    let mut list = b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n\
+property float y\nproperty float z\nelement face 1\nproperty list uint uint vertex_indices\n\
+end_header\n"
+        .to_vec();
+    list.extend_from_slice(&[0u8; 36]);
+    list.extend_from_slice(&u32::MAX.to_le_bytes());
+    list.extend_from_slice(&[0u8; 12]);
+    assert!(read_bytes(&list, None, &generous).is_err());
+    let mut stl = vec![0u8; 80];
+    stl.extend_from_slice(&u32::MAX.to_le_bytes());
+    assert!(matches!(
+        read_bytes(&stl, Some(Format::Stl), &limits()),
+        Err(MeshError::Limit { what: "faces", .. })
+    ));
+    let small = MeshLimits {
+        max_bytes: 10,
+        ..MeshLimits::default()
+    };
+    assert!(matches!(
+        read_bytes(&stl, None, &small),
+        Err(MeshError::Limit { what: "bytes", .. })
+    ));
+}
+
+#[test]
+fn garbage_is_unsupported_or_malformed_never_a_panic() {
+    let mut seed = 0x9E37_79B9_7F4A_7C15u64;
+    let base = write_bytes(&quad(), Format::Ply).expect("ply");
+    for _ in 0..300 {
+        let mut b = base.clone();
+        for _ in 0..4 {
+            seed = seed
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            let at = (seed >> 33) as usize % b.len();
+            b[at] = (seed >> 17) as u8;
+        }
+        let _ = read_bytes(&b, None, &limits());
+    }
+    assert!(matches!(
+        read_bytes(b"\x00\x01binary junk", None, &limits()),
+        Err(MeshError::Unsupported(_))
+    ));
+}
+
+#[test]
+fn polygons_are_fanned_into_triangles() {
+    let obj = b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv -1 0.5 0\nf 1 2 3 4 5\n";
+    let m = read_bytes(obj, None, &limits()).expect("pentagon");
+    assert_eq!(m.faces.len(), 3);
+}
+
+#[test]
+fn obj_groups_share_their_vertices_again() {
+    let obj = b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\ng a\nf 1 2 3\ng b\nf 1 3 4\n";
+    let m = read_bytes(obj, None, &limits()).expect("two groups");
+    assert_eq!(m.vertex_count(), 4);
+    assert_eq!(m.edge_count(), 5);
+}

@@ -1,0 +1,339 @@
+//! The contraction loop: passes over the ranked pairs, the link condition, the normal test,
+//! and the contraction itself.
+
+use glam::DVec3;
+
+use super::ranked::{merge, radix_sort};
+use super::state::{State, AGGREGATED, ALIVE, BOUNDARY, DEAD};
+use super::Stop;
+
+/// A pass stops at this multiple of the error of the pair that would meet the goal if no pair
+/// were locked (meshoptimizer's rule: later pairs are worth re-ranking first).
+const PASS_ERROR_SLACK: f32 = 1.5;
+
+impl State {
+    /// Passes until the face target or the squared error limit stops them: rank all pairs
+    /// once; in each pass contract pairs in error order, skipping pairs whose vertices changed
+    /// (in this pass or before: their stamps no longer match), so every error used is exact;
+    /// then re-rank the moved vertices' pairs and merge them in.
+    pub(super) fn run(&mut self, target_faces: usize, limit_sq: f64) -> Stop {
+        let (mut ranked, mut fresh, mut scratch) = (Vec::new(), Vec::new(), Vec::new());
+        let mut moved = Vec::new();
+        let mut touched = vec![0u32; self.geo.len()];
+        let limit = limit_sq as f32;
+        // Entries in `ranked` whose vertices changed since (an upper estimate).
+        let mut stale = 0usize;
+        self.collect(&mut ranked);
+        radix_sort(&mut ranked, &mut scratch);
+        for pass in 1u32.. {
+            if self.live_faces <= target_faces {
+                return Stop::TargetReached;
+            }
+            self.report.passes += 1;
+            let goal = (self.live_faces - target_faces).div_ceil(2);
+            let cap = ranked
+                .get(goal + stale)
+                .map_or(f32::INFINITY, |e| PASS_ERROR_SLACK * e.error());
+            let (mut done, mut over_limit) = (0usize, false);
+            moved.clear();
+            for e in &ranked {
+                if self.live_faces <= target_faces {
+                    return Stop::TargetReached;
+                }
+                if e.error() > cap && done > goal / 6 {
+                    break;
+                }
+                let (a, b) = (e.a, e.b);
+                if self.stamps(a, b) != e.stamp || self.flags[b as usize] & ALIVE == 0 {
+                    continue;
+                }
+                if e.error() > limit {
+                    over_limit = true;
+                    break;
+                }
+                let Ok(removed) = self.link_condition(a, b) else {
+                    self.report.rejected_topology += 1;
+                    continue;
+                };
+                let err = f64::from(e.error());
+                let Some(p) = self.placement(a, b, self.target(a, b), err) else {
+                    self.report.rejected_flip += 1;
+                    continue;
+                };
+                stale += (self.count[a as usize] + self.count[b as usize]) as usize;
+                self.contract(a, b, p, removed);
+                self.report.max_error = self.report.max_error.max(err.sqrt());
+                touched[a as usize] = pass;
+                touched[b as usize] = pass;
+                moved.push(a);
+                done += 1;
+            }
+            if done == 0 {
+                return if over_limit {
+                    Stop::ErrorLimit
+                } else {
+                    Stop::NoValidCollapse
+                };
+            }
+            // Re-rank the moved vertices' pairs (once per pair) and merge them in; purge stale
+            // entries once they could make up a third of the list.
+            fresh.clear();
+            for &a in &moved {
+                self.collect_vertex(a, |u| touched[u as usize] != pass || u > a, &mut fresh);
+            }
+            radix_sort(&mut fresh, &mut scratch);
+            if 3 * stale > ranked.len() {
+                let (stamp, flags) = (&self.stamp, &self.flags);
+                merge(&ranked, &fresh, &mut scratch, |e| {
+                    flags[e.a as usize] & flags[e.b as usize] & ALIVE != 0
+                        && stamp[e.a as usize].wrapping_add(stamp[e.b as usize]) == e.stamp
+                });
+                stale = 0;
+            } else {
+                merge(&ranked, &fresh, &mut scratch, |_| true);
+            }
+            std::mem::swap(&mut ranked, &mut scratch);
+            self.maybe_compact();
+        }
+        Stop::NoValidCollapse
+    }
+
+    /// The link condition for contracting (a, b): the only common neighbours of a and b are
+    /// the far corners of the faces on the edge, an interior edge does not join two boundary
+    /// vertices, and no tetrahedron-like cap folds shut. Returns how many faces the
+    /// contraction removes (0 for a non-edge pair).
+    fn link_condition(&mut self, a: u32, b: u32) -> Result<usize, ()> {
+        // Faces on the edge, their far corners, and a's neighbours.
+        let g = self.next_generation();
+        let mut on_edge = 0usize;
+        let mut far = [DEAD; 2];
+        let (sa, ca) = (
+            self.start[a as usize] as usize,
+            self.count[a as usize] as usize,
+        );
+        let (sb, cb) = (
+            self.start[b as usize] as usize,
+            self.count[b as usize] as usize,
+        );
+        for &f in &self.refs[sa..sa + ca] {
+            let t = self.faces[f as usize];
+            if t[0] == DEAD {
+                continue;
+            }
+            if t.contains(&b) {
+                if on_edge < 2 {
+                    far[on_edge] = t[0] ^ t[1] ^ t[2] ^ a ^ b;
+                }
+                on_edge += 1;
+            }
+            for u in t {
+                self.mark[u as usize] = g;
+            }
+        }
+        // Common neighbours of a and b (a and b themselves excluded).
+        self.mark[a as usize] = 0;
+        self.mark[b as usize] = 0;
+        let mut common = 0usize;
+        let mut b_caps = false;
+        for &f in &self.refs[sb..sb + cb] {
+            let t = self.faces[f as usize];
+            if t[0] == DEAD {
+                continue;
+            }
+            b_caps |= on_edge == 2 && !t.contains(&a) && t.contains(&far[0]) && t.contains(&far[1]);
+            for u in t {
+                let m = &mut self.mark[u as usize];
+                if *m == g {
+                    *m = g + 1;
+                    common += 1;
+                }
+            }
+        }
+        if (self.flags[a as usize] | self.flags[b as usize]) & AGGREGATED != 0 {
+            // Already non-manifold here: any pair may contract (paper §3).
+            return Ok(on_edge);
+        }
+        if on_edge == 0 {
+            // Aggregation: only parts that do not touch near the pair merge.
+            return if common == 0 { Ok(0) } else { Err(()) };
+        }
+        let both_boundary = self.flags[a as usize] & self.flags[b as usize] & BOUNDARY != 0;
+        if on_edge > 2 || common != on_edge || (on_edge == 2 && both_boundary) {
+            return Err(());
+        }
+        // Faces a-c-d and b-c-d both present would become one face twice.
+        if on_edge == 2 && (far[0] == far[1] || (b_caps && self.has_face_with(a, b, far))) {
+            return Err(());
+        }
+        Ok(on_edge)
+    }
+
+    /// Whether `v` has a live face without `other` that holds both far corners.
+    fn has_face_with(&self, v: u32, other: u32, far: [u32; 2]) -> bool {
+        self.ring(v).iter().any(|&f| {
+            let t = self.faces[f as usize];
+            t[0] != DEAD && !t.contains(&other) && t.contains(&far[0]) && t.contains(&far[1])
+        })
+    }
+
+    /// Where to put the contracted vertex: `p` unless that turns a surviving face too far, else
+    /// whichever endpoint is as good (in flat regions the regularised optimum is the midpoint,
+    /// which can fold a thin fan where an endpoint does not); `None` when every choice folds.
+    fn placement(&self, a: u32, b: u32, p: DVec3, err: f64) -> Option<DVec3> {
+        let fits = |p: DVec3| !self.turns_too_far(a, b, p) && !self.turns_too_far(b, a, p);
+        if fits(p) {
+            return Some(p);
+        }
+        let q = self.geo[a as usize].q + self.geo[b as usize].q;
+        let tolerance = err * 1.001 + self.tiny_sq;
+        [self.geo[a as usize].pos, self.geo[b as usize].pos]
+            .into_iter()
+            .find(|&e| q.mean_error(e) <= tolerance && fits(e))
+    }
+
+    /// Whether moving `v` to `p` turns a face of `v` that survives (has no `other`) by more
+    /// than the allowed angle, collapses it to no area, or leaves it facing away from its
+    /// input orientation (small turns add up).
+    fn turns_too_far(&self, v: u32, other: u32, p: DVec3) -> bool {
+        const NEXT: [usize; 3] = [1, 2, 0];
+        let pv = self.geo[v as usize].pos;
+        let cos2 = self.cos_turn * self.cos_turn;
+        for &f in self.ring(v) {
+            let t = self.faces[f as usize];
+            if t[0] == DEAD {
+                continue;
+            }
+            // Rotate so v is first: the normal is (b − v) × (c − v) before and after.
+            let i = if t[0] == v {
+                0
+            } else if t[1] == v {
+                1
+            } else {
+                2
+            };
+            let (b, c) = (t[NEXT[i]], t[NEXT[NEXT[i]]]);
+            if b == other || c == other {
+                continue;
+            }
+            let (pb, pc) = (self.geo[b as usize].pos, self.geo[c as usize].pos);
+            let before = (pb - pv).cross(pc - pv);
+            let after = (pb - p).cross(pc - p);
+            let (lb, la) = (before.length_squared(), after.length_squared());
+            if lb == 0.0 {
+                // A face that had no area cannot flip.
+                continue;
+            }
+            // cos(turn) ≤ cos_turn, compared squared to stay clear of square roots.
+            let d = before.dot(after);
+            let bound = cos2 * lb * la;
+            let too_far = if self.cos_turn >= 0.0 {
+                d <= 0.0 || d * d <= bound
+            } else {
+                d < 0.0 && d * d >= bound
+            };
+            // Nor may it end up facing away from what it was in the input.
+            if too_far || la == 0.0 || after.dot(self.normal_in[f as usize].as_dvec3()) <= 0.0 {
+                return true;
+            }
+        }
+        false
+    }
+
+    /// Contracts b into a at p: faces on the edge die, b's other faces take a, and a's face
+    /// slice is rewritten at the end of the reference array.
+    fn contract(&mut self, a: u32, b: u32, p: DVec3, removed: usize) {
+        let (ai, bi) = (a as usize, b as usize);
+        self.geo[ai].pos = p;
+        let qb = self.geo[bi].q;
+        self.geo[ai].q += qb;
+        self.flags[ai] |= self.flags[bi] & (BOUNDARY | AGGREGATED);
+        if removed == 0 {
+            self.flags[ai] |= AGGREGATED;
+            self.report.aggregations += 1;
+        } else {
+            self.report.collapses += 1;
+        }
+        self.flags[bi] &= !ALIVE;
+        self.stamp[ai] = self.stamp[ai].wrapping_add(1);
+        self.stamp[bi] = self.stamp[bi].wrapping_add(1);
+        // a's new slice: its live faces without b, then b's live faces renamed.
+        let new_start = self.refs.len();
+        for i in 0..self.count[ai] as usize {
+            let f = self.refs[self.start[ai] as usize + i];
+            let t = &mut self.faces[f as usize];
+            if t[0] == DEAD {
+                continue;
+            }
+            if t.contains(&b) {
+                *t = [DEAD; 3];
+                self.live_faces -= 1;
+            } else {
+                self.refs.push(f);
+            }
+        }
+        for i in 0..self.count[bi] as usize {
+            let f = self.refs[self.start[bi] as usize + i];
+            let t = &mut self.faces[f as usize];
+            if t[0] == DEAD {
+                continue;
+            }
+            for c in t.iter_mut() {
+                if *c == b {
+                    *c = a;
+                }
+            }
+            self.refs.push(f);
+        }
+        if self.flags[ai] & AGGREGATED != 0 {
+            self.drop_duplicates(new_start);
+        }
+        self.start[ai] = new_start as u32;
+        self.count[ai] = (self.refs.len() - new_start) as u32;
+        self.count[bi] = 0;
+        if !self.partners.is_empty() {
+            self.merge_partners(a, b);
+        }
+    }
+
+    /// Kills faces of the slice `refs[from..]` that repeat an earlier face's vertex set (the
+    /// coincident faces of two merged parts) and removes them from the slice.
+    fn drop_duplicates(&mut self, from: usize) {
+        let key = |t: [u32; 3]| {
+            let mut k = t;
+            k.sort_unstable();
+            k
+        };
+        let mut keep = from;
+        for i in from..self.refs.len() {
+            let f = self.refs[i];
+            let k = key(self.faces[f as usize]);
+            let repeated = self.refs[from..keep]
+                .iter()
+                .any(|&g| key(self.faces[g as usize]) == k);
+            if repeated {
+                self.faces[f as usize] = [DEAD; 3];
+                self.live_faces -= 1;
+            } else {
+                self.refs[keep] = f;
+                keep += 1;
+            }
+        }
+        self.refs.truncate(keep);
+    }
+
+    /// a inherits b's non-edge partners (they are re-ranked with a's other pairs).
+    fn merge_partners(&mut self, a: u32, b: u32) {
+        let inherited = std::mem::take(&mut self.partners[b as usize]);
+        for &x in &inherited {
+            if x != a && !self.partners[x as usize].contains(&a) {
+                self.partners[x as usize].push(a);
+            }
+        }
+        let mut mine = std::mem::take(&mut self.partners[a as usize]);
+        mine.extend(inherited);
+        mine.retain(|&x| x != a && x != b && self.flags[x as usize] & ALIVE != 0);
+        mine.sort_unstable();
+        mine.dedup();
+        self.partners[a as usize] = mine;
+    }
+}

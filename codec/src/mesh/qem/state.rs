@@ -1,0 +1,556 @@
+//! The mutable state of one QEM run and its setup: vertices renumbered along a Morton curve,
+//! quadrics from face planes, per-vertex face slices, boundary and crease penalty planes,
+//! aggregation partners, ranking, and the renumbered output.
+
+use std::collections::HashMap;
+
+use glam::{DVec3, Vec3};
+
+use super::quadric::Quadric;
+use super::ranked::Entry;
+use super::{plane, QemOptions, QemReport, Stop};
+use crate::mesh::error::MeshError;
+use crate::mesh::indexed::{Aabb, TriMesh};
+use crate::mesh::topology::VertexFaces;
+
+/// Marks a dead face (its first index) and "no vertex".
+pub(super) const DEAD: u32 = u32::MAX;
+pub(super) const ALIVE: u8 = 1;
+pub(super) const BOUNDARY: u8 = 2;
+/// On a non-manifold edge: never moved.
+pub(super) const LOCKED: u8 = 4;
+/// Took part in an aggregation: its neighbourhood may be non-manifold, so the link condition
+/// no longer applies (paper §3.1); duplicate faces are removed instead.
+pub(super) const AGGREGATED: u8 = 8;
+/// Faces are addressed with u32 and each has three references: stay well inside.
+const MAX_FACES: usize = 1 << 30;
+/// Non-edge partners kept per vertex when aggregating (the nearest ones).
+const MAX_PARTNERS: usize = 8;
+/// Vertex count from which the working order follows a Morton curve.
+const SPATIAL_ORDER_MIN_VERTICES: usize = 1 << 16;
+/// Among equal errors (flat regions have none) shorter edges rank first: the ranking key is
+/// error + `TIE_BREAK` · length², far below any error that matters.
+const TIE_BREAK: f64 = 1e-8;
+
+/// A vertex's position and quadric in two cache lines.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(align(64))]
+pub(super) struct Geo {
+    pub q: Quadric,
+    pub pos: DVec3,
+}
+
+pub(super) struct State {
+    /// Working id of each input vertex (working ids follow a Morton curve).
+    new_of: Vec<u32>,
+    /// Position and quadric of each vertex, together: every evaluation reads both.
+    pub(super) geo: Vec<Geo>,
+    /// Version counters: bumped whenever a vertex moves or dies.
+    pub(super) stamp: Vec<u32>,
+    pub(super) flags: Vec<u8>,
+    pub(super) faces: Vec<[u32; 3]>,
+    /// Each face's unit normal in the input (zero for no area): no contraction may turn a
+    /// face to face away from it, however small each step.
+    pub(super) normal_in: Vec<Vec3>,
+    /// Faces of v: `refs[start[v]..start[v] + count[v]]` (dead faces are skipped on reading).
+    pub(super) start: Vec<u32>,
+    pub(super) count: Vec<u32>,
+    pub(super) refs: Vec<u32>,
+    /// Length of `refs` after the last compaction.
+    refs_compact: usize,
+    /// Every manifold edge once, smaller vertex first: the first ranking's input.
+    edges: Vec<[u32; 2]>,
+    /// Scratch marks for neighbour sets, valid where equal to the current generation.
+    pub(super) mark: Vec<u32>,
+    generation: u32,
+    pub(super) live_faces: usize,
+    /// Non-edge partners per vertex (empty unless aggregating).
+    pub(super) partners: Vec<Vec<u32>>,
+    /// cos of the largest normal turn allowed.
+    pub(super) cos_turn: f64,
+    /// A squared distance far below anything measurable (1e-9 of the diagonal, squared).
+    pub(super) tiny_sq: f64,
+    pub(super) report: QemReport,
+}
+
+impl State {
+    pub(super) fn new(
+        mesh: &TriMesh,
+        options: &QemOptions,
+        diagonal: f64,
+    ) -> Result<Self, MeshError> {
+        let n = mesh.positions.len();
+        if mesh.faces.len() > MAX_FACES || n > MAX_FACES {
+            return Err(MeshError::Limit {
+                what: "faces for simplification",
+                got: mesh.faces.len().max(n) as u64,
+                limit: MAX_FACES as u64,
+            });
+        }
+        // Large meshes get their vertices in Morton order: neighbours end up close in memory,
+        // which is much of the speed of the contraction loop once the data outgrows the caches
+        // (small meshes run a little faster without the sort).
+        let order: Vec<u32> = if n > SPATIAL_ORDER_MIN_VERTICES {
+            spatial_order(&mesh.positions)
+        } else {
+            (0..n as u32).collect()
+        };
+        let mut new_of = vec![0u32; n];
+        for (new, &old) in order.iter().enumerate() {
+            new_of[old as usize] = new as u32;
+        }
+        let pos: Vec<DVec3> = order
+            .iter()
+            .map(|&old| mesh.positions[old as usize])
+            .collect();
+        // Faces that repeat a vertex carry no plane and would confuse the link condition.
+        let mut faces: Vec<[u32; 3]> = mesh
+            .faces
+            .iter()
+            .filter(|t| t[0] != t[1] && t[1] != t[2] && t[2] != t[0])
+            .map(|t| t.map(|i| new_of[i as usize]))
+            .collect();
+        if n > SPATIAL_ORDER_MIN_VERTICES {
+            // Faces follow their first vertex on the curve too (a counting sort).
+            faces = sort_by_first_vertex(&faces, n);
+        }
+        // Fundamental quadrics K_p, area-weighted, summed into each corner (paper §5).
+        let mut geo: Vec<Geo> = pos
+            .iter()
+            .map(|&pos| Geo {
+                q: Quadric::default(),
+                pos,
+            })
+            .collect();
+        let mut normal_in = Vec::with_capacity(faces.len());
+        for t in &faces {
+            let [a, b, c] = t.map(|i| pos[i as usize]);
+            normal_in.push((b - a).cross(c - a).normalize_or_zero().as_vec3());
+            if let Some((normal, d, area)) = plane(a, b, c) {
+                let k = Quadric::from_plane(normal, d, area);
+                for &i in t {
+                    geo[i as usize].q += k;
+                }
+            }
+        }
+        // Faces around each vertex, copied into the growable reference layout.
+        let vf = VertexFaces::new(&faces, n);
+        let (offsets, list) = vf.raw();
+        let start = offsets[..n].iter().map(|&o| o as u32).collect();
+        let count = offsets.windows(2).map(|w| (w[1] - w[0]) as u32).collect();
+        let mut refs = Vec::with_capacity(3 * list.len() + 4096);
+        refs.extend_from_slice(list);
+        let flags = offsets
+            .windows(2)
+            .map(|w| if w[1] > w[0] { ALIVE } else { 0 })
+            .collect();
+        let report = QemReport {
+            vertices_in: n,
+            faces_in: mesh.faces.len(),
+            vertices_out: 0,
+            faces_out: 0,
+            collapses: 0,
+            aggregations: 0,
+            rejected_topology: 0,
+            rejected_flip: 0,
+            passes: 0,
+            max_error: 0.0,
+            stop: Stop::TargetReached,
+        };
+        Ok(Self {
+            new_of,
+            geo,
+            stamp: vec![0; n],
+            flags,
+            live_faces: faces.len(),
+            faces,
+            normal_in,
+            start,
+            count,
+            refs_compact: refs.len().max(4096),
+            edges: Vec::with_capacity(refs.len() / 2 + 16),
+            refs,
+            mark: vec![0; n],
+            generation: 0,
+            partners: Vec::new(),
+            cos_turn: options.max_normal_turn_deg.to_radians().cos(),
+            tiny_sq: (1e-9 * diagonal).powi(2),
+            report,
+        })
+    }
+
+    pub(super) fn ring(&self, v: u32) -> &[u32] {
+        let s = self.start[v as usize] as usize;
+        &self.refs[s..s + self.count[v as usize] as usize]
+    }
+
+    /// A fresh mark value (and the one after it, which callers may use as a second mark).
+    pub(super) fn next_generation(&mut self) -> u32 {
+        if self.generation >= u32::MAX - 2 {
+            self.mark.fill(0);
+            self.generation = 0;
+        }
+        self.generation += 2;
+        self.generation
+    }
+
+    /// Counts, for each vertex, how many of its faces hold each neighbour: one face is a
+    /// boundary edge, three or more a non-manifold one (both ends locked). Boundary edges get
+    /// a penalty plane through the edge perpendicular to its face (paper §6); creases (two
+    /// faces meeting at more than the crease angle) get one per face, and the two meet in the
+    /// crease line, which pins the crease and its corners the way a boundary plane pins a
+    /// boundary. Penalties are weighted by squared edge length, to scale like face areas.
+    pub(super) fn classify_edges(&mut self, options: &QemOptions) {
+        let crease_cos = options.crease_angle_deg.to_radians().cos();
+        let n = self.geo.len();
+        // Per neighbour u of v: how many faces hold edge (v, u), and the first two of them.
+        let mut slot = vec![0u32; n];
+        let mut seen: Vec<(u32, u32, [u32; 2])> = Vec::new();
+        for v in 0..n as u32 {
+            let g = self.next_generation();
+            seen.clear();
+            let (s, c) = (
+                self.start[v as usize] as usize,
+                self.count[v as usize] as usize,
+            );
+            for &f in &self.refs[s..s + c] {
+                for u in self.faces[f as usize] {
+                    if u == v {
+                        continue;
+                    }
+                    if self.mark[u as usize] == g {
+                        let e = &mut seen[slot[u as usize] as usize];
+                        if e.1 < 2 {
+                            e.2[e.1 as usize] = f;
+                        }
+                        e.1 += 1;
+                    } else {
+                        self.mark[u as usize] = g;
+                        slot[u as usize] = seen.len() as u32;
+                        seen.push((u, 1, [f, DEAD]));
+                    }
+                }
+            }
+            for &(u, times, fs) in &seen {
+                if v < u && times <= 2 {
+                    self.edges.push([v, u]);
+                }
+                match times {
+                    1 => {
+                        self.flags[v as usize] |= BOUNDARY;
+                        if v < u && options.boundary_weight > 0.0 {
+                            self.add_edge_planes(v, u, &fs[..1], options.boundary_weight);
+                        }
+                    }
+                    2 => {
+                        if v > u || options.crease_weight <= 0.0 {
+                            continue;
+                        }
+                        // Unit normals (zero where a face has no area): sharp means the
+                        // faces turn by more than the crease angle.
+                        let (n0, n1) = (
+                            self.normal_in[fs[0] as usize],
+                            self.normal_in[fs[1] as usize],
+                        );
+                        let sharp = n0 != Vec3::ZERO
+                            && n1 != Vec3::ZERO
+                            && f64::from(n0.dot(n1)) < crease_cos;
+                        if sharp {
+                            self.add_edge_planes(v, u, &fs, options.crease_weight);
+                        }
+                    }
+                    _ => {
+                        self.flags[v as usize] |= LOCKED;
+                        self.flags[u as usize] |= LOCKED;
+                    }
+                }
+            }
+        }
+    }
+
+    /// Penalty planes through edge (v, u), one perpendicular to each face in `faces`.
+    fn add_edge_planes(&mut self, v: u32, u: u32, faces: &[u32], weight: f64) {
+        let (p, q) = (self.geo[v as usize].pos, self.geo[u as usize].pos);
+        let edge = q - p;
+        for &f in faces {
+            let Some(normal) = self.normal_in[f as usize].as_dvec3().try_normalize() else {
+                continue;
+            };
+            if let Some(side) = edge.cross(normal).try_normalize() {
+                let plane = Quadric::penalty(side, -side.dot(p), weight * edge.length_squared());
+                self.geo[v as usize].q += plane;
+                self.geo[u as usize].q += plane;
+            }
+        }
+    }
+
+    /// The contraction target and its error (mean squared distance) for the pair (a, b).
+    #[inline]
+    pub(super) fn evaluate(&self, a: u32, b: u32) -> (f64, DVec3) {
+        let q = self.geo[a as usize].q + self.geo[b as usize].q;
+        let (p, e) = q.minimize(self.geo[a as usize].pos, self.geo[b as usize].pos);
+        let e = if q.w > 0.0 { e / q.w } else { e };
+        // Only overflowing coordinates give NaN; rank those last.
+        (if e.is_nan() { f64::INFINITY } else { e }, p)
+    }
+
+    /// The contraction target alone (the error is already in the ranked entry).
+    #[inline]
+    pub(super) fn target(&self, a: u32, b: u32) -> DVec3 {
+        let q = self.geo[a as usize].q + self.geo[b as usize].q;
+        q.optimize(self.geo[a as usize].pos, self.geo[b as usize].pos)
+    }
+
+    /// The pair (a, b) ranked now, unless a vertex is locked.
+    fn entry(&self, a: u32, b: u32) -> Option<Entry> {
+        if (self.flags[a as usize] | self.flags[b as usize]) & LOCKED != 0 {
+            return None;
+        }
+        let len_sq = (self.geo[a as usize].pos - self.geo[b as usize].pos).length_squared();
+        let key = self.evaluate(a, b).0 + TIE_BREAK * len_sq;
+        Some(Entry {
+            // f32 is plenty to order errors; non-negative floats order like their bits.
+            key: (key as f32).to_bits(),
+            a,
+            b,
+            stamp: self.stamps(a, b),
+        })
+    }
+
+    /// Both version counters in one number: they only grow, so the sum changes with either.
+    pub(super) fn stamps(&self, a: u32, b: u32) -> u32 {
+        self.stamp[a as usize].wrapping_add(self.stamp[b as usize])
+    }
+
+    /// The pairs of `v` (edges and non-edge partners) with the neighbours `take` accepts,
+    /// ranked now.
+    pub(super) fn collect_vertex(
+        &mut self,
+        v: u32,
+        take: impl Fn(u32) -> bool,
+        out: &mut Vec<Entry>,
+    ) {
+        if self.flags[v as usize] & ALIVE == 0 {
+            return;
+        }
+        let g = self.next_generation();
+        self.mark[v as usize] = g;
+        let (s, c) = (
+            self.start[v as usize] as usize,
+            self.count[v as usize] as usize,
+        );
+        for i in s..s + c {
+            let t = self.faces[self.refs[i] as usize];
+            if t[0] == DEAD {
+                continue;
+            }
+            for u in t {
+                if self.mark[u as usize] != g {
+                    self.mark[u as usize] = g;
+                    if take(u) {
+                        out.extend(self.entry(v, u));
+                    }
+                }
+            }
+        }
+        if let Some(ps) = self.partners.get(v as usize) {
+            for &u in ps {
+                if self.flags[u as usize] & ALIVE != 0 && self.mark[u as usize] != g && take(u) {
+                    self.mark[u as usize] = g;
+                    out.extend(self.entry(v, u));
+                }
+            }
+        }
+    }
+
+    /// Every edge once (as [`Self::classify_edges`] listed them) and every non-edge partner
+    /// pair, ranked.
+    pub(super) fn collect(&mut self, out: &mut Vec<Entry>) {
+        out.clear();
+        let edges = std::mem::take(&mut self.edges);
+        out.reserve(edges.len());
+        out.extend(edges.iter().filter_map(|&[a, b]| self.entry(a, b)));
+        for v in 0..self.partners.len() {
+            for i in 0..self.partners[v].len() {
+                let u = self.partners[v][i];
+                if u > v as u32 {
+                    out.extend(self.entry(v as u32, u));
+                }
+            }
+        }
+    }
+
+    /// Pairs of vertices closer than `t` that share no face (paper §3.1 aggregation), found
+    /// through a uniform grid of cell size `t`; each vertex keeps its nearest few.
+    pub(super) fn add_virtual_pairs(&mut self, t: f64) {
+        if !(t > 0.0 && t.is_finite()) {
+            return;
+        }
+        let cell = |p: DVec3| (p / t).floor().as_i64vec3().to_array();
+        let free = |flags: u8| flags & (ALIVE | LOCKED) == ALIVE;
+        let mut grid: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
+        for v in 0..self.geo.len() as u32 {
+            if free(self.flags[v as usize]) {
+                grid.entry(cell(self.geo[v as usize].pos))
+                    .or_default()
+                    .push(v);
+            }
+        }
+        self.partners = vec![Vec::new(); self.geo.len()];
+        let mut near = Vec::new();
+        for v in 0..self.geo.len() as u32 {
+            if !free(self.flags[v as usize]) {
+                continue;
+            }
+            // v's neighbours are marked: they are edges already.
+            let g = self.next_generation();
+            for i in 0..self.count[v as usize] as usize {
+                let t = self.faces[self.refs[self.start[v as usize] as usize + i] as usize];
+                for u in t {
+                    self.mark[u as usize] = g;
+                }
+            }
+            let p = self.geo[v as usize].pos;
+            let [x, y, z] = cell(p);
+            near.clear();
+            for dx in -1..=1 {
+                for dy in -1..=1 {
+                    for dz in -1..=1 {
+                        let Some(bucket) = grid.get(&[x + dx, y + dy, z + dz]) else {
+                            continue;
+                        };
+                        for &u in bucket {
+                            let d = (self.geo[u as usize].pos - p).length_squared();
+                            if u > v && self.mark[u as usize] != g && d < t * t {
+                                near.push((d, u));
+                            }
+                        }
+                    }
+                }
+            }
+            near.sort_by(|a, b| a.0.total_cmp(&b.0));
+            for &(_, u) in near.iter().take(MAX_PARTNERS) {
+                self.partners[v as usize].push(u);
+                self.partners[u as usize].push(v);
+            }
+        }
+    }
+
+    /// Rewrites the reference array once dead slices make up half of it, keeping memory and
+    /// cache footprint proportional to the live mesh.
+    pub(super) fn maybe_compact(&mut self) {
+        if self.refs.len() <= 2 * self.refs_compact {
+            return;
+        }
+        let mut refs = Vec::with_capacity(9 * self.live_faces + 4096);
+        for v in 0..self.geo.len() {
+            let (s, c) = (self.start[v] as usize, self.count[v] as usize);
+            let new_start = refs.len();
+            refs.extend(
+                self.refs[s..s + c]
+                    .iter()
+                    .filter(|&&f| self.faces[f as usize][0] != DEAD),
+            );
+            self.start[v] = new_start as u32;
+            self.count[v] = (refs.len() - new_start) as u32;
+        }
+        self.refs = refs;
+        self.refs_compact = self.refs.len().max(4096);
+    }
+
+    /// The surviving faces over the surviving vertices, renumbered in input order.
+    pub(super) fn finish(mut self) -> (TriMesh, QemReport) {
+        let mut remap = vec![DEAD; self.geo.len()];
+        for t in &self.faces {
+            if t[0] != DEAD {
+                for &i in t {
+                    remap[i as usize] = 0;
+                }
+            }
+        }
+        let mut positions = Vec::new();
+        for &v in &self.new_of {
+            let r = &mut remap[v as usize];
+            if *r == 0 {
+                *r = positions.len() as u32;
+                positions.push(self.geo[v as usize].pos);
+            }
+        }
+        let faces: Vec<[u32; 3]> = self
+            .faces
+            .iter()
+            .filter(|t| t[0] != DEAD)
+            .map(|t| t.map(|i| remap[i as usize]))
+            .collect();
+        self.report.vertices_out = positions.len();
+        self.report.faces_out = faces.len();
+        (TriMesh::new(positions, faces), self.report)
+    }
+}
+
+/// Vertex ids sorted along a Morton (Z-order) curve of their positions, 10 bits an axis (ties
+/// keep input order).
+fn spatial_order(positions: &[DVec3]) -> Vec<u32> {
+    let bounds = Aabb::from_points(positions);
+    let extent = (bounds.max - bounds.min).max_element();
+    let scale = if extent > 0.0 && extent.is_finite() {
+        1023.0 / extent
+    } else {
+        0.0
+    };
+    let spread = |x: u64| {
+        // Two zero bits between each of the 10 low bits of x.
+        let mut x = x & 0x3ff;
+        x = (x | x << 16) & 0x0300_00ff;
+        x = (x | x << 8) & 0x0300_f00f;
+        x = (x | x << 4) & 0x030c_30c3;
+        (x | x << 2) & 0x0924_9249
+    };
+    let keys: Vec<u32> = positions
+        .iter()
+        .map(|p| {
+            let q = ((*p - bounds.min) * scale).max(DVec3::ZERO);
+            let [x, y, z] = q.to_array().map(|c| c as u64);
+            (spread(x) | spread(y) << 1 | spread(z) << 2) as u32
+        })
+        .collect();
+    // LSD radix sort of the ids by 30-bit key, 10 bits a pass (stable: ties keep input order).
+    let mut order: Vec<u32> = (0..positions.len() as u32).collect();
+    let mut scratch = vec![0u32; order.len()];
+    let mut counts = vec![0usize; 1025];
+    for shift in [0, 10, 20] {
+        counts.fill(0);
+        for &i in &order {
+            counts[(keys[i as usize] >> shift) as usize % 1024 + 1] += 1;
+        }
+        for d in 0..1024 {
+            counts[d + 1] += counts[d];
+        }
+        for &i in &order {
+            let d = (keys[i as usize] >> shift) as usize % 1024;
+            scratch[counts[d]] = i;
+            counts[d] += 1;
+        }
+        std::mem::swap(&mut order, &mut scratch);
+    }
+    order
+}
+
+/// Faces stably sorted by their smallest vertex id, by counting.
+fn sort_by_first_vertex(faces: &[[u32; 3]], vertex_count: usize) -> Vec<[u32; 3]> {
+    let first = |t: &[u32; 3]| t[0].min(t[1]).min(t[2]) as usize;
+    let mut at = vec![0usize; vertex_count + 1];
+    for t in faces {
+        at[first(t) + 1] += 1;
+    }
+    for v in 0..vertex_count {
+        at[v + 1] += at[v];
+    }
+    let mut out = vec![[0u32; 3]; faces.len()];
+    for t in faces {
+        let slot = &mut at[first(t)];
+        out[*slot] = *t;
+        *slot += 1;
+    }
+    out
+}

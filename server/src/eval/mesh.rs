@@ -1,0 +1,214 @@
+//! `zerotile eval mesh`: simplify one object mesh with one method and report counts, time and
+//! Metro distances to the input, one JSON object per line (the benchmark scripts' contract,
+//! see `shared/bench/object_mesh.py`) or a readable table.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use clap::{ArgGroup, Args, ValueEnum};
+use serde::Serialize;
+use zerotile_codec::mesh::distance::DEFAULT_SAMPLES;
+use zerotile_codec::mesh::io::{self, MeshLimits};
+use zerotile_codec::mesh::{
+    qem, repair, surface_distance, DistanceOptions, QemOptions, SurfaceDistance, TriMesh,
+};
+
+use super::median_ms;
+
+/// Timed runs when `--repeat` is not given (the benchmark's peers report medians of 5).
+pub const DEFAULT_REPEAT: usize = 5;
+
+/// The simplifiers `eval mesh` can run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Method {
+    /// Curvature-error vertex decimation (DESIGN §3.1).
+    Curvature,
+    /// Octree LOD (DESIGN §3.2).
+    Octree,
+    /// Garland–Heckbert quadric edge collapse (DESIGN §3.4).
+    Qem,
+    /// Silhouette-preserving view-sphere LOD (DESIGN §3.3).
+    Silhouette,
+}
+
+#[derive(Args, Debug, Clone)]
+#[command(group(ArgGroup::new("amount").required(true).args(["error", "level", "faces"])))]
+pub struct MeshArgs {
+    /// Mesh to simplify: .obj, .ply, .stl or .json.
+    pub input: PathBuf,
+    /// Simplification method.
+    #[arg(long, value_enum)]
+    pub method: Method,
+    /// Error bound: for qem a fraction of the bounding-box diagonal (0.01 = 1 %); for
+    /// curvature the paper's ε.
+    #[arg(long, value_name = "E")]
+    pub error: Option<f64>,
+    /// LOD level (octree, silhouette).
+    #[arg(long, value_name = "K")]
+    pub level: Option<u32>,
+    /// Target face count.
+    #[arg(long, value_name = "N")]
+    pub faces: Option<usize>,
+    /// Write the result here (.obj, .ply, .glb or .json; replaced atomically).
+    #[arg(long, value_name = "OUT")]
+    pub out: Option<PathBuf>,
+    /// Print one JSON object instead of a table.
+    #[arg(long)]
+    pub json: bool,
+    /// Timed runs (the median is reported).
+    #[arg(long, default_value_t = DEFAULT_REPEAT)]
+    pub repeat: usize,
+    /// Metro samples per direction for the distances (0: skip them).
+    #[arg(long, default_value_t = DEFAULT_SAMPLES)]
+    pub samples: usize,
+    /// Merge bit-identical vertex positions first (unwelded exports such as the teapot).
+    #[arg(long)]
+    pub weld: bool,
+}
+
+/// What was asked for, as the report names it.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Param {
+    Error(f64),
+    Level(u32),
+    Faces(usize),
+}
+
+/// One evaluation, with the field names the benchmark scripts read.
+#[derive(Clone, Debug, Serialize)]
+pub struct MeshPoint {
+    pub input: String,
+    pub method: Method,
+    pub param: Param,
+    pub vertices_in: usize,
+    pub faces_in: usize,
+    pub vertices: usize,
+    pub faces: usize,
+    /// Median simplification time: arrays in, arrays out (file I/O and repair excluded).
+    pub ms: f64,
+    /// Symmetric Hausdorff distance to the input, % of the input's bounding-box diagonal.
+    pub hausdorff_pct: Option<f64>,
+    /// Mean surface distance (larger direction), % of the diagonal.
+    pub mean_pct: Option<f64>,
+    /// Method-specific details (for qem: the simplifier's report).
+    pub detail: serde_json::Value,
+}
+
+/// Runs the evaluation and prints it.
+pub fn run(args: &MeshArgs) -> Result<()> {
+    let param = param(args)?;
+    // Read and repair: the simplifiers take a clean manifold.
+    let input = load(&args.input, args.weld)?;
+    // Simplify, timed over a few runs.
+    let repeat = args.repeat.clamp(1, 100);
+    let (ms, result) = median_ms(repeat, || simplify(&input, args.method, param));
+    let (output, detail) = result?;
+    // Measure against the input the way Metro does.
+    let distance = measure(&input, &output, args.samples)?;
+    // Write the result atomically where asked.
+    if let Some(out) = &args.out {
+        io::write_path(&output, out).with_context(|| format!("writing {}", out.display()))?;
+    }
+    let point = MeshPoint {
+        input: args.input.display().to_string(),
+        method: args.method,
+        param,
+        vertices_in: input.vertex_count(),
+        faces_in: input.face_count(),
+        vertices: output.vertex_count(),
+        faces: output.face_count(),
+        ms,
+        hausdorff_pct: distance.map(|d| d.hausdorff_pct()),
+        mean_pct: distance.map(|d| d.mean_pct()),
+        detail,
+    };
+    if args.json {
+        println!("{}", serde_json::to_string(&point)?);
+    } else {
+        print_table(&point);
+    }
+    Ok(())
+}
+
+fn param(args: &MeshArgs) -> Result<Param> {
+    match (args.error, args.level, args.faces) {
+        (Some(e), None, None) if e.is_finite() && e >= 0.0 => Ok(Param::Error(e)),
+        (Some(e), None, None) => bail!("--error must be finite and ≥ 0, got {e}"),
+        (None, Some(k), None) => Ok(Param::Level(k)),
+        (None, None, Some(0)) => bail!("--faces must be > 0"),
+        (None, None, Some(n)) => Ok(Param::Faces(n)),
+        _ => bail!("give exactly one of --error, --level, --faces"),
+    }
+}
+
+fn load(path: &Path, weld: bool) -> Result<TriMesh> {
+    let mut mesh = io::read_path(path, &MeshLimits::default())
+        .with_context(|| format!("reading {}", path.display()))?;
+    if weld {
+        mesh.weld();
+    }
+    let (clean, _report) =
+        repair(&mesh).with_context(|| format!("repairing {}", path.display()))?;
+    Ok(clean)
+}
+
+/// One simplification run: the output mesh and the method's report as JSON.
+fn simplify(input: &TriMesh, method: Method, param: Param) -> Result<(TriMesh, serde_json::Value)> {
+    match method {
+        Method::Qem => {
+            let options = match param {
+                Param::Faces(n) => QemOptions::to_faces(n),
+                Param::Error(e) => QemOptions::to_error(e),
+                Param::Level(_) => bail!("qem takes --faces N or --error E, not --level"),
+            };
+            let (out, report): (TriMesh, qem::QemReport) = qem::simplify(input, &options)?;
+            Ok((out, serde_json::to_value(report)?))
+        }
+        Method::Curvature | Method::Octree | Method::Silhouette => {
+            let name = method
+                .to_possible_value()
+                .map_or_else(|| format!("{method:?}"), |v| v.get_name().to_string());
+            bail!("method {name} is not implemented yet")
+        }
+    }
+}
+
+fn measure(input: &TriMesh, output: &TriMesh, samples: usize) -> Result<Option<SurfaceDistance>> {
+    if samples == 0 || output.face_count() == 0 {
+        return Ok(None);
+    }
+    let options = DistanceOptions {
+        samples,
+        ..DistanceOptions::default()
+    };
+    Ok(Some(surface_distance(input, output, &options)?))
+}
+
+fn print_table(p: &MeshPoint) {
+    let pct = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.4}%"));
+    let param = match p.param {
+        Param::Error(e) => format!("error {e}"),
+        Param::Level(k) => format!("level {k}"),
+        Param::Faces(n) => format!("faces {n}"),
+    };
+    println!(
+        "{} ({} vertices, {} faces)",
+        p.input, p.vertices_in, p.faces_in
+    );
+    println!(
+        "{:>10} {:>14} {:>9} {:>9} {:>9} {:>11} {:>11}",
+        "method", "param", "vertices", "faces", "ms", "Hausdorff", "mean"
+    );
+    println!(
+        "{:>10} {:>14} {:>9} {:>9} {:>9.2} {:>11} {:>11}",
+        format!("{:?}", p.method).to_lowercase(),
+        param,
+        p.vertices,
+        p.faces,
+        p.ms,
+        pct(p.hausdorff_pct),
+        pct(p.mean_pct)
+    );
+}
