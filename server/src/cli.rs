@@ -39,9 +39,15 @@ pub struct IngestArgs {
     /// Folder of datasets.
     #[arg(long, default_value = "data")]
     pub data: PathBuf,
-    /// Tiling: local (the source grid; geodetic and mercator come with the tile server).
+    /// Tiling: local (the source grid as is), geodetic (EPSG:4326, Cesium quantized-mesh
+    /// TMS) or mercator (EPSG:3857, XYZ as MapLibre uses); the last two need a source in
+    /// EPSG:4326 or EPSG:3857.
     #[arg(long, default_value = "local")]
     pub scheme: String,
+    /// Deepest zoom of a geodetic or mercator pyramid (default: the first zoom as fine as
+    /// the source).
+    #[arg(long, value_name = "Z", value_parser = clap::value_parser!(u8).range(0..=28))]
+    pub max_zoom: Option<u8>,
     /// Wavelet: 97 (CDF 9/7, default) or 53 (reversible LeGall 5/3).
     #[arg(long, default_value = "97")]
     pub wavelet: Wavelet,
@@ -55,7 +61,8 @@ pub struct IngestArgs {
     /// Array name inside an .npz file.
     #[arg(long)]
     pub key: Option<String>,
-    /// Height for samples without data (default: the lowest valid height).
+    /// Height for samples without data (default: the lowest valid height for local
+    /// datasets, 0 m around and inside geodetic and mercator ones).
     #[arg(long, value_name = "METRES")]
     pub fill: Option<f64>,
     /// No progress bar.
@@ -146,6 +153,7 @@ fn ingest(a: IngestArgs) -> anyhow::Result<()> {
         encoding: a.encoding,
         npz_key: a.key,
         fill: a.fill,
+        max_zoom: a.max_zoom,
         progress: !a.quiet,
     };
     let started = std::time::Instant::now();
