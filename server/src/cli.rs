@@ -27,6 +27,22 @@ pub enum Command {
     /// Measure the codec and mesher on one input.
     #[command(subcommand)]
     Eval(EvalCommand),
+    /// Generate the default data (a synthetic terrain dataset and object meshes) into DATA
+    /// unless it already has some; `serve` does this on its default folder.
+    DemoData(DemoArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct DemoArgs {
+    /// Folder of datasets.
+    #[arg(long, default_value = "data")]
+    pub data: PathBuf,
+    /// Rebuild even when the folder already has datasets and meshes.
+    #[arg(long)]
+    pub force: bool,
+    /// No progress bar.
+    #[arg(long)]
+    pub quiet: bool,
 }
 
 #[derive(Args, Debug)]
@@ -132,6 +148,7 @@ pub fn run() -> ExitCode {
         Command::Eval(EvalCommand::Terrain(args)) => eval_terrain(args),
         Command::Eval(EvalCommand::Mesh(args)) => eval::mesh::run(&args),
         Command::Ingest(args) => ingest(args),
+        Command::DemoData(args) => demo_data(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -173,6 +190,23 @@ fn ingest(a: IngestArgs) -> anyhow::Result<()> {
         m.stream_bytes as f64 * 8.0 / m.samples.max(1) as f64,
         started.elapsed().as_secs_f64()
     );
+    Ok(())
+}
+
+fn demo_data(a: &DemoArgs) -> anyhow::Result<()> {
+    let built = crate::demo::ensure(&a.data, a.force, !a.quiet)?;
+    match (built.terrain, built.meshes) {
+        (false, 0) => println!("{}: already has datasets and meshes", a.data.display()),
+        (terrain, meshes) => println!(
+            "{}: built {}{meshes} meshes",
+            a.data.display(),
+            if terrain {
+                format!("dataset {}, ", crate::demo::TERRAIN_NAME)
+            } else {
+                String::new()
+            }
+        ),
+    }
     Ok(())
 }
 

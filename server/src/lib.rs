@@ -2,5 +2,6 @@
 //! the command line, evaluation and (later) the HTTP service.
 
 pub mod cli;
+pub mod demo;
 pub mod eval;
 pub mod ingest;

@@ -23,7 +23,7 @@ use zerotile_codec::container::{Availability, Metadata, TileId, ViewParams, Writ
 use zerotile_codec::ezw::{self, EncodeParams};
 use zerotile_codec::geo::Scheme;
 use zerotile_codec::pyramid::Level;
-use zerotile_codec::raster::{self, Crs, Encoding, ReadOptions};
+use zerotile_codec::raster::{self, Crs, Encoding, Heightmap, ReadOptions};
 use zerotile_codec::wavelet::Wavelet;
 use zerotile_codec::Grid;
 
@@ -74,8 +74,8 @@ pub fn check_name(name: &str) -> Result<()> {
     Ok(())
 }
 
-/// Builds the dataset and returns where it was written and its metadata.
-pub fn run(job: &Ingest) -> Result<(PathBuf, Metadata)> {
+/// Refuses bad options before any work; returns the scheme.
+fn check(job: &Ingest) -> Result<&str> {
     check_name(&job.name)?;
     let scheme = match job.scheme.as_str() {
         "local" | "geodetic" | "mercator" => job.scheme.as_str(),
@@ -94,14 +94,24 @@ pub fn run(job: &Ingest) -> Result<(PathBuf, Metadata)> {
             bail!("--fill must be a finite height, got {f}");
         }
     }
+    Ok(scheme)
+}
 
-    // Read and fill.
+/// Builds the dataset and returns where it was written and its metadata.
+pub fn run(job: &Ingest) -> Result<(PathBuf, Metadata)> {
+    check(job)?;
     let opts = ReadOptions {
         encoding: job.encoding,
         npz_key: job.npz_key.clone(),
         ..ReadOptions::default()
     };
     let map = raster::read_heightmap(&job.input, &opts)?;
+    build(job, &map)
+}
+
+/// Builds the dataset from a heightmap already in memory (`job.input` only names it).
+pub fn build(job: &Ingest, map: &Heightmap) -> Result<(PathBuf, Metadata)> {
+    let scheme = check(job)?;
     let (lo, hi) = map
         .min_max()
         .with_context(|| format!("{}: no valid samples", job.input.display()))?;
