@@ -9,6 +9,7 @@
 //! - [`distance`] measures any of them: symmetric Hausdorff and mean surface distance.
 //! - [`subdivide`] makes large smooth meshes for tests and benchmarks.
 
+pub mod curvature;
 pub mod distance;
 pub mod error;
 pub mod indexed;
