@@ -15,6 +15,7 @@ pub mod error;
 pub mod indexed;
 pub mod io;
 pub mod qem;
+pub mod silhouette;
 pub mod subdivide;
 pub mod topology;
 pub mod validate;

@@ -10,6 +10,7 @@ use serde::Serialize;
 use zerotile_codec::mesh::curvature::{self, CurvatureOptions};
 use zerotile_codec::mesh::distance::DEFAULT_SAMPLES;
 use zerotile_codec::mesh::io::{self, MeshLimits};
+use zerotile_codec::mesh::silhouette::ViewSphere;
 use zerotile_codec::mesh::{
     qem, repair, surface_distance, DistanceOptions, QemOptions, SurfaceDistance, TriMesh,
 };
@@ -190,7 +191,31 @@ fn simplify(input: &TriMesh, method: Method, param: Param) -> Result<(TriMesh, s
                 serde_json::json!({ "epsilon": error, "options": options }),
             ))
         }
-        Method::Octree | Method::Silhouette => {
+        Method::Silhouette => {
+            let vs = ViewSphere::new(input)?;
+            let (out, level) = match param {
+                Param::Level(k) => {
+                    let k = u8::try_from(k).unwrap_or(u8::MAX);
+                    (vs.level(k)?, k)
+                }
+                // The finest level that meets the target: levels only coarsen downwards.
+                Param::Faces(n) => {
+                    let mut pick = None;
+                    for k in (0..=vs.max_level()).rev() {
+                        let m = vs.level(k)?;
+                        let done = m.face_count() <= n;
+                        pick = Some((m, k));
+                        if done {
+                            break;
+                        }
+                    }
+                    pick.context("no levels")?
+                }
+                Param::Error(_) => bail!("silhouette takes --level K or --faces N"),
+            };
+            Ok((out, serde_json::json!({ "level": level })))
+        }
+        Method::Octree => {
             let name = method
                 .to_possible_value()
                 .map_or_else(|| format!("{method:?}"), |v| v.get_name().to_string());

@@ -11,8 +11,8 @@
 
 mod decimate;
 pub mod measure;
-mod retriangulate;
-mod ring;
+pub(crate) mod retriangulate;
+pub(crate) mod ring;
 #[cfg(test)]
 mod tests;
 
