@@ -138,11 +138,19 @@ impl Decimator {
 
     /// Removes vertices in order of W while each removal's ε stays ≤ `max_error` (paper §4).
     pub fn run_to_error(&mut self, max_error: f64) {
+        self.run_to_error_until(max_error, 0);
+    }
+
+    /// [`Self::run_to_error`], stopping early once at most `floor` faces remain.
+    pub fn run_to_error_until(&mut self, max_error: f64, floor: usize) {
         let mut heap = BinaryHeap::new();
         for v in 0..self.pos.len() as u32 {
             self.push_by_curvature(&mut heap, v);
         }
         while let Some(Entry(_, v, ver)) = heap.pop() {
+            if self.live_faces <= floor {
+                break;
+            }
             if ver != self.version[v as usize] || self.removed[v as usize] {
                 continue;
             }
@@ -159,27 +167,14 @@ impl Decimator {
         }
     }
 
-    /// Removes the vertex of least ε until at most `target` faces remain (or nothing more
-    /// can go).
+    /// Reaches at most `target` faces the paper's way: levels of growing ε, each removing in
+    /// order of W, the last one stopped at the target. Ends early if nothing more can go.
     pub fn run_to_faces(&mut self, target: usize) {
-        let mut heap = BinaryHeap::new();
-        for v in 0..self.pos.len() as u32 {
-            self.push_by_error(&mut heap, v);
-        }
-        while self.live_faces > target {
-            let Some(Entry(_, v, ver)) = heap.pop() else {
-                break;
-            };
-            if ver != self.version[v as usize] || self.removed[v as usize] {
-                continue;
-            }
-            let Some(r) = self.evaluate(v) else { continue };
-            let ring = self.apply(v, r);
-            // ε depends on the ring's rings: re-rank the 2-ring.
-            for u in self.two_ring(&ring) {
-                self.version[u as usize] = self.version[u as usize].wrapping_add(1);
-                self.push_by_error(&mut heap, u);
-            }
+        let mut bound = 0.02;
+        while self.live_faces > target && bound < 64.0 {
+            let before = self.live_faces;
+            self.run_to_error_until(bound, target);
+            bound *= if self.live_faces == before { 2.0 } else { 1.15 };
         }
     }
 
@@ -209,15 +204,6 @@ impl Decimator {
         let scale = self.area_scale(self.live_vertices);
         let w = discrete_curvature(&m, scale, self.weighted_max, &self.weights);
         heap.push(Entry(w, v, self.version[v as usize]));
-    }
-
-    fn push_by_error(&self, heap: &mut BinaryHeap<Entry>, v: u32) {
-        if self.removed[v as usize] || self.locked[v as usize] {
-            return;
-        }
-        if let Some(r) = self.evaluate(v) {
-            heap.push(Entry(r.error, v, self.version[v as usize]));
-        }
     }
 
     fn face_list(&self, v: u32) -> Vec<[u32; 3]> {
@@ -370,21 +356,6 @@ impl Decimator {
             self.version[u as usize] = self.version[u as usize].wrapping_add(1);
         }
         ring
-    }
-
-    /// The ring of a removed vertex and the ring's own neighbours.
-    fn two_ring(&self, ring: &[u32]) -> Vec<u32> {
-        let mut out = ring.to_vec();
-        for &u in ring {
-            for &f in &self.vf[u as usize] {
-                for w in self.faces[f as usize] {
-                    if !out.contains(&w) {
-                        out.push(w);
-                    }
-                }
-            }
-        }
-        out
     }
 }
 
