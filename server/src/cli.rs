@@ -30,6 +30,16 @@ pub enum Command {
     /// Generate the default data (a synthetic terrain dataset and object meshes) into DATA
     /// unless it already has some; `serve` does this on its default folder.
     DemoData(DemoArgs),
+    /// Exit 0 if a server answers GET /healthz with 200 (for container health checks, where
+    /// there is no curl).
+    Healthcheck(HealthArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct HealthArgs {
+    /// Address of the server.
+    #[arg(long, default_value = "127.0.0.1:8080")]
+    pub addr: String,
 }
 
 #[derive(Args, Debug)]
@@ -149,6 +159,7 @@ pub fn run() -> ExitCode {
         Command::Eval(EvalCommand::Mesh(args)) => eval::mesh::run(&args),
         Command::Ingest(args) => ingest(args),
         Command::DemoData(args) => demo_data(&args),
+        Command::Healthcheck(args) => healthcheck(&args.addr),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -190,6 +201,29 @@ fn ingest(a: IngestArgs) -> anyhow::Result<()> {
         m.stream_bytes as f64 * 8.0 / m.samples.max(1) as f64,
         started.elapsed().as_secs_f64()
     );
+    Ok(())
+}
+
+fn healthcheck(addr: &str) -> anyhow::Result<()> {
+    use std::io::{Read, Write};
+    use std::net::ToSocketAddrs;
+    use std::time::Duration;
+    let timeout = Duration::from_secs(3);
+    let target = addr
+        .to_socket_addrs()?
+        .next()
+        .ok_or_else(|| anyhow::anyhow!("{addr}: no address"))?;
+    let mut s = std::net::TcpStream::connect_timeout(&target, timeout)?;
+    s.set_read_timeout(Some(timeout))?;
+    s.write_all(format!("GET /healthz HTTP/1.0\r\nHost: {addr}\r\n\r\n").as_bytes())?;
+    let mut head = [0u8; 12];
+    s.read_exact(&mut head)?;
+    if &head[9..12] != b"200" {
+        anyhow::bail!(
+            "{addr}: /healthz answered {}",
+            String::from_utf8_lossy(&head)
+        );
+    }
     Ok(())
 }
 
