@@ -24,6 +24,8 @@ pub struct Cli {
 pub enum Command {
     /// Build a dataset (an EZW tile pyramid in one container file) from a heightmap.
     Ingest(IngestArgs),
+    /// Serve every dataset of a folder over HTTP (routes: docs/api.md).
+    Serve(ServeArgs),
     /// Measure the codec and mesher on one input.
     #[command(subcommand)]
     Eval(EvalCommand),
@@ -61,6 +63,19 @@ pub struct IngestArgs {
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
+}
+
+#[derive(Args, Debug)]
+pub struct ServeArgs {
+    /// Folder of datasets (`*.ztd`, as `zerotile ingest` writes them).
+    #[arg(long, default_value = "data")]
+    pub data: PathBuf,
+    /// Address to listen on; port 0 picks a free port (the URL is printed).
+    #[arg(long, default_value = "127.0.0.1:8080")]
+    pub addr: std::net::SocketAddr,
+    /// Decoded-tile cache size, MiB.
+    #[arg(long, default_value_t = 256, value_name = "MIB")]
+    pub cache_mb: u64,
 }
 
 #[derive(Subcommand, Debug)]
@@ -125,6 +140,7 @@ pub fn run() -> ExitCode {
         Command::Eval(EvalCommand::Terrain(args)) => eval_terrain(args),
         Command::Eval(EvalCommand::Mesh(args)) => eval::mesh::run(&args),
         Command::Ingest(args) => ingest(args),
+        Command::Serve(args) => serve(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -166,6 +182,18 @@ fn ingest(a: IngestArgs) -> anyhow::Result<()> {
         started.elapsed().as_secs_f64()
     );
     Ok(())
+}
+
+fn serve(a: ServeArgs) -> anyhow::Result<()> {
+    let config = crate::serve::Config {
+        cache_bytes: a.cache_mb.saturating_mul(1 << 20),
+        ..crate::serve::Config::default()
+    };
+    crate::serve::run(crate::serve::ServeOptions {
+        data: a.data,
+        addr: a.addr,
+        config,
+    })
 }
 
 fn eval_terrain(a: TerrainArgs) -> anyhow::Result<()> {

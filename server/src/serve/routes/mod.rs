@@ -1,0 +1,4 @@
+//! Route handlers: HTTP in, HTTP out; the work lives in `pipeline` and `render`.
+
+pub mod meta;
+pub mod tiles;
