@@ -31,6 +31,7 @@ pub struct Metrics {
     pub bytes_out: AtomicU64,
     pub cache_hits: AtomicU64,
     pub cache_misses: AtomicU64,
+    pub response_cache_hits: AtomicU64,
 }
 
 impl Metrics {
@@ -105,6 +106,11 @@ impl Metrics {
                 "zerotile_cache_misses_total",
                 "Decoded-tile cache misses.",
                 &self.cache_misses,
+            ),
+            (
+                "zerotile_response_cache_hits_total",
+                "Tiles answered from the encoded-response cache.",
+                &self.response_cache_hits,
             ),
         ] {
             let _ = writeln!(out, "# HELP {name} {help}\n# TYPE {name} counter");

@@ -59,6 +59,35 @@ impl Weighter<Key, Arc<DecodedTile>> for ByBytes {
 /// The bounded cache.
 pub type TileCache = Cache<Key, Arc<DecodedTile>, ByBytes>;
 
+/// Default size of the cache of encoded responses, bytes.
+pub const DEFAULT_RESPONSE_CACHE_BYTES: u64 = 64 << 20;
+
+/// An encoded tile body, ready to send again.
+#[derive(Debug)]
+pub struct Encoded {
+    pub bytes: bytes::Bytes,
+    pub triangles: Option<usize>,
+}
+
+#[derive(Clone, Copy, Debug, Default)]
+pub struct EncodedBytes;
+
+impl Weighter<u64, Arc<Encoded>> for EncodedBytes {
+    fn weight(&self, _key: &u64, val: &Arc<Encoded>) -> u64 {
+        val.bytes.len() as u64 + 64
+    }
+}
+
+/// Encoded responses by their ETag hash: a warm tile skips meshing and encoding (PNG
+/// encoding alone costs tens of milliseconds).
+pub type ResponseCache = Cache<u64, Arc<Encoded>, EncodedBytes>;
+
+/// A response cache holding about `bytes`.
+pub fn new_response_cache(bytes: u64) -> ResponseCache {
+    let items = (bytes / 50_000).clamp(16, 1 << 20) as usize;
+    Cache::with_weighter(items, bytes.max(1), EncodedBytes)
+}
+
 /// A cache holding about `bytes` of decoded tiles.
 pub fn new_cache(bytes: u64) -> TileCache {
     // 257² tiles weigh about 0.8 MB: size the item estimate from that.

@@ -8,6 +8,8 @@ use std::collections::hash_map::DefaultHasher;
 use std::collections::HashMap;
 use std::hash::{Hash, Hasher};
 use std::io::Write;
+use std::sync::atomic::Ordering::Relaxed;
+use std::sync::Arc;
 
 use axum::body::Body;
 use axum::extract::rejection::{PathRejection, QueryRejection};
@@ -32,6 +34,7 @@ use crate::serve::pipeline;
 use crate::serve::render;
 use crate::serve::state::AppState;
 use crate::serve::threshold::{self, Depth};
+use crate::serve::tile_cache::Encoded;
 
 /// Media type of `.ezw` stream prefixes (not compressed again: they are arithmetic-coded).
 pub const EZW_MEDIA: &str = "application/vnd.zerotile.ezw";
@@ -89,12 +92,6 @@ enum Variant {
     Plain,
 }
 
-/// What the blocking job hands back.
-struct Rendered {
-    bytes: Vec<u8>,
-    triangles: Option<usize>,
-}
-
 pub async fn tile(
     State(state): State<AppState>,
     path: Result<Path<(String, String, String, String)>, PathRejection>,
@@ -122,7 +119,8 @@ pub async fn tile(
     let variant = variant(format, &query, &headers)?;
 
     // Conditional request.
-    let etag = etag(&d, id, t.t, format, variant);
+    let etag_key = etag_hash(&d, id, t.t, format, variant);
+    let etag = format!("W/\"{etag_key:016x}\"");
     let mut base = HeaderMap::new();
     base.insert(ETAG, header(&etag)?);
     let cache = format!("public, max-age={}", state.config.tile_max_age);
@@ -141,22 +139,34 @@ pub async fn tile(
         return Ok(res);
     }
 
-    // Render off the async threads, a bounded number at a time.
-    let permit = state
-        .cpu
-        .clone()
-        .acquire_owned()
-        .await
-        .map_err(ApiError::internal)?;
-    let job_state = state.clone();
-    let job_d = d.clone();
-    let rendered = tokio::task::spawn_blocking(move || {
-        let _permit = permit;
-        render_tile(&job_state, &job_d, id, t.t, format, variant, flat_root)
-    })
-    .await
-    .map_err(ApiError::internal)?
-    .map_err(ApiError::internal)?;
+    // Encoded before (same ETag), or render off the async threads, a bounded number at a
+    // time.
+    let rendered = match state.responses.get(&etag_key) {
+        Some(hit) => {
+            state.metrics.response_cache_hits.fetch_add(1, Relaxed);
+            hit
+        }
+        None => {
+            let permit = state
+                .cpu
+                .clone()
+                .acquire_owned()
+                .await
+                .map_err(ApiError::internal)?;
+            let job_state = state.clone();
+            let job_d = d.clone();
+            let fresh = tokio::task::spawn_blocking(move || {
+                let _permit = permit;
+                render_tile(&job_state, &job_d, id, t.t, format, variant, flat_root)
+            })
+            .await
+            .map_err(ApiError::internal)?
+            .map_err(ApiError::internal)?;
+            let fresh = Arc::new(fresh);
+            state.responses.insert(etag_key, fresh.clone());
+            fresh
+        }
+    };
 
     // Headers, then the body (a byte range of it for `.ezw`).
     let mut res_headers = base;
@@ -174,7 +184,7 @@ pub async fn tile(
         res_headers.insert(CONTENT_ENCODING, HeaderValue::from_static("gzip"));
     }
     let mut status = StatusCode::OK;
-    let mut body = rendered.bytes;
+    let mut body = rendered.bytes.clone();
     if format == TileFormat::Ezw {
         let len = body.len() as u64;
         match negotiate::range(&headers, len) {
@@ -185,7 +195,7 @@ pub async fn tile(
                     CONTENT_RANGE,
                     header(&format!("bytes {start}-{end}/{len}"))?,
                 );
-                body = body[start as usize..=end as usize].to_vec();
+                body = body.slice(start as usize..=end as usize);
             }
             RangeAsk::Unsatisfiable => {
                 let mut e = axum::response::IntoResponse::into_response(ApiError::new(
@@ -296,14 +306,14 @@ fn variant(
 
 /// Weak ETag over everything that decides the bytes: the dataset build, the tile, the
 /// threshold, the format and its options. Weak, because the compression layer may re-encode.
-fn etag(d: &Dataset, id: TileId, t: f64, format: TileFormat, variant: Variant) -> String {
+fn etag_hash(d: &Dataset, id: TileId, t: f64, format: TileFormat, variant: Variant) -> u64 {
     let mut h = DefaultHasher::new();
     d.version.hash(&mut h);
     id.hash(&mut h);
     t.to_bits().hash(&mut h);
     format.hash(&mut h);
     variant.hash(&mut h);
-    format!("W/\"{:016x}\"", h.finish())
+    h.finish()
 }
 
 fn header(s: &str) -> ApiResult<HeaderValue> {
@@ -319,7 +329,7 @@ fn render_tile(
     format: TileFormat,
     variant: Variant,
     flat_root: bool,
-) -> anyhow::Result<Rendered> {
+) -> anyhow::Result<Encoded> {
     let mesh_of = || -> anyhow::Result<_> {
         Ok(if flat_root {
             render::flat_mesh(d.hierarchy.side(), d.metadata().fill)
@@ -374,7 +384,10 @@ fn render_tile(
         }
         (f, v) => anyhow::bail!("format {f:?} with options {v:?}"),
     };
-    Ok(Rendered { bytes, triangles })
+    Ok(Encoded {
+        bytes: bytes.into(),
+        triangles,
+    })
 }
 
 fn gzip_bytes(raw: &[u8]) -> std::io::Result<Vec<u8>> {
