@@ -629,3 +629,41 @@ fn a_missing_data_folder_is_a_clear_error() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("/nonexistent/zerotile-data"), "{err}");
 }
+
+#[test]
+fn the_view_endpoint_meshes_the_view_plane_at_eq4_threshold() {
+    let s = Server::start(data_dir());
+    let view = |h: f64, extra: &str| {
+        s.get(
+            &format!("/v1/datasets/crop/view?eye=256,400,{h}&target=256,256,300&fov=60{extra}"),
+            &[],
+        )
+    };
+    let (low, high) = (view(400.0, ""), view(3000.0, ""));
+    assert_eq!(low.status, 200, "{}", String::from_utf8_lossy(&low.body));
+    let (l, h) = (low.json(), high.json());
+    for v in [&l, &h] {
+        let a = v["a_v"].as_f64().unwrap() / v["a_t"].as_f64().unwrap();
+        assert!((a - v["ratio"].as_f64().unwrap()).abs() < 1e-9);
+        let n = v["triangles"].as_u64().unwrap() as usize;
+        assert_eq!(v["mesh"]["indices"].as_array().unwrap().len(), 3 * n);
+    }
+    let t = |v: &Value| v["threshold"].as_f64().unwrap();
+    assert!(
+        t(&h) > t(&l),
+        "T at 3000 m {} ≤ T at 400 m {}",
+        t(&h),
+        t(&l)
+    );
+    assert!(h["triangles"].as_u64() < l["triangles"].as_u64());
+
+    let glb = view(400.0, "&format=glb");
+    assert_eq!(&glb.body[..4], b"glTF");
+    assert_eq!(glb.header("x-threshold"), Some(t(&l).to_string().as_str()));
+    view(400.0, "&format=stl").assert_error(400, "bad_format", "view as stl");
+    s.get(
+        "/v1/datasets/crop/view?eye=-9000,-9000,50&target=-9000,-9100,0&fov=30",
+        &[],
+    )
+    .assert_error(404, "empty_view", "a view beside the data");
+}

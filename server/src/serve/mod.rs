@@ -55,6 +55,7 @@ pub fn app(state: AppState) -> Router {
             "/v1/datasets/{name}/layer.json",
             get(routes::meta::layer_json),
         )
+        .route("/v1/datasets/{name}/view", get(routes::view::view))
         .route(
             "/v1/datasets/{name}/tiles/{z}/{x}/{y}",
             get(routes::tiles::tile),

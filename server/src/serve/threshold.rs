@@ -120,7 +120,9 @@ pub fn from_query(d: &Dataset, z: u8, q: &HashMap<String, String>) -> Result<Thr
         });
     }
     if has("eye") || has("target") || has("fov") {
-        let (ratio, a_v, a_t) = view_ratio(d, q)?;
+        let ViewPlane {
+            ratio, a_v, a_t, ..
+        } = view_plane(d, q)?;
         return Ok(Threshold {
             t: eq4(d, ratio),
             choice: Choice::View { ratio, a_v, a_t },
@@ -138,9 +140,21 @@ pub fn eq4(d: &Dataset, ratio: f64) -> f64 {
     (v.a * ratio + v.b).clamp(0.0, MAX_THRESHOLD)
 }
 
-/// A_v / A_t for the camera in the query, with A_v and A_t in square metres (or square
-/// samples for a local grid).
-pub fn view_ratio(d: &Dataset, q: &HashMap<String, String>) -> Result<(f64, f64, f64), ApiError> {
+/// A camera's view plane on a dataset.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ViewPlane {
+    /// A_v / A_t.
+    pub ratio: f64,
+    /// Footprint area and terrain area: square metres (square samples for a local grid).
+    pub a_v: f64,
+    pub a_t: f64,
+    /// The footprint's corners in the query's own coordinates: longitude and latitude
+    /// degrees, or column and row.
+    pub footprint: [[f64; 2]; 4],
+}
+
+/// The view plane of the camera in the query (see docs/api.md for the model).
+pub fn view_plane(d: &Dataset, q: &HashMap<String, String>) -> Result<ViewPlane, ApiError> {
     let get = |k: &str| {
         q.get(k).ok_or_else(|| {
             ApiError::bad_request(
@@ -158,29 +172,38 @@ pub fn view_ratio(d: &Dataset, q: &HashMap<String, String>) -> Result<(f64, f64,
     };
 
     // Horizontal metres around the target (degrees scaled at the target's latitude; grid
-    // samples as they are, rows flipped so y points north).
+    // samples as they are, rows flipped so y points north), and back.
     let m = d.metadata();
     let [west, south, east, north] = m.bounds;
-    let (to_plane, a_t): (Box<dyn Fn(DVec3) -> DVec3>, f64) = match d.tiling.scheme() {
-        Scheme::Local { .. } => (
-            Box::new(|p: DVec3| DVec3::new(p.x, -p.y, p.z)),
-            ((east - west) * (south - north)).abs(),
-        ),
-        Scheme::Geodetic | Scheme::Mercator => {
-            let (lon0, lat0) = (target.x, target.y);
-            let k = lat0.to_radians().cos();
-            let mid = ((south + north) / 2.0).to_radians().cos();
-            (
-                Box::new(move |p: DVec3| {
-                    DVec3::new(
-                        (p.x - lon0) * METRES_PER_DEGREE * k,
-                        (p.y - lat0) * METRES_PER_DEGREE,
-                        p.z,
-                    )
-                }),
-                ((east - west) * mid * (north - south)).abs() * METRES_PER_DEGREE.powi(2),
+    let local = matches!(d.tiling.scheme(), Scheme::Local { .. });
+    let (lon0, lat0) = (target.x, target.y);
+    let k = lat0.to_radians().cos().max(1e-6);
+    let to_plane = |p: DVec3| {
+        if local {
+            DVec3::new(p.x, -p.y, p.z)
+        } else {
+            DVec3::new(
+                (p.x - lon0) * METRES_PER_DEGREE * k,
+                (p.y - lat0) * METRES_PER_DEGREE,
+                p.z,
             )
         }
+    };
+    let from_plane = |x: f64, y: f64| {
+        if local {
+            [x, -y]
+        } else {
+            [
+                lon0 + x / (METRES_PER_DEGREE * k),
+                lat0 + y / METRES_PER_DEGREE,
+            ]
+        }
+    };
+    let a_t = if local {
+        ((east - west) * (south - north)).abs()
+    } else {
+        let mid = ((south + north) / 2.0).to_radians().cos();
+        ((east - west) * mid * (north - south)).abs() * METRES_PER_DEGREE.powi(2)
     };
     let cam = Camera {
         eye: to_plane(eye),
@@ -194,7 +217,12 @@ pub fn view_ratio(d: &Dataset, q: &HashMap<String, String>) -> Result<(f64, f64,
         footprint(&cam, far).map_err(|e| ApiError::bad_request("bad_view", e.to_string()))?;
     let a_v = polygon_area(&points);
     let a_t = a_t.max(1.0);
-    Ok((a_v / a_t, a_v, a_t))
+    Ok(ViewPlane {
+        ratio: a_v / a_t,
+        a_v,
+        a_t,
+        footprint: points.map(|p| from_plane(p.x, p.y)),
+    })
 }
 
 /// A finite number in [lo, hi].

@@ -2,3 +2,4 @@
 
 pub mod meta;
 pub mod tiles;
+pub mod view;
