@@ -24,6 +24,9 @@ pub mod threshold;
 pub mod tile_cache;
 pub mod view_plane;
 
+#[cfg(test)]
+mod tests;
+
 use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::time::Duration;
