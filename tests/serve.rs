@@ -76,19 +76,21 @@ fn data_dir() -> &'static Path {
             String::from_utf8_lossy(&out.stderr)
         );
         std::fs::remove_file(&asc).unwrap();
-        write_world(&dir.join("world.ztd"));
+        write_world(&dir.join("world.ztd"), "geodetic", &[0, 1]);
+        write_world(&dir.join("half.ztd"), "geodetic", &[0]);
+        write_world(&dir.join("merc.ztd"), "mercator", &[0]);
         dir
     })
 }
 
-/// Two geodetic root tiles (0/0/0 west, 0/1/0 east) holding adjacent real crops, so their
-/// shared edge holds the same samples.
-fn write_world(path: &Path) {
+/// Root tiles of a world `scheme` (0/0/0 west, 0/1/0 east for geodetic) holding adjacent
+/// real crops, so a shared edge holds the same samples.
+fn write_world(path: &Path, scheme: &str, xs: &[u32]) {
     let dem = n44w072();
     let mut w = Writer::new();
     let mut samples = 0;
     let mut bytes = 0;
-    for x in 0..2u32 {
+    for &x in xs {
         let g = dem.crop(300, 400 + 256 * x as usize, 257, 257).unwrap();
         let corners = [
             *g.get(0, 0),
@@ -103,11 +105,15 @@ fn write_world(path: &Path) {
     }
     let m = Metadata {
         name: "world".into(),
-        scheme: "geodetic".into(),
+        scheme: scheme.into(),
         tile_side: 257,
         min_zoom: 0,
         max_zoom: 0,
-        bounds: [-180.0, -90.0, 180.0, 90.0],
+        bounds: if scheme == "mercator" {
+            [-180.0, -85.0, 180.0, 85.0]
+        } else {
+            [-180.0, -90.0, 180.0, 90.0]
+        },
         source_size: [257, 513],
         wavelet: Wavelet::Cdf97,
         step: 1.0,
@@ -118,7 +124,7 @@ fn write_world(path: &Path) {
         available: vec![vec![Availability {
             start_x: 0,
             start_y: 0,
-            end_x: 1,
+            end_x: xs.len() as u32 - 1,
             end_y: 0,
         }]],
         source: "N44W072.hgt".into(),
@@ -244,7 +250,7 @@ fn health_list_and_describe() {
         .iter()
         .filter_map(|d| d["name"].as_str())
         .collect();
-    assert_eq!(names, ["crop", "world"]);
+    assert_eq!(names, ["crop", "half", "merc", "world"]);
 
     let d = s.get("/v1/datasets/crop", &[]).json();
     assert_eq!(d["scheme"], "local");
@@ -666,4 +672,54 @@ fn the_view_endpoint_meshes_the_view_plane_at_eq4_threshold() {
         &[],
     )
     .assert_error(404, "empty_view", "a view beside the data");
+}
+
+#[test]
+fn a_missing_root_tile_is_flat_and_mercator_tiles_work() {
+    let s = Server::start(data_dir());
+    // `half` holds only the western root: the eastern one comes flat, as Cesium needs both.
+    let r = s.get("/v1/datasets/half/tiles/0/1/0.terrain", &[]);
+    assert_eq!(r.status, 200, "{}", String::from_utf8_lossy(&r.body));
+    let qm = quantized_mesh::decode(&r.body).unwrap();
+    assert_eq!(qm.triangles.len(), 2);
+    assert_eq!(qm.header.min_height, qm.header.max_height);
+    let layer = s.get("/v1/datasets/half/layer.json", &[]).json();
+    assert_eq!(layer["available"][0][0]["endX"], 1);
+    // Below the roots, a missing tile is a 404, not a flat tile.
+    s.get("/v1/datasets/half/tiles/0/1/0.png", &[])
+        .assert_error(404, "tile_not_found", "missing tile as PNG");
+
+    let layer = s.get("/v1/datasets/merc/layer.json", &[]).json();
+    assert_eq!(layer["scheme"], "slippyMap");
+    assert_eq!(layer["projection"], "EPSG:3857");
+    let r = s.get("/v1/datasets/merc/tiles/0/0/0.terrain?threshold=8", &[]);
+    assert_eq!(r.status, 200);
+    let qm = quantized_mesh::decode(&r.body).unwrap();
+    assert!(qm.triangles.len() > 2);
+    let bin = s.get("/v1/datasets/merc/tiles/0/0/0.bin?threshold=8", &[]);
+    assert_eq!(
+        mesh_bin::decode(&bin.body).unwrap().crs,
+        mesh_bin::MeshCrs::WebMercator
+    );
+}
+
+#[test]
+fn sigterm_drains_and_exits_cleanly() {
+    let mut s = Server::start(data_dir());
+    assert_eq!(s.get("/healthz", &[]).status, 200);
+    let pid = s.child.id().to_string();
+    let killed = Command::new("kill").args(["-TERM", &pid]).status().unwrap();
+    assert!(killed.success());
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(10);
+    let status = loop {
+        if let Some(st) = s.child.try_wait().unwrap() {
+            break st;
+        }
+        assert!(
+            std::time::Instant::now() < deadline,
+            "still running 10 s after SIGTERM"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    assert!(status.success(), "{status:?}");
 }
