@@ -17,6 +17,7 @@ use zerotile_codec::ezw::{self, DecodeLimit, EncodeParams};
 use zerotile_codec::formats::{mesh_bin, quantized_mesh, terrain_rgb};
 use zerotile_codec::raster::Encoding;
 use zerotile_codec::wavelet::Wavelet;
+use zerotile_codec::zerotree::{mesh_error, TerrainMesh};
 use zerotile_codec::Grid;
 use zerotile_tests::{shared_data, zerotile_bin};
 
@@ -329,6 +330,27 @@ fn column(mesh: &Value, col: f64) -> Vec<(f64, f64)> {
     v
 }
 
+/// A local tile's JSON mesh (tile 1/0/0: x = column, y = −row) as the codec's grid mesh.
+fn terrain_mesh(v: &Value) -> TerrainMesh {
+    let f = |k: &str| -> Vec<f64> {
+        v[k].as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect()
+    };
+    let (p, i) = (f("positions"), f("indices"));
+    TerrainMesh {
+        rows: 257,
+        cols: 257,
+        positions: p.chunks_exact(3).map(|q| [q[0], -q[1], q[2]]).collect(),
+        triangles: i
+            .chunks_exact(3)
+            .map(|t| [t[0] as u32, t[1] as u32, t[2] as u32])
+            .collect(),
+    }
+}
+
 #[test]
 fn mesh_formats_agree_and_neighbours_share_their_edge() {
     let s = Server::start(data_dir());
@@ -357,6 +379,18 @@ fn mesh_formats_agree_and_neighbours_share_their_edge() {
     );
     let glb = s.get(&format!("/v1/datasets/crop/tiles/1/0/0.glb{q}"), &[]);
     assert_eq!(&glb.body[..4], b"glTF");
+
+    // The mesh covers its tile without holes and stays within the budget of the source.
+    let source = crop().crop(0, 0, 257, 257).unwrap();
+    for t in [1.0, 4.0, 16.0] {
+        let r = s.get(
+            &format!("/v1/datasets/crop/tiles/1/0/0.json?threshold={t}"),
+            &[],
+        );
+        let e = mesh_error(&terrain_mesh(&r.json()), &source);
+        assert_eq!(e.uncovered, 0, "T = {t}");
+        assert!(e.max_abs <= t, "T = {t}: mesh max error {} m", e.max_abs);
+    }
 
     // A coarser threshold gives fewer triangles.
     let coarse = s.get("/v1/datasets/crop/tiles/1/0/0.json?threshold=32", &[]);
