@@ -87,9 +87,29 @@ impl TileFormat {
 /// Format options that change the bytes (and so the ETag).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 enum Variant {
-    Terrain { ext: Extensions, gzip: bool },
-    Png { terrarium: bool, size: u32 },
+    Terrain {
+        ext: Extensions,
+        gzip: bool,
+    },
+    Png {
+        terrarium: bool,
+        size: u32,
+    },
+    /// Meshes: gzipped here (and cached so) when the client accepts it.
+    Mesh {
+        gzip: bool,
+    },
+    /// PNG, GLB and EZW bodies: compact already, sent as they are.
     Plain,
+}
+
+impl Variant {
+    fn gzip(self) -> bool {
+        matches!(
+            self,
+            Self::Terrain { gzip: true, .. } | Self::Mesh { gzip: true }
+        )
+    }
 }
 
 pub async fn tile(
@@ -126,8 +146,14 @@ pub async fn tile(
     let cache = format!("public, max-age={}", state.config.tile_max_age);
     base.insert(CACHE_CONTROL, header(&cache)?);
     base.insert("x-threshold", header(&format!("{}", t.t))?);
-    if format == TileFormat::Terrain {
-        base.insert(VARY, HeaderValue::from_static("Accept, Accept-Encoding"));
+    match variant {
+        Variant::Terrain { .. } => {
+            base.insert(VARY, HeaderValue::from_static("Accept, Accept-Encoding"));
+        }
+        Variant::Mesh { .. } => {
+            base.insert(VARY, HeaderValue::from_static("Accept-Encoding"));
+        }
+        _ => {}
     }
     if format == TileFormat::Ezw {
         base.insert(ACCEPT_RANGES, HeaderValue::from_static("bytes"));
@@ -180,7 +206,7 @@ pub async fn tile(
     if let Some(n) = rendered.triangles {
         res_headers.insert("x-triangles", header(&n.to_string())?);
     }
-    if let Variant::Terrain { gzip: true, .. } = variant {
+    if variant.gzip() {
         res_headers.insert(CONTENT_ENCODING, HeaderValue::from_static("gzip"));
     }
     let mut status = StatusCode::OK;
@@ -300,7 +326,10 @@ fn variant(
             };
             Variant::Png { terrarium, size }
         }
-        _ => Variant::Plain,
+        TileFormat::Json | TileFormat::Bin | TileFormat::Obj => Variant::Mesh {
+            gzip: negotiate::accepts_gzip(headers),
+        },
+        TileFormat::Glb | TileFormat::Ezw => Variant::Plain,
     })
 }
 
@@ -338,7 +367,7 @@ fn render_tile(
         })
     };
     let (bytes, triangles) = match (format, variant) {
-        (TileFormat::Terrain, Variant::Terrain { ext, gzip }) => {
+        (TileFormat::Terrain, Variant::Terrain { ext, .. }) => {
             let mesh = mesh_of()?;
             let opts = QmOptions {
                 octvertexnormals: ext.octvertexnormals,
@@ -349,9 +378,10 @@ fn render_tile(
                     None
                 },
             };
-            let raw = render::quantized_mesh(d, id, &mesh, &opts)?;
-            let bytes = if gzip { gzip_bytes(&raw)? } else { raw };
-            (bytes, Some(mesh.triangle_count()))
+            (
+                render::quantized_mesh(d, id, &mesh, &opts)?,
+                Some(mesh.triangle_count()),
+            )
         }
         (TileFormat::Png, Variant::Png { terrarium, size }) => {
             let dec = pipeline::decoded(state, d, id, Depth::for_threshold(t))?;
@@ -383,6 +413,13 @@ fn render_tile(
             )
         }
         (f, v) => anyhow::bail!("format {f:?} with options {v:?}"),
+    };
+    // Compressed once here, the cached body is sent as it is (the compression layer skips
+    // bodies with a Content-Encoding).
+    let bytes = if variant.gzip() {
+        gzip_bytes(&bytes)?
+    } else {
+        bytes
     };
     Ok(Encoded {
         bytes: bytes.into(),
