@@ -137,20 +137,27 @@ fn write_world(path: &Path, scheme: &str, xs: &[u32]) {
     std::fs::write(path, w.finish(&m).unwrap()).unwrap();
 }
 
-/// A running `zerotile serve`, stopped on drop.
+/// A running `zerotile serve`, stopped on drop. Its log must hold no WARN or ERROR line
+/// unless the test expects some.
 struct Server {
     child: Child,
     base: String,
     agent: ureq::Agent,
+    log: PathBuf,
+    warnings_expected: bool,
 }
 
 impl Server {
     fn start(data: &Path) -> Self {
+        static STARTED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+        let n = STARTED.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let log =
+            std::env::temp_dir().join(format!("zerotile-serve-{}-{n}.log", std::process::id()));
         let mut child = Command::new(zerotile_bin())
             .args(["serve", "--addr", "127.0.0.1:0", "--data"])
             .arg(data)
             .stdout(Stdio::piped())
-            .stderr(Stdio::null())
+            .stderr(std::fs::File::create(&log).unwrap())
             .spawn()
             .unwrap();
         // The first line names the URL (port 0 picks a free port).
@@ -164,7 +171,13 @@ impl Server {
             .http_status_as_error(false)
             .build()
             .into();
-        Self { child, base, agent }
+        Self {
+            child,
+            base,
+            agent,
+            log,
+            warnings_expected: false,
+        }
     }
 
     fn get(&self, path: &str, headers: &[(&str, &str)]) -> Reply {
@@ -197,6 +210,15 @@ impl Drop for Server {
     fn drop(&mut self) {
         let _ = self.child.kill();
         let _ = self.child.wait();
+        let log = std::fs::read_to_string(&self.log).unwrap_or_default();
+        let _ = std::fs::remove_file(&self.log);
+        let bad: Vec<&str> = log
+            .lines()
+            .filter(|l| l.contains(" WARN ") || l.contains(" ERROR "))
+            .collect();
+        if !self.warnings_expected && !bad.is_empty() && !std::thread::panicking() {
+            panic!("unexpected server log lines:\n{}", bad.join("\n"));
+        }
     }
 }
 
@@ -642,7 +664,8 @@ fn a_corrupt_dataset_is_skipped_and_the_others_serve() {
         .unwrap()
         .write_all(b"")
         .unwrap();
-    let s = Server::start(&dir);
+    let mut s = Server::start(&dir);
+    s.warnings_expected = true;
     let list = s.get("/v1/datasets", &[]).json();
     assert_eq!(list["datasets"].as_array().unwrap().len(), 1);
     assert_eq!(list["skipped"].as_array().unwrap().len(), 2);

@@ -16,8 +16,8 @@ use super::dataset::Dataset;
 use super::error::ApiError;
 use super::view_plane::{footprint, polygon_area, Camera};
 
-/// Share of the budget spent on decoding (see `eval::terrain`): the mesh gets the rest.
-pub const DECODE_SHARE: f64 = 0.125;
+/// Share of the budget spent on decoding, the same split `zerotile eval terrain` measures.
+pub use crate::eval::terrain::DECODE_SHARE;
 /// Largest threshold accepted, metres: far above any relief, so larger values are mistakes.
 pub const MAX_THRESHOLD: f64 = 100_000.0;
 /// Largest view ratio A_v / A_t accepted.
