@@ -91,6 +91,7 @@ pub fn app(state: AppState) -> Router {
             StatusCode::SERVICE_UNAVAILABLE,
             REQUEST_TIMEOUT,
         ))
+        .layer(axum::middleware::from_fn(error::json_errors))
         .layer(cors)
         .with_state(state)
 }

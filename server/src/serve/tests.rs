@@ -220,3 +220,17 @@ async fn metrics_count_by_route_template() {
         "{text}"
     );
 }
+
+#[tokio::test]
+async fn errors_made_by_layers_become_json_too() {
+    let app = Router::new()
+        .route(
+            "/slow",
+            axum::routing::get(|| async { StatusCode::SERVICE_UNAVAILABLE }),
+        )
+        .layer(axum::middleware::from_fn(super::error::json_errors));
+    let (s, h, body) = send(&app, Method::GET, "/slow", &[]).await;
+    assert_eq!(s, StatusCode::SERVICE_UNAVAILABLE);
+    assert_eq!(h[header::CONTENT_TYPE], "application/json");
+    assert_eq!(error_code(&body), "unavailable");
+}
