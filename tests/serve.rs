@@ -19,7 +19,7 @@ use zerotile_codec::raster::Encoding;
 use zerotile_codec::wavelet::Wavelet;
 use zerotile_codec::zerotree::{mesh_error, TerrainMesh};
 use zerotile_codec::Grid;
-use zerotile_tests::{shared_data, zerotile_bin};
+use zerotile_tests::{qm, shared_data, zerotile_bin};
 
 /// Top-left sample of the crop in N44W072 and its side: 2 × 2 tiles of 257 samples.
 const CROP: (usize, usize, usize) = (300, 400, 513);
@@ -531,8 +531,30 @@ fn quantized_mesh_root_tiles_decode_and_share_their_edge() {
             .unwrap()
             .starts_with("application/vnd.quantized-mesh"));
         let triangles: usize = r.header("x-triangles").unwrap().parse().unwrap();
+        // Our own reader first: every invariant of the wire format.
+        let wire = qm::read(&r.body).unwrap();
+        let n = wire.u.len();
+        assert_eq!(wire.triangles.len(), triangles);
+        let ids: Vec<u8> = wire.extensions.iter().map(|e| e.0).collect();
+        assert_eq!(ids, [1, 4], "octvertexnormals then metadata");
+        assert_eq!(wire.extensions[0].1.len(), 2 * n);
+        let meta = &wire.extensions[1].1;
+        let json_len = u32::from_le_bytes([meta[0], meta[1], meta[2], meta[3]]) as usize;
+        let meta: Value = serde_json::from_slice(&meta[4..4 + json_len]).unwrap();
+        assert!(meta["available"].is_array(), "{meta}");
+        // Every vertex on a border is in that border's list.
+        let on = |f: &dyn Fn(usize) -> bool| (0..n).filter(|&i| f(i)).count();
+        assert_eq!(on(&|i| wire.u[i] == 0), wire.edges[0].len());
+        assert_eq!(on(&|i| wire.v[i] == 0), wire.edges[1].len());
+        assert_eq!(on(&|i| wire.u[i] == 32767), wire.edges[2].len());
+        assert_eq!(on(&|i| wire.v[i] == 32767), wire.edges[3].len());
+        assert!(wire.min_height < wire.max_height);
+        assert!(wire.h.contains(&0) && wire.h.contains(&32767));
+
+        // The codec's decoder agrees with it.
         let qm = quantized_mesh::decode(&r.body).unwrap();
-        assert_eq!(qm.triangles.len(), triangles);
+        assert_eq!(qm.triangles, wire.triangles);
+        assert_eq!((&qm.u, &qm.v), (&wire.u, &wire.v));
         assert_eq!(qm.normals.as_ref().map(Vec::len), Some(qm.vertex_count()));
         assert!(qm.metadata.as_ref().unwrap()["available"].is_array());
         assert!(qm.header.min_height < qm.header.max_height);
