@@ -80,6 +80,10 @@ pub fn app(state: AppState) -> Router {
             header::ACCEPT_RANGES,
             header::HeaderName::from_static("x-threshold"),
             header::HeaderName::from_static("x-triangles"),
+            header::HeaderName::from_static("x-view-ratio"),
+            header::HeaderName::from_static("x-a-v"),
+            header::HeaderName::from_static("x-a-t"),
+            header::HeaderName::from_static("x-zoom"),
         ]);
     routes
         .layer(axum::middleware::from_fn_with_state(
