@@ -6,6 +6,8 @@
 
 use std::path::PathBuf;
 
+pub mod qm;
+
 /// `../shared/data` beside the repository: real rasters and meshes, read in place.
 pub fn shared_data() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data")

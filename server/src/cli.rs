@@ -24,6 +24,8 @@ pub struct Cli {
 pub enum Command {
     /// Build a dataset (an EZW tile pyramid in one container file) from a heightmap.
     Ingest(IngestArgs),
+    /// Serve every dataset of a folder over HTTP (routes: docs/api.md).
+    Serve(ServeArgs),
     /// Measure the codec and mesher on one input.
     #[command(subcommand)]
     Eval(EvalCommand),
@@ -96,6 +98,20 @@ pub struct IngestArgs {
     pub quiet: bool,
 }
 
+#[derive(Args, Debug)]
+pub struct ServeArgs {
+    /// Folder of datasets (`*.ztd`, as `zerotile ingest` writes them). Without it the
+    /// server uses `data/`, generating the default data there first if it has none.
+    #[arg(long)]
+    pub data: Option<PathBuf>,
+    /// Address to listen on; port 0 picks a free port (the URL is printed).
+    #[arg(long, default_value = "127.0.0.1:8080")]
+    pub addr: std::net::SocketAddr,
+    /// Decoded-tile cache size, MiB.
+    #[arg(long, default_value_t = 256, value_name = "MIB")]
+    pub cache_mb: u64,
+}
+
 #[derive(Subcommand, Debug)]
 pub enum EvalCommand {
     /// Rate, distortion and zerotree-mesh figures of the terrain codec on one heightmap.
@@ -160,6 +176,7 @@ pub fn run() -> ExitCode {
         Command::Ingest(args) => ingest(args),
         Command::DemoData(args) => demo_data(&args),
         Command::Healthcheck(args) => healthcheck(&args.addr),
+        Command::Serve(args) => serve(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -242,6 +259,34 @@ fn demo_data(a: &DemoArgs) -> anyhow::Result<()> {
         ),
     }
     Ok(())
+}
+
+fn serve(a: ServeArgs) -> anyhow::Result<()> {
+    let config = crate::serve::Config {
+        cache_bytes: a.cache_mb.saturating_mul(1 << 20),
+        ..crate::serve::Config::default()
+    };
+    let data = match a.data {
+        Some(dir) => dir,
+        None => {
+            let dir = PathBuf::from("data");
+            let built = crate::demo::ensure(&dir, false, true)?;
+            if built.terrain || built.meshes > 0 {
+                eprintln!(
+                    "zerotile: generated the default data in {} ({} dataset, {} meshes)",
+                    dir.display(),
+                    if built.terrain { "1" } else { "no" },
+                    built.meshes
+                );
+            }
+            dir
+        }
+    };
+    crate::serve::run(crate::serve::ServeOptions {
+        data,
+        addr: a.addr,
+        config,
+    })
 }
 
 fn eval_terrain(a: TerrainArgs) -> anyhow::Result<()> {

@@ -51,7 +51,7 @@ pub enum Mesher {
 /// Share of a threshold-mode error budget T spent on decoding: the stream is read to T/8 and
 /// the mesh gets what the decode left (T − its max error), so the mesh's true error stays
 /// within T. Reading deeper buys few triangles and costs bytes and time.
-const DECODE_SHARE: f64 = 0.125;
+pub const DECODE_SHARE: f64 = 0.125;
 
 /// One operating point, with the field names the benchmark scripts read.
 #[derive(Clone, Debug, Serialize)]

@@ -1,0 +1,79 @@
+//! Every dataset of a data folder, by name.
+//!
+//! A folder is scanned once at start. A file that fails to open is logged and skipped: one
+//! corrupt or half-copied dataset must not take the others down.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::sync::Arc;
+
+use anyhow::{Context, Result};
+
+use super::dataset::Dataset;
+use crate::ingest::EXTENSION;
+
+/// The datasets a server answers for.
+#[derive(Debug, Default)]
+pub struct Catalog {
+    datasets: BTreeMap<String, Arc<Dataset>>,
+    /// Files that could not be opened, with the reason: shown by `/v1/datasets`.
+    pub skipped: Vec<(String, String)>,
+}
+
+impl Catalog {
+    /// Opens every `*.ztd` in `dir`. A missing or unreadable folder is an error; a bad file
+    /// is not.
+    pub fn open_dir(dir: &Path) -> Result<Self> {
+        let entries =
+            std::fs::read_dir(dir).with_context(|| format!("data folder {}", dir.display()))?;
+        let mut paths: Vec<_> = entries
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|e| e == EXTENSION))
+            .collect();
+        paths.sort();
+        let mut catalog = Self::default();
+        for path in paths {
+            match Dataset::open(&path) {
+                Ok(d) => {
+                    tracing::info!(
+                        dataset = %d.name,
+                        tiles = d.container.len(),
+                        scheme = %d.metadata().scheme,
+                        "opened {}",
+                        path.display()
+                    );
+                    catalog.insert(d);
+                }
+                Err(e) => {
+                    tracing::warn!("skipping {}: {e:#}", path.display());
+                    let file = path
+                        .file_name()
+                        .map(|f| f.to_string_lossy().into_owned())
+                        .unwrap_or_default();
+                    catalog.skipped.push((file, format!("{e:#}")));
+                }
+            }
+        }
+        Ok(catalog)
+    }
+
+    pub fn insert(&mut self, d: Dataset) {
+        self.datasets.insert(d.name.clone(), Arc::new(d));
+    }
+
+    pub fn get(&self, name: &str) -> Option<&Arc<Dataset>> {
+        self.datasets.get(name)
+    }
+
+    pub fn iter(&self) -> impl Iterator<Item = &Arc<Dataset>> {
+        self.datasets.values()
+    }
+
+    pub fn len(&self) -> usize {
+        self.datasets.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.datasets.is_empty()
+    }
+}

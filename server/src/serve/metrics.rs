@@ -1,0 +1,145 @@
+//! Prometheus counters, written out by hand in the text exposition format (version 0.0.4):
+//! a handful of counters and one histogram do not need a metrics framework.
+
+use std::collections::BTreeMap;
+use std::fmt::Write;
+use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+use axum::extract::{MatchedPath, Request, State};
+use axum::middleware::Next;
+use axum::response::Response;
+
+use super::state::AppState;
+
+/// Latency histogram bucket bounds, seconds.
+const BUCKETS: [f64; 12] = [
+    0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1.0, 2.5, 10.0,
+];
+
+/// Process-wide counters.
+#[derive(Debug, Default)]
+pub struct Metrics {
+    /// (route template, status) → requests.
+    requests: Mutex<BTreeMap<(String, u16), u64>>,
+    /// Cumulative counts per bucket, then +Inf.
+    latency_buckets: [AtomicU64; BUCKETS.len() + 1],
+    latency_sum_micros: AtomicU64,
+    latency_count: AtomicU64,
+    pub tiles_decoded: AtomicU64,
+    pub bytes_out: AtomicU64,
+    pub cache_hits: AtomicU64,
+    pub cache_misses: AtomicU64,
+    pub response_cache_hits: AtomicU64,
+}
+
+impl Metrics {
+    pub fn observe(&self, route: &str, status: u16, elapsed: Duration, bytes: u64) {
+        if let Ok(mut m) = self.requests.lock() {
+            *m.entry((route.to_string(), status)).or_default() += 1;
+        }
+        let s = elapsed.as_secs_f64();
+        for (b, bound) in self.latency_buckets.iter().zip(BUCKETS) {
+            if s <= bound {
+                b.fetch_add(1, Relaxed);
+            }
+        }
+        self.latency_buckets[BUCKETS.len()].fetch_add(1, Relaxed);
+        self.latency_sum_micros
+            .fetch_add(elapsed.as_micros() as u64, Relaxed);
+        self.latency_count.fetch_add(1, Relaxed);
+        self.bytes_out.fetch_add(bytes, Relaxed);
+    }
+
+    /// The exposition text.
+    pub fn render(&self) -> String {
+        let mut out = String::new();
+        out.push_str("# HELP zerotile_requests_total HTTP requests by route and status.\n");
+        out.push_str("# TYPE zerotile_requests_total counter\n");
+        if let Ok(m) = self.requests.lock() {
+            for ((route, status), n) in m.iter() {
+                let _ = writeln!(
+                    out,
+                    "zerotile_requests_total{{route=\"{}\",status=\"{status}\"}} {n}",
+                    escape(route)
+                );
+            }
+        }
+        out.push_str("# HELP zerotile_request_duration_seconds Request latency.\n");
+        out.push_str("# TYPE zerotile_request_duration_seconds histogram\n");
+        for (b, bound) in self.latency_buckets.iter().zip(BUCKETS) {
+            let _ = writeln!(
+                out,
+                "zerotile_request_duration_seconds_bucket{{le=\"{bound}\"}} {}",
+                b.load(Relaxed)
+            );
+        }
+        let count = self.latency_count.load(Relaxed);
+        let _ = writeln!(
+            out,
+            "zerotile_request_duration_seconds_bucket{{le=\"+Inf\"}} {count}"
+        );
+        let _ = writeln!(
+            out,
+            "zerotile_request_duration_seconds_sum {}",
+            self.latency_sum_micros.load(Relaxed) as f64 / 1e6
+        );
+        let _ = writeln!(out, "zerotile_request_duration_seconds_count {count}");
+        for (name, help, v) in [
+            (
+                "zerotile_tiles_decoded_total",
+                "EZW tile decodes (cache misses that decoded).",
+                &self.tiles_decoded,
+            ),
+            (
+                "zerotile_response_bytes_total",
+                "Response body bytes before transfer compression.",
+                &self.bytes_out,
+            ),
+            (
+                "zerotile_cache_hits_total",
+                "Decoded-tile cache hits.",
+                &self.cache_hits,
+            ),
+            (
+                "zerotile_cache_misses_total",
+                "Decoded-tile cache misses.",
+                &self.cache_misses,
+            ),
+            (
+                "zerotile_response_cache_hits_total",
+                "Tiles answered from the encoded-response cache.",
+                &self.response_cache_hits,
+            ),
+        ] {
+            let _ = writeln!(out, "# HELP {name} {help}\n# TYPE {name} counter");
+            let _ = writeln!(out, "{name} {}", v.load(Relaxed));
+        }
+        out
+    }
+}
+
+fn escape(s: &str) -> String {
+    s.replace('\\', "\\\\")
+        .replace('"', "\\\"")
+        .replace('\n', "\\n")
+}
+
+/// Middleware: counts every request by its route template (not its path, so the label set
+/// stays bounded) and status, and times it.
+pub async fn track(State(state): State<AppState>, req: Request, next: Next) -> Response {
+    let started = Instant::now();
+    let route = req
+        .extensions()
+        .get::<MatchedPath>()
+        .map_or_else(|| "unmatched".to_string(), |p| p.as_str().to_string());
+    let res = next.run(req).await;
+    let bytes = axum::body::HttpBody::size_hint(res.body())
+        .exact()
+        .unwrap_or(0);
+    state
+        .metrics
+        .observe(&route, res.status().as_u16(), started.elapsed(), bytes);
+    res
+}

@@ -1,0 +1,186 @@
+//! `zerotile serve`: the HTTP tile server.
+//!
+//! | module | concern |
+//! |---|---|
+//! | [`catalog`], [`dataset`] | datasets of a folder, opened once, tiles read on demand |
+//! | [`threshold`], [`view_plane`] | T from `threshold`, `ratio`, a camera (eq. 4) or the zoom |
+//! | [`pipeline`], [`tile_cache`] | decode (cached by bytes), stitch, off the async threads |
+//! | [`render`] | quantized-mesh, PNG, ZTM1, OBJ/GLB/JSON bytes |
+//! | [`negotiate`] | Accept, Accept-Encoding, If-None-Match, Range |
+//! | [`routes`] | handlers; [`error`] the one JSON error edge; [`metrics`] Prometheus |
+//!
+//! The routes are listed in docs/api.md.
+
+pub mod catalog;
+pub mod dataset;
+pub mod error;
+pub mod metrics;
+pub mod negotiate;
+pub mod pipeline;
+pub mod render;
+pub mod routes;
+pub mod state;
+pub mod threshold;
+pub mod tile_cache;
+pub mod view_plane;
+
+#[cfg(test)]
+mod tests;
+
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::time::Duration;
+
+use anyhow::{Context, Result};
+use axum::http::{header, Method, StatusCode};
+use axum::routing::get;
+use axum::Router;
+use tower_http::compression::predicate::{DefaultPredicate, NotForContentType, Predicate};
+use tower_http::compression::CompressionLayer;
+use tower_http::cors::{Any, CorsLayer};
+use tower_http::timeout::TimeoutLayer;
+
+pub use catalog::Catalog;
+pub use state::{AppState, Config};
+
+/// A request running longer than this is answered 503: a stuck decode must not hold a
+/// client forever.
+pub const REQUEST_TIMEOUT: Duration = Duration::from_secs(30);
+
+/// The service: every route, with CORS, compression, timeouts and metrics.
+pub fn app(state: AppState) -> Router {
+    let routes = Router::new()
+        .route("/healthz", get(routes::meta::healthz))
+        .route("/metrics", get(routes::meta::metrics))
+        .route("/v1/datasets", get(routes::meta::list))
+        .route("/v1/datasets/{name}", get(routes::meta::describe))
+        .route(
+            "/v1/datasets/{name}/layer.json",
+            get(routes::meta::layer_json),
+        )
+        .route("/v1/datasets/{name}/view", get(routes::view::view))
+        .route(
+            "/v1/datasets/{name}/tiles/{z}/{x}/{y}",
+            get(routes::tiles::tile),
+        )
+        .fallback(error::not_found)
+        .method_not_allowed_fallback(error::method_not_allowed);
+
+    // Tiles that are already compact (PNG, EZW prefixes) or already gzipped are left alone.
+    let compress = DefaultPredicate::new()
+        .and(NotForContentType::const_new(routes::tiles::EZW_MEDIA))
+        .and(NotForContentType::const_new("model/gltf-binary"));
+    let cors = CorsLayer::new()
+        .allow_origin(Any)
+        .allow_methods([Method::GET, Method::HEAD, Method::OPTIONS])
+        .allow_headers(Any)
+        .expose_headers([
+            header::ETAG,
+            header::CONTENT_RANGE,
+            header::ACCEPT_RANGES,
+            header::HeaderName::from_static("x-threshold"),
+            header::HeaderName::from_static("x-triangles"),
+            header::HeaderName::from_static("x-view-ratio"),
+            header::HeaderName::from_static("x-a-v"),
+            header::HeaderName::from_static("x-a-t"),
+            header::HeaderName::from_static("x-zoom"),
+        ]);
+    routes
+        .layer(axum::middleware::from_fn_with_state(
+            state.clone(),
+            metrics::track,
+        ))
+        .layer(CompressionLayer::new().compress_when(compress))
+        .layer(TimeoutLayer::with_status_code(
+            StatusCode::SERVICE_UNAVAILABLE,
+            REQUEST_TIMEOUT,
+        ))
+        .layer(axum::middleware::from_fn(error::json_errors))
+        .layer(cors)
+        .with_state(state)
+}
+
+/// How to run the server.
+#[derive(Clone, Debug)]
+pub struct ServeOptions {
+    pub data: PathBuf,
+    pub addr: SocketAddr,
+    pub config: Config,
+}
+
+/// Opens the datasets, binds, prints the URL and serves until SIGTERM or Ctrl-C, then lets
+/// in-flight requests finish.
+pub fn run(opts: ServeOptions) -> Result<()> {
+    init_tracing();
+    let catalog = Catalog::open_dir(&opts.data)?;
+    if catalog.is_empty() {
+        tracing::warn!(
+            "no datasets in {} (build one with `zerotile ingest`)",
+            opts.data.display()
+        );
+    }
+    let n = catalog.len();
+    let state = AppState::new(catalog, opts.config);
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .context("starting the async runtime")?;
+    rt.block_on(async move {
+        let listener = tokio::net::TcpListener::bind(opts.addr)
+            .await
+            .with_context(|| format!("binding {}", opts.addr))?;
+        let local = listener.local_addr()?;
+        println!(
+            "zerotile: serving {n} dataset(s) from {} on http://{local}/",
+            opts.data.display()
+        );
+        use std::io::Write;
+        let _ = std::io::stdout().flush();
+        axum::serve(listener, app(state))
+            .with_graceful_shutdown(shutdown_signal())
+            .await
+            .context("serving")?;
+        tracing::info!("shut down cleanly");
+        Ok(())
+    })
+}
+
+fn init_tracing() {
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+    // Colour only on a terminal: logs captured to files stay greppable.
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
+        .try_init();
+}
+
+/// Resolves on Ctrl-C or SIGTERM.
+async fn shutdown_signal() {
+    let ctrl_c = async {
+        if let Err(e) = tokio::signal::ctrl_c().await {
+            tracing::error!("cannot listen for Ctrl-C: {e}");
+            std::future::pending::<()>().await;
+        }
+    };
+    #[cfg(unix)]
+    let term = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(e) => {
+                tracing::error!("cannot listen for SIGTERM: {e}");
+                std::future::pending::<()>().await;
+            }
+        }
+    };
+    #[cfg(not(unix))]
+    let term = std::future::pending::<()>();
+    tokio::select! {
+        () = ctrl_c => {},
+        () = term => {},
+    }
+    tracing::info!("shutdown signal received: draining in-flight requests");
+}

@@ -1,0 +1,262 @@
+//! Content negotiation: quantized-mesh extensions from `Accept`, gzip from
+//! `Accept-Encoding`, conditional requests and byte ranges. Header parsing only.
+
+use axum::http::header::{ACCEPT, ACCEPT_ENCODING, IF_NONE_MATCH, RANGE};
+use axum::http::HeaderMap;
+
+use super::error::ApiError;
+
+/// Media type of quantized-mesh tiles.
+pub const QUANTIZED_MESH: &str = "application/vnd.quantized-mesh";
+
+/// The quantized-mesh extensions a client asked for.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct Extensions {
+    pub octvertexnormals: bool,
+    pub watermask: bool,
+    pub metadata: bool,
+}
+
+impl Extensions {
+    /// Adds the names in a `-`-separated list (`octvertexnormals-metadata`); unknown names
+    /// are ignored, as Cesium's servers do.
+    fn add_list(&mut self, list: &str) {
+        for name in list.split(['-', ',']) {
+            match name.trim() {
+                "octvertexnormals" => self.octvertexnormals = true,
+                "watermask" => self.watermask = true,
+                "metadata" => self.metadata = true,
+                _ => {}
+            }
+        }
+    }
+
+    /// The list as it goes in a `Content-Type` parameter.
+    pub fn names(&self) -> String {
+        let mut v = Vec::new();
+        if self.octvertexnormals {
+            v.push("octvertexnormals");
+        }
+        if self.watermask {
+            v.push("watermask");
+        }
+        if self.metadata {
+            v.push("metadata");
+        }
+        v.join("-")
+    }
+}
+
+/// Extensions from `Accept` and `?extensions=`. An `Accept` header that names neither
+/// quantized-mesh nor a wildcard nor `application/octet-stream` is refused with 406.
+pub fn terrain_extensions(
+    headers: &HeaderMap,
+    query: Option<&str>,
+) -> Result<Extensions, ApiError> {
+    let mut ext = Extensions::default();
+    if let Some(q) = query {
+        ext.add_list(q);
+    }
+    let Some(accept) = headers.get(ACCEPT) else {
+        return Ok(ext);
+    };
+    let accept = accept.to_str().map_err(|_| not_acceptable())?;
+    let mut acceptable = false;
+    for range in accept.split(',') {
+        let mut parts = range.split(';');
+        let media = parts.next().unwrap_or("").trim().to_ascii_lowercase();
+        let params: Vec<(String, String)> = parts
+            .filter_map(|p| {
+                let (k, v) = p.split_once('=')?;
+                Some((
+                    k.trim().to_ascii_lowercase(),
+                    v.trim().trim_matches('"').to_string(),
+                ))
+            })
+            .collect();
+        let refused = params
+            .iter()
+            .any(|(k, v)| k == "q" && v.parse::<f64>().is_ok_and(|q| q <= 0.0));
+        if refused {
+            continue;
+        }
+        match media.as_str() {
+            QUANTIZED_MESH => {
+                acceptable = true;
+                for (k, v) in &params {
+                    if k == "extensions" {
+                        ext.add_list(v);
+                    }
+                }
+            }
+            "*/*" | "application/*" | "application/octet-stream" => acceptable = true,
+            _ => {}
+        }
+    }
+    if acceptable {
+        Ok(ext)
+    } else {
+        Err(not_acceptable())
+    }
+}
+
+fn not_acceptable() -> ApiError {
+    ApiError::new(
+        axum::http::StatusCode::NOT_ACCEPTABLE,
+        "not_acceptable",
+        format!("this route serves {QUANTIZED_MESH} (or */*, application/octet-stream)"),
+    )
+}
+
+/// Whether `Accept-Encoding` allows gzip (`gzip` or `*` with q > 0).
+pub fn accepts_gzip(headers: &HeaderMap) -> bool {
+    let Some(v) = headers.get(ACCEPT_ENCODING).and_then(|v| v.to_str().ok()) else {
+        return false;
+    };
+    v.split(',').any(|item| {
+        let mut parts = item.split(';');
+        let coding = parts.next().unwrap_or("").trim().to_ascii_lowercase();
+        let q_ok = parts.all(|p| match p.trim().split_once('=') {
+            Some((k, q)) if k.trim().eq_ignore_ascii_case("q") => {
+                q.trim().parse::<f64>().is_ok_and(|q| q > 0.0)
+            }
+            _ => true,
+        });
+        (coding == "gzip" || coding == "x-gzip" || coding == "*") && q_ok
+    })
+}
+
+/// Whether `If-None-Match` lists `etag` (weak comparison, as RFC 9110 asks for GET) or `*`.
+pub fn not_modified(headers: &HeaderMap, etag: &str) -> bool {
+    let bare = |t: &str| t.trim().trim_start_matches("W/").to_string();
+    headers
+        .get_all(IF_NONE_MATCH)
+        .iter()
+        .filter_map(|v| v.to_str().ok())
+        .flat_map(|v| v.split(','))
+        .any(|t| t.trim() == "*" || bare(t) == bare(etag))
+}
+
+/// What a `Range` header asks of a body of `len` bytes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RangeAsk {
+    /// No usable single range: send everything (multiple ranges are answered whole too).
+    Full,
+    /// Bytes start..=end.
+    Part { start: u64, end: u64 },
+    /// Outside the body: 416.
+    Unsatisfiable,
+}
+
+/// Parses `Range: bytes=a-b | a- | -n` against a body of `len` bytes.
+pub fn range(headers: &HeaderMap, len: u64) -> RangeAsk {
+    let Some(v) = headers.get(RANGE).and_then(|v| v.to_str().ok()) else {
+        return RangeAsk::Full;
+    };
+    let Some(spec) = v.trim().strip_prefix("bytes=") else {
+        return RangeAsk::Full;
+    };
+    if spec.contains(',') {
+        return RangeAsk::Full;
+    }
+    let Some((a, b)) = spec.split_once('-') else {
+        return RangeAsk::Full;
+    };
+    let (a, b) = (a.trim(), b.trim());
+    let parse = |s: &str| s.parse::<u64>().ok();
+    match (a.is_empty(), b.is_empty()) {
+        // Suffix: the last n bytes.
+        (true, false) => match parse(b) {
+            Some(0) => RangeAsk::Unsatisfiable,
+            Some(n) if len > 0 => RangeAsk::Part {
+                start: len.saturating_sub(n),
+                end: len - 1,
+            },
+            Some(_) => RangeAsk::Unsatisfiable,
+            None => RangeAsk::Full,
+        },
+        (false, _) => {
+            let Some(start) = parse(a) else {
+                return RangeAsk::Full;
+            };
+            let end = if b.is_empty() {
+                Some(u64::MAX)
+            } else {
+                parse(b)
+            };
+            let Some(end) = end else {
+                return RangeAsk::Full;
+            };
+            if end < start {
+                return RangeAsk::Full;
+            }
+            if start >= len {
+                return RangeAsk::Unsatisfiable;
+            }
+            RangeAsk::Part {
+                start,
+                end: end.min(len - 1),
+            }
+        }
+        (true, true) => RangeAsk::Full,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use axum::http::HeaderValue;
+
+    fn with(name: axum::http::HeaderName, v: &'static str) -> HeaderMap {
+        let mut h = HeaderMap::new();
+        h.insert(name, HeaderValue::from_static(v));
+        h
+    }
+
+    #[test]
+    fn cesium_accept_header_gives_its_extensions() {
+        let h = with(
+            ACCEPT,
+            "application/vnd.quantized-mesh;extensions=octvertexnormals-watermask-metadata,application/octet-stream;q=0.9,*/*;q=0.01",
+        );
+        let e = terrain_extensions(&h, None).unwrap();
+        assert!(e.octvertexnormals && e.watermask && e.metadata);
+        assert!(terrain_extensions(&with(ACCEPT, "image/png"), None).is_err());
+        assert_eq!(
+            terrain_extensions(&HeaderMap::new(), Some("metadata"))
+                .unwrap()
+                .names(),
+            "metadata"
+        );
+    }
+
+    #[test]
+    fn gzip_needs_a_positive_q() {
+        assert!(accepts_gzip(&with(ACCEPT_ENCODING, "gzip, deflate, br")));
+        assert!(!accepts_gzip(&with(ACCEPT_ENCODING, "gzip;q=0, br")));
+        assert!(!accepts_gzip(&with(ACCEPT_ENCODING, "identity")));
+        assert!(!accepts_gzip(&HeaderMap::new()));
+    }
+
+    #[test]
+    fn ranges_follow_rfc_9110() {
+        let r = |v: &'static str, len| range(&with(RANGE, v), len);
+        assert_eq!(r("bytes=0-9", 100), RangeAsk::Part { start: 0, end: 9 });
+        assert_eq!(r("bytes=90-", 100), RangeAsk::Part { start: 90, end: 99 });
+        assert_eq!(r("bytes=-10", 100), RangeAsk::Part { start: 90, end: 99 });
+        assert_eq!(
+            r("bytes=50-500", 100),
+            RangeAsk::Part { start: 50, end: 99 }
+        );
+        assert_eq!(r("bytes=100-", 100), RangeAsk::Unsatisfiable);
+        assert_eq!(r("bytes=0-1,5-6", 100), RangeAsk::Full);
+        assert_eq!(r("items=0-1", 100), RangeAsk::Full);
+    }
+
+    #[test]
+    fn etags_compare_weakly() {
+        let h = with(IF_NONE_MATCH, "\"x\", W/\"abc\"");
+        assert!(not_modified(&h, "W/\"abc\""));
+        assert!(!not_modified(&h, "W/\"abd\""));
+    }
+}

@@ -1,0 +1,123 @@
+//! Tile work, off the async threads: read a record, decode it to a depth (cached), and mesh
+//! it stitched to its neighbours. Blocking functions; the routes call them through
+//! `spawn_blocking`.
+
+use std::sync::atomic::Ordering::Relaxed;
+use std::sync::Arc;
+
+use anyhow::{Context, Result};
+use zerotile_codec::bintree::TileErrors;
+use zerotile_codec::container::TileId;
+use zerotile_codec::ezw;
+use zerotile_codec::geo::Scheme;
+use zerotile_codec::tile::{stitched_mesh, Neighbourhood, TileView};
+use zerotile_codec::zerotree::TerrainMesh;
+
+use super::dataset::Dataset;
+use super::state::AppState;
+use super::threshold::{mesh_tolerance, Depth};
+use super::tile_cache::{DecodedTile, Key};
+
+/// `id` decoded to `depth`, from the cache or decoded now.
+pub fn decoded(
+    state: &AppState,
+    d: &Dataset,
+    id: TileId,
+    depth: Depth,
+) -> Result<Arc<DecodedTile>> {
+    let key = Key {
+        dataset: d.version,
+        tile: id,
+        depth,
+    };
+    if let Some(hit) = state.cache.get(&key) {
+        state.metrics.cache_hits.fetch_add(1, Relaxed);
+        return Ok(hit);
+    }
+    state.metrics.cache_misses.fetch_add(1, Relaxed);
+    // Concurrent misses on one key wait for a single decode.
+    state.cache.get_or_insert_with(&key, || {
+        let rec = d.read_tile(id)?;
+        let dec = ezw::decode(&rec.stream, depth.limit(), ezw::DEFAULT_MAX_SAMPLES)
+            .with_context(|| format!("decoding tile {id} of {}", d.name))?;
+        state.metrics.tiles_decoded.fetch_add(1, Relaxed);
+        let side = d.hierarchy.side();
+        if dec.heights.rows() != side || dec.heights.cols() != side {
+            anyhow::bail!(
+                "tile {id} of {} decodes to {}×{}, the dataset says {side}²",
+                d.name,
+                dec.heights.rows(),
+                dec.heights.cols()
+            );
+        }
+        let errors = TileErrors::new(&d.hierarchy, &dec.heights);
+        let mut prefix = rec.stream;
+        prefix.truncate(dec.bytes_used);
+        Ok(Arc::new(DecodedTile {
+            heights: dec.heights,
+            errors,
+            corners: rec.corners,
+            prefix,
+        }))
+    })
+}
+
+fn view(t: &DecodedTile) -> TileView<'_> {
+    TileView {
+        heights: &t.heights,
+        errors: &t.errors,
+    }
+}
+
+/// Edge neighbours that exist: north, south, west, east.
+pub fn neighbours(d: &Dataset, id: TileId) -> [Option<TileId>; 4] {
+    let at = |x: Option<u32>, y: Option<u32>| {
+        let t = TileId {
+            z: id.z,
+            x: x?,
+            y: y?,
+        };
+        d.has_tile(t).then_some(t)
+    };
+    // Row 0 of a tile is its north edge; geodetic tile rows count from the south.
+    let (north_y, south_y) = match d.tiling.scheme() {
+        Scheme::Geodetic => (id.y.checked_add(1), id.y.checked_sub(1)),
+        Scheme::Mercator | Scheme::Local { .. } => (id.y.checked_sub(1), id.y.checked_add(1)),
+    };
+    [
+        at(Some(id.x), north_y),
+        at(Some(id.x), south_y),
+        at(id.x.checked_sub(1), Some(id.y)),
+        at(id.x.checked_add(1), Some(id.y)),
+    ]
+}
+
+/// The tile's mesh at threshold `t`, crack-free against its neighbours' meshes at the same
+/// `t`, and the tile's own decode.
+pub fn stitched(
+    state: &AppState,
+    d: &Dataset,
+    id: TileId,
+    t: f64,
+) -> Result<(Arc<DecodedTile>, TerrainMesh)> {
+    // The tile and each neighbour at one depth: the stitch needs them decoded alike.
+    let depth = Depth::for_threshold(t);
+    let center = decoded(state, d, id, depth)?;
+    let mut around: [Option<Arc<DecodedTile>>; 4] = Default::default();
+    for (slot, n) in around.iter_mut().zip(neighbours(d, id)) {
+        if let Some(n) = n {
+            *slot = Some(decoded(state, d, n, depth)?);
+        }
+    }
+    let [north, south, west, east] = &around;
+    let n = Neighbourhood {
+        center: view(&center),
+        north: north.as_deref().map(view),
+        south: south.as_deref().map(view),
+        west: west.as_deref().map(view),
+        east: east.as_deref().map(view),
+        corners: Some(center.corners),
+    };
+    let mesh = stitched_mesh(&d.hierarchy, &n, mesh_tolerance(t))?;
+    Ok((center, mesh))
+}

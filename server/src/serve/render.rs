@@ -1,0 +1,134 @@
+//! A decoded tile or its mesh, written in each client format. Pure functions over codec
+//! types; the routes choose which and add the HTTP around them.
+
+use anyhow::{Context, Result};
+use glam::DVec3;
+use zerotile_codec::container::TileId;
+use zerotile_codec::formats::layer_json::AvailableRange;
+use zerotile_codec::formats::mesh_bin::{self, MeshCrs};
+use zerotile_codec::formats::quantized_mesh::{self, QmOptions};
+use zerotile_codec::formats::terrain_rgb::{self, RgbOptions};
+use zerotile_codec::geo::{self, Scheme};
+use zerotile_codec::mesh::{io, Format, TriMesh};
+use zerotile_codec::raster::Encoding;
+use zerotile_codec::zerotree::TerrainMesh;
+use zerotile_codec::Grid;
+
+use super::dataset::Dataset;
+
+fn geo_id(id: TileId) -> geo::TileId {
+    geo::TileId::new(id.z, id.x, id.y)
+}
+
+/// A quantized-mesh-1.0 tile (the tiling must be georeferenced).
+pub fn quantized_mesh(
+    d: &Dataset,
+    id: TileId,
+    mesh: &TerrainMesh,
+    opts: &QmOptions,
+) -> Result<Vec<u8>> {
+    let tile = d.tiling.tile_geo(geo_id(id))?;
+    Ok(quantized_mesh::encode(mesh, &tile, opts)?)
+}
+
+/// Two triangles at one height over a whole tile: what a root tile without data holds
+/// (Cesium needs every root tile to exist).
+pub fn flat_mesh(side: usize, height: f64) -> TerrainMesh {
+    let last = (side - 1) as f64;
+    TerrainMesh {
+        rows: side,
+        cols: side,
+        positions: vec![
+            [0.0, 0.0, height],
+            [last, 0.0, height],
+            [0.0, last, height],
+            [last, last, height],
+        ],
+        // Counter-clockwise seen from above, north up.
+        triangles: vec![[2, 3, 1], [2, 1, 0]],
+    }
+}
+
+/// The metadata extension's child availability: which of the tile's four children exist,
+/// as TMS ranges (Cesium counts y from the south in every scheme).
+pub fn child_availability(d: &Dataset, id: TileId) -> Result<serde_json::Value> {
+    let mut ranges = Vec::new();
+    if let Some(children) = geo_id(id).children() {
+        let z = id.z.saturating_add(1);
+        let ny = match d.tiling.tiles_per_axis(z) {
+            Ok((_, ny)) => ny,
+            Err(_) => 0,
+        };
+        for c in children {
+            let cid = TileId {
+                z: c.z,
+                x: c.x,
+                y: c.y,
+            };
+            if !d.has_tile(cid) {
+                continue;
+            }
+            let y = match d.tiling.scheme() {
+                Scheme::Geodetic => c.y,
+                _ => ny.saturating_sub(1).saturating_sub(c.y),
+            };
+            ranges.push(AvailableRange {
+                start_x: c.x,
+                start_y: y,
+                end_x: c.x,
+                end_y: y,
+            });
+        }
+    }
+    Ok(serde_json::json!({ "available": [ranges] }))
+}
+
+/// A terrain-RGB or Terrarium PNG of `size`² pixels over the tile.
+pub fn png(heights: &Grid<f64>, encoding: Encoding, size: u32) -> Result<Vec<u8>> {
+    let opts = RgbOptions {
+        size: Some(size),
+        ..RgbOptions::new(encoding)
+    };
+    Ok(terrain_rgb::encode(heights, &opts)?)
+}
+
+/// The ZTM1 binary mesh.
+pub fn mesh_bin(d: &Dataset, id: TileId, mesh: &TerrainMesh) -> Result<Vec<u8>> {
+    let crs = match d.tiling.scheme() {
+        Scheme::Geodetic => MeshCrs::Geographic,
+        Scheme::Mercator => MeshCrs::WebMercator,
+        Scheme::Local { .. } => MeshCrs::LocalGrid,
+    };
+    let bounds = d.tiling.tile_bounds(geo_id(id))?;
+    Ok(mesh_bin::encode(mesh, crs, &bounds)?)
+}
+
+/// The mesh in the scheme's coordinates, z up: longitude and latitude degrees (geodetic),
+/// EPSG:3857 metres (mercator), or full-resolution column and minus row (local, so y points
+/// north and triangles stay counter-clockwise); heights in metres.
+pub fn tri_mesh(d: &Dataset, id: TileId, mesh: &TerrainMesh) -> Result<TriMesh> {
+    let b = d.tiling.tile_bounds(geo_id(id))?;
+    let last = (mesh.cols.max(2) - 1) as f64;
+    let (top, bottom, flip) = match d.tiling.scheme() {
+        Scheme::Local { .. } => (b.min_y, b.max_y, -1.0),
+        Scheme::Geodetic | Scheme::Mercator => (b.max_y, b.min_y, 1.0),
+    };
+    let positions = mesh
+        .positions
+        .iter()
+        .map(|&[c, r, h]| {
+            DVec3::new(
+                b.min_x + c / last * (b.max_x - b.min_x),
+                flip * (top + r / last * (bottom - top)),
+                h,
+            )
+        })
+        .collect();
+    Ok(TriMesh::new(positions, mesh.triangles.clone()))
+}
+
+/// OBJ, GLB or JSON bytes of the mesh.
+pub fn mesh_file(d: &Dataset, id: TileId, mesh: &TerrainMesh, format: Format) -> Result<Vec<u8>> {
+    let m = tri_mesh(d, id, mesh)?;
+    io::write_bytes(&m, format).with_context(|| format!("writing tile {id} as {}", format.name()))
+}

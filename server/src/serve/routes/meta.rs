@@ -1,0 +1,181 @@
+//! Health, metrics, the dataset list and descriptions, and Cesium's `layer.json`.
+
+use std::sync::Arc;
+
+use axum::extract::rejection::PathRejection;
+use axum::extract::{Path, State};
+use axum::http::header::{CACHE_CONTROL, CONTENT_TYPE};
+use axum::response::{IntoResponse, Response};
+use axum::Json;
+use serde_json::{json, Value};
+use zerotile_codec::formats::layer_json::{
+    AvailableRange, Extension, LayerJson, DEFAULT_TILES_TEMPLATE,
+};
+use zerotile_codec::geo::{Bounds, Scheme};
+
+use crate::serve::dataset::Dataset;
+use crate::serve::error::{ApiError, ApiResult};
+use crate::serve::state::AppState;
+use crate::serve::threshold;
+
+pub async fn healthz(State(state): State<AppState>) -> Json<Value> {
+    Json(json!({ "status": "ok", "datasets": state.catalog.len() }))
+}
+
+pub async fn metrics(State(state): State<AppState>) -> Response {
+    (
+        [(CONTENT_TYPE, "text/plain; version=0.0.4; charset=utf-8")],
+        state.metrics.render(),
+    )
+        .into_response()
+}
+
+/// Looks a dataset up by the name in the path.
+pub fn dataset(state: &AppState, name: &str) -> ApiResult<Arc<Dataset>> {
+    state
+        .catalog
+        .get(name)
+        .cloned()
+        .ok_or_else(|| ApiError::not_found("unknown_dataset", format!("no dataset named {name:?}")))
+}
+
+pub async fn list(State(state): State<AppState>) -> Json<Value> {
+    let datasets: Vec<Value> = state.catalog.iter().map(|d| summary(d)).collect();
+    let skipped: Vec<Value> = state
+        .catalog
+        .skipped
+        .iter()
+        .map(|(file, why)| json!({ "file": file, "error": why }))
+        .collect();
+    Json(json!({ "datasets": datasets, "skipped": skipped }))
+}
+
+fn summary(d: &Dataset) -> Value {
+    let m = d.metadata();
+    json!({
+        "name": d.name,
+        "scheme": m.scheme,
+        "minzoom": m.min_zoom,
+        "maxzoom": m.max_zoom,
+        "bounds": m.bounds,
+        "tiles": d.container.len(),
+        "url": format!("/v1/datasets/{}", d.name),
+    })
+}
+
+pub async fn describe(
+    State(state): State<AppState>,
+    path: Result<Path<String>, PathRejection>,
+) -> ApiResult<Json<Value>> {
+    let Path(name) = path?;
+    let d = dataset(&state, &name)?;
+    let m = d.metadata();
+    let mut v = summary(&d);
+    let defaults: Vec<Value> = threshold::defaults(&d)
+        .into_iter()
+        .map(|(z, t)| json!({ "zoom": z, "threshold": t }))
+        .collect();
+    let georeferenced = !matches!(d.tiling.scheme(), Scheme::Local { .. });
+    let extra = json!({
+        "version": format!("{:016x}", d.version),
+        "tile_side": m.tile_side,
+        "source_size": m.source_size,
+        "height_range": m.height_range,
+        "fill": m.fill,
+        "view": { "a": m.view.a, "b": m.view.b, "equation": "T = a * (A_v / A_t) + b" },
+        "default_thresholds": defaults,
+        "decode_share": threshold::DECODE_SHARE,
+        "available": m.available,
+        "codec": {
+            "wavelet": format!("{:?}", m.wavelet),
+            "step": m.step,
+            "precision": m.precision,
+            "samples": m.samples,
+            "stream_bytes": m.stream_bytes,
+            "bits_per_sample": m.stream_bytes as f64 * 8.0 / m.samples.max(1) as f64,
+        },
+        "source": m.source,
+        "source_crs": m.source_crs,
+        "created": m.created,
+        "formats": if georeferenced {
+            json!(["terrain", "png", "json", "bin", "obj", "glb", "ezw"])
+        } else {
+            json!(["png", "json", "bin", "obj", "glb", "ezw"])
+        },
+        "layer_json": georeferenced.then(|| format!("/v1/datasets/{}/layer.json", d.name)),
+        "tile_url": format!("/v1/datasets/{}/tiles/{{z}}/{{x}}/{{y}}.{{format}}", d.name),
+    });
+    if let (Some(a), Some(b)) = (v.as_object_mut(), extra.as_object()) {
+        a.extend(b.clone());
+    }
+    Ok(Json(v))
+}
+
+pub async fn layer_json(
+    State(state): State<AppState>,
+    path: Result<Path<String>, PathRejection>,
+) -> ApiResult<Response> {
+    let Path(name) = path?;
+    let d = dataset(&state, &name)?;
+    let m = d.metadata();
+    if matches!(d.tiling.scheme(), Scheme::Local { .. }) {
+        return Err(ApiError::not_found(
+            "not_georeferenced",
+            format!(
+                "{name} is a local grid without georeference: Cesium's layer.json and \
+                 quantized-mesh need a geodetic or mercator dataset"
+            ),
+        ));
+    }
+    // Cesium wants bounds in degrees and every root tile available.
+    let [west, south, east, north] = m.bounds;
+    let bounds = Bounds {
+        min_x: west,
+        min_y: south,
+        max_x: east,
+        max_y: north,
+    };
+    let mut layer =
+        LayerJson::for_tiling(&d.tiling, bounds, 0, m.max_zoom).map_err(ApiError::internal)?;
+    layer.name = d.name.clone();
+    layer.version = format!("{:016x}", d.version);
+    layer.extensions = vec![
+        Extension::OctVertexNormals,
+        Extension::WaterMask,
+        Extension::Metadata,
+    ];
+    // Relative to the manifest's own URL, which sits beside the `tiles/` folder.
+    layer.tiles = vec![format!("tiles/{DEFAULT_TILES_TEMPLATE}")];
+    layer.description = format!("zerotile EZW terrain from {}", m.source);
+    // Availability as stored (scheme y → TMS y), roots kept from the tiling.
+    for (k, ranges) in m.available.iter().enumerate() {
+        let z = usize::from(m.min_zoom) + k;
+        if z == 0 || z >= layer.available.len() {
+            continue;
+        }
+        let ny = d
+            .tiling
+            .tiles_per_axis(z as u8)
+            .map_err(ApiError::internal)?
+            .1;
+        layer.available[z] = ranges
+            .iter()
+            .map(|a| match d.tiling.scheme() {
+                Scheme::Geodetic => AvailableRange {
+                    start_x: a.start_x,
+                    start_y: a.start_y,
+                    end_x: a.end_x,
+                    end_y: a.end_y,
+                },
+                _ => AvailableRange {
+                    start_x: a.start_x,
+                    start_y: ny.saturating_sub(1).saturating_sub(a.end_y),
+                    end_x: a.end_x,
+                    end_y: ny.saturating_sub(1).saturating_sub(a.start_y),
+                },
+            })
+            .collect();
+    }
+    let value = layer.to_value().map_err(ApiError::internal)?;
+    Ok(([(CACHE_CONTROL, "public, max-age=60")], Json(value)).into_response())
+}

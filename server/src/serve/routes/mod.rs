@@ -1,0 +1,5 @@
+//! Route handlers: HTTP in, HTTP out; the work lives in `pipeline` and `render`.
+
+pub mod meta;
+pub mod tiles;
+pub mod view;

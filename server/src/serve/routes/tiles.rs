@@ -1,0 +1,437 @@
+//! `GET /v1/datasets/{name}/tiles/{z}/{x}/{y}.{format}`: one tile in any client format.
+//!
+//! Steps: parse the address and the format; choose the threshold; answer 304 when the
+//! client's ETag matches; otherwise render off the async threads (decode, stitch, encode)
+//! and add the cache, threshold and negotiation headers.
+
+use std::collections::hash_map::DefaultHasher;
+use std::collections::HashMap;
+use std::hash::{Hash, Hasher};
+use std::io::Write;
+use std::sync::atomic::Ordering::Relaxed;
+use std::sync::Arc;
+
+use axum::body::Body;
+use axum::extract::rejection::{PathRejection, QueryRejection};
+use axum::extract::{Path, Query, State};
+use axum::http::header::{
+    ACCEPT_RANGES, CACHE_CONTROL, CONTENT_ENCODING, CONTENT_RANGE, CONTENT_TYPE, ETAG, VARY,
+};
+use axum::http::{HeaderMap, HeaderValue, StatusCode};
+use axum::response::Response;
+use flate2::write::GzEncoder;
+use zerotile_codec::container::TileId;
+use zerotile_codec::formats::quantized_mesh::{QmOptions, WaterMask};
+use zerotile_codec::geo::Scheme;
+use zerotile_codec::mesh::Format as MeshFormat;
+use zerotile_codec::raster::Encoding;
+
+use super::meta::dataset;
+use crate::serve::dataset::Dataset;
+use crate::serve::error::{ApiError, ApiResult};
+use crate::serve::negotiate::{self, Extensions, RangeAsk, QUANTIZED_MESH};
+use crate::serve::pipeline;
+use crate::serve::render;
+use crate::serve::state::AppState;
+use crate::serve::threshold::{self, Depth};
+use crate::serve::tile_cache::Encoded;
+
+/// Media type of `.ezw` stream prefixes (not compressed again: they are arithmetic-coded).
+pub const EZW_MEDIA: &str = "application/vnd.zerotile.ezw";
+/// Media type of `.bin` (ZTM1) meshes.
+pub const ZTM1_MEDIA: &str = "application/vnd.zerotile.ztm1";
+/// Default and largest PNG side, pixels (MapLibre's raster-dem default is 512).
+const PNG_DEFAULT_SIZE: u32 = 512;
+const PNG_MAX_SIZE: u32 = 1024;
+const PNG_MIN_SIZE: u32 = 16;
+
+/// The formats a tile comes in, by file extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum TileFormat {
+    Terrain,
+    Png,
+    Json,
+    Bin,
+    Obj,
+    Glb,
+    Ezw,
+}
+
+impl TileFormat {
+    fn from_extension(ext: &str) -> Option<Self> {
+        Some(match ext {
+            "terrain" => Self::Terrain,
+            "png" => Self::Png,
+            "json" => Self::Json,
+            "bin" => Self::Bin,
+            "obj" => Self::Obj,
+            "glb" => Self::Glb,
+            "ezw" => Self::Ezw,
+            _ => return None,
+        })
+    }
+
+    fn media_type(self) -> &'static str {
+        match self {
+            Self::Terrain => QUANTIZED_MESH,
+            Self::Png => "image/png",
+            Self::Json => "application/json",
+            Self::Bin => ZTM1_MEDIA,
+            Self::Obj => "model/obj",
+            Self::Glb => "model/gltf-binary",
+            Self::Ezw => EZW_MEDIA,
+        }
+    }
+}
+
+/// Format options that change the bytes (and so the ETag).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+enum Variant {
+    Terrain {
+        ext: Extensions,
+        gzip: bool,
+    },
+    Png {
+        terrarium: bool,
+        size: u32,
+    },
+    /// Meshes: gzipped here (and cached so) when the client accepts it.
+    Mesh {
+        gzip: bool,
+    },
+    /// PNG, GLB and EZW bodies: compact already, sent as they are.
+    Plain,
+}
+
+impl Variant {
+    fn gzip(self) -> bool {
+        matches!(
+            self,
+            Self::Terrain { gzip: true, .. } | Self::Mesh { gzip: true }
+        )
+    }
+}
+
+pub async fn tile(
+    State(state): State<AppState>,
+    path: Result<Path<(String, String, String, String)>, PathRejection>,
+    query: Result<Query<HashMap<String, String>>, QueryRejection>,
+    headers: HeaderMap,
+) -> ApiResult<Response> {
+    // Address and format.
+    let Path((name, z, x, y_ext)) = path?;
+    let Query(query) = query?;
+    let d = dataset(&state, &name)?;
+    let (id, format) = parse_address(&d, &z, &x, &y_ext)?;
+
+    // A missing root tile of a world scheme is served flat: Cesium needs every root.
+    let exists = d.has_tile(id);
+    let flat_root = !exists && format == TileFormat::Terrain && id.z == 0 && in_tiling(&d, id);
+    if !exists && !flat_root {
+        return Err(ApiError::not_found(
+            "tile_not_found",
+            format!("{name} has no tile {id}; see /v1/datasets/{name} for what exists"),
+        ));
+    }
+
+    // Threshold and format options, all checked before any work.
+    let t = threshold::from_query(&d, id.z, &query)?;
+    let variant = variant(format, &query, &headers)?;
+
+    // Conditional request.
+    let etag_key = etag_hash(&d, id, t.t, format, variant);
+    let etag = format!("W/\"{etag_key:016x}\"");
+    let mut base = HeaderMap::new();
+    base.insert(ETAG, header(&etag)?);
+    let cache = format!("public, max-age={}", state.config.tile_max_age);
+    base.insert(CACHE_CONTROL, header(&cache)?);
+    base.insert("x-threshold", header(&format!("{}", t.t))?);
+    match variant {
+        Variant::Terrain { .. } => {
+            base.insert(VARY, HeaderValue::from_static("Accept, Accept-Encoding"));
+        }
+        Variant::Mesh { .. } => {
+            base.insert(VARY, HeaderValue::from_static("Accept-Encoding"));
+        }
+        _ => {}
+    }
+    if format == TileFormat::Ezw {
+        base.insert(ACCEPT_RANGES, HeaderValue::from_static("bytes"));
+    }
+    if negotiate::not_modified(&headers, &etag) {
+        let mut res = Response::new(Body::empty());
+        *res.status_mut() = StatusCode::NOT_MODIFIED;
+        res.headers_mut().extend(base);
+        return Ok(res);
+    }
+
+    // Encoded before (same ETag), or render off the async threads, a bounded number at a
+    // time.
+    let rendered = match state.responses.get(&etag_key) {
+        Some(hit) => {
+            state.metrics.response_cache_hits.fetch_add(1, Relaxed);
+            hit
+        }
+        None => {
+            let permit = state
+                .cpu
+                .clone()
+                .acquire_owned()
+                .await
+                .map_err(ApiError::internal)?;
+            let job_state = state.clone();
+            let job_d = d.clone();
+            let fresh = tokio::task::spawn_blocking(move || {
+                let _permit = permit;
+                render_tile(&job_state, &job_d, id, t.t, format, variant, flat_root)
+            })
+            .await
+            .map_err(ApiError::internal)?
+            .map_err(ApiError::internal)?;
+            let fresh = Arc::new(fresh);
+            state.responses.insert(etag_key, fresh.clone());
+            fresh
+        }
+    };
+
+    // Headers, then the body (a byte range of it for `.ezw`).
+    let mut res_headers = base;
+    let content_type = match variant {
+        Variant::Terrain { ext, .. } if ext != Extensions::default() => {
+            format!("{QUANTIZED_MESH};extensions={}", ext.names())
+        }
+        _ => format.media_type().to_string(),
+    };
+    res_headers.insert(CONTENT_TYPE, header(&content_type)?);
+    if let Some(n) = rendered.triangles {
+        res_headers.insert("x-triangles", header(&n.to_string())?);
+    }
+    if variant.gzip() {
+        res_headers.insert(CONTENT_ENCODING, HeaderValue::from_static("gzip"));
+    }
+    let mut status = StatusCode::OK;
+    let mut body = rendered.bytes.clone();
+    if format == TileFormat::Ezw {
+        let len = body.len() as u64;
+        match negotiate::range(&headers, len) {
+            RangeAsk::Full => {}
+            RangeAsk::Part { start, end } => {
+                status = StatusCode::PARTIAL_CONTENT;
+                res_headers.insert(
+                    CONTENT_RANGE,
+                    header(&format!("bytes {start}-{end}/{len}"))?,
+                );
+                body = body.slice(start as usize..=end as usize);
+            }
+            RangeAsk::Unsatisfiable => {
+                let mut e = axum::response::IntoResponse::into_response(ApiError::new(
+                    StatusCode::RANGE_NOT_SATISFIABLE,
+                    "range_not_satisfiable",
+                    format!("the stream prefix is {len} bytes"),
+                ));
+                e.headers_mut()
+                    .insert(CONTENT_RANGE, header(&format!("bytes */{len}"))?);
+                return Ok(e);
+            }
+        }
+    }
+    let mut res = Response::new(Body::from(body));
+    *res.status_mut() = status;
+    res.headers_mut().extend(res_headers);
+    Ok(res)
+}
+
+/// `z`, `x` and `y.ext` from the path, checked against the dataset's tiling.
+fn parse_address(d: &Dataset, z: &str, x: &str, y_ext: &str) -> ApiResult<(TileId, TileFormat)> {
+    let (y, ext) = y_ext.rsplit_once('.').ok_or_else(|| {
+        ApiError::not_found(
+            "unknown_format",
+            "tile paths end in .terrain, .png, .json, .bin, .obj, .glb or .ezw",
+        )
+    })?;
+    let format = TileFormat::from_extension(ext).ok_or_else(|| {
+        ApiError::not_found(
+            "unknown_format",
+            format!("unknown tile format {ext:?}: use terrain, png, json, bin, obj, glb or ezw"),
+        )
+    })?;
+    let bad = |what: &str, s: &str| {
+        ApiError::bad_request(
+            "bad_tile_address",
+            format!("{what} must be a non-negative integer, got {s:?}"),
+        )
+    };
+    let z: u8 = z.parse().map_err(|_| bad("z", z))?;
+    let x: u32 = x.parse().map_err(|_| bad("x", x))?;
+    let y: u32 = y.parse().map_err(|_| bad("y", y))?;
+    let id = TileId { z, x, y };
+    let m = d.metadata();
+    if z < m.min_zoom || z > m.max_zoom {
+        return Err(ApiError::not_found(
+            "tile_not_found",
+            format!(
+                "zoom {z} is outside {}..={} of {}",
+                m.min_zoom, m.max_zoom, d.name
+            ),
+        ));
+    }
+    if format == TileFormat::Terrain && matches!(d.tiling.scheme(), Scheme::Local { .. }) {
+        return Err(ApiError::not_found(
+            "not_georeferenced",
+            format!(
+                "{} is a local grid without georeference: quantized-mesh needs a geodetic or \
+                 mercator dataset; use .json, .bin, .obj, .glb or .png",
+                d.name
+            ),
+        ));
+    }
+    Ok((id, format))
+}
+
+fn in_tiling(d: &Dataset, id: TileId) -> bool {
+    d.tiling
+        .tiles_per_axis(id.z)
+        .is_ok_and(|(nx, ny)| id.x < nx && id.y < ny)
+}
+
+fn variant(
+    format: TileFormat,
+    q: &HashMap<String, String>,
+    headers: &HeaderMap,
+) -> ApiResult<Variant> {
+    Ok(match format {
+        TileFormat::Terrain => Variant::Terrain {
+            ext: negotiate::terrain_extensions(headers, q.get("extensions").map(String::as_str))?,
+            gzip: negotiate::accepts_gzip(headers),
+        },
+        TileFormat::Png => {
+            let terrarium = match q.get("encoding").map(String::as_str) {
+                None | Some("mapbox") | Some("terrain-rgb") => false,
+                Some("terrarium") => true,
+                Some(other) => {
+                    return Err(ApiError::bad_request(
+                        "bad_encoding",
+                        format!(
+                            "encoding must be terrain-rgb (default) or terrarium, got {other:?}"
+                        ),
+                    ))
+                }
+            };
+            let size = match q.get("size") {
+                Some(s) => {
+                    threshold::number("size", s, f64::from(PNG_MIN_SIZE), f64::from(PNG_MAX_SIZE))?
+                        as u32
+                }
+                None => PNG_DEFAULT_SIZE,
+            };
+            Variant::Png { terrarium, size }
+        }
+        TileFormat::Json | TileFormat::Bin | TileFormat::Obj => Variant::Mesh {
+            gzip: negotiate::accepts_gzip(headers),
+        },
+        TileFormat::Glb | TileFormat::Ezw => Variant::Plain,
+    })
+}
+
+/// Weak ETag over everything that decides the bytes: the dataset build, the tile, the
+/// threshold, the format and its options. Weak, because the compression layer may re-encode.
+fn etag_hash(d: &Dataset, id: TileId, t: f64, format: TileFormat, variant: Variant) -> u64 {
+    let mut h = DefaultHasher::new();
+    d.version.hash(&mut h);
+    id.hash(&mut h);
+    t.to_bits().hash(&mut h);
+    format.hash(&mut h);
+    variant.hash(&mut h);
+    h.finish()
+}
+
+fn header(s: &str) -> ApiResult<HeaderValue> {
+    HeaderValue::from_str(s).map_err(ApiError::internal)
+}
+
+/// Decode, mesh and encode one tile (blocking).
+fn render_tile(
+    state: &AppState,
+    d: &Dataset,
+    id: TileId,
+    t: f64,
+    format: TileFormat,
+    variant: Variant,
+    flat_root: bool,
+) -> anyhow::Result<Encoded> {
+    let mesh_of = || -> anyhow::Result<_> {
+        Ok(if flat_root {
+            render::flat_mesh(d.hierarchy.side(), d.metadata().fill)
+        } else {
+            pipeline::stitched(state, d, id, t)?.1
+        })
+    };
+    let (bytes, triangles) = match (format, variant) {
+        (TileFormat::Terrain, Variant::Terrain { ext, .. }) => {
+            let mesh = mesh_of()?;
+            let opts = QmOptions {
+                octvertexnormals: ext.octvertexnormals,
+                watermask: ext.watermask.then_some(WaterMask::Uniform(0)),
+                metadata: if ext.metadata {
+                    Some(render::child_availability(d, id)?)
+                } else {
+                    None
+                },
+            };
+            (
+                render::quantized_mesh(d, id, &mesh, &opts)?,
+                Some(mesh.triangle_count()),
+            )
+        }
+        (TileFormat::Png, Variant::Png { terrarium, size }) => {
+            let dec = pipeline::decoded(state, d, id, Depth::for_threshold(t))?;
+            let enc = if terrarium {
+                Encoding::Terrarium
+            } else {
+                Encoding::TerrainRgb
+            };
+            (render::png(&dec.heights, enc, size)?, None)
+        }
+        (TileFormat::Ezw, _) => {
+            let dec = pipeline::decoded(state, d, id, Depth::for_threshold(t))?;
+            (dec.prefix.clone(), None)
+        }
+        (TileFormat::Bin, _) => {
+            let mesh = mesh_of()?;
+            (render::mesh_bin(d, id, &mesh)?, Some(mesh.triangle_count()))
+        }
+        (TileFormat::Json | TileFormat::Obj | TileFormat::Glb, _) => {
+            let mesh = mesh_of()?;
+            let f = match format {
+                TileFormat::Json => MeshFormat::Json,
+                TileFormat::Obj => MeshFormat::Obj,
+                _ => MeshFormat::Glb,
+            };
+            (
+                render::mesh_file(d, id, &mesh, f)?,
+                Some(mesh.triangle_count()),
+            )
+        }
+        (f, v) => anyhow::bail!("format {f:?} with options {v:?}"),
+    };
+    // Compressed once here, the cached body is sent as it is (the compression layer skips
+    // bodies with a Content-Encoding).
+    let bytes = if variant.gzip() {
+        gzip_bytes(&bytes)?
+    } else {
+        bytes
+    };
+    Ok(Encoded {
+        bytes: bytes.into(),
+        triangles,
+    })
+}
+
+fn gzip_bytes(raw: &[u8]) -> std::io::Result<Vec<u8>> {
+    let mut enc = GzEncoder::new(
+        Vec::with_capacity(raw.len() / 2),
+        flate2::Compression::default(),
+    );
+    enc.write_all(raw)?;
+    enc.finish()
+}

@@ -1,0 +1,247 @@
+//! `GET /v1/datasets/{name}/view?eye=…&target=…&fov=…[&aspect=…][&format=json|glb|obj]`:
+//! the mesh of the terrain inside a camera's view plane at T_i of eq. 4.
+//!
+//! Steps: the view plane and T_i from the camera; the deepest zoom whose tiles over the
+//! footprint number at most [`MAX_VIEW_TILES`]; each of those tiles meshed at T_i stitched
+//! to its neighbours (so the pieces join without cracks); the triangles whose centroid lies
+//! in the footprint kept, shared edge vertices welded; one mesh out.
+
+use std::collections::HashMap;
+
+use axum::body::Body;
+use axum::extract::rejection::{PathRejection, QueryRejection};
+use axum::extract::{Path, Query, State};
+use axum::http::header::CONTENT_TYPE;
+use axum::http::HeaderValue;
+use axum::response::Response;
+use glam::DVec3;
+use serde_json::json;
+use zerotile_codec::container::TileId;
+use zerotile_codec::geo::{lonlat_to_mercator, Bounds, Scheme};
+use zerotile_codec::mesh::{io, Format, TriMesh};
+
+use super::meta::dataset;
+use crate::serve::dataset::Dataset;
+use crate::serve::error::{ApiError, ApiResult};
+use crate::serve::state::AppState;
+use crate::serve::threshold::{eq4, view_plane, ViewPlane};
+use crate::serve::{pipeline, render};
+
+/// Most tiles one view request meshes: the zoom is chosen so the footprint fits.
+pub const MAX_VIEW_TILES: u64 = 16;
+
+pub async fn view(
+    State(state): State<AppState>,
+    path: Result<Path<String>, PathRejection>,
+    query: Result<Query<HashMap<String, String>>, QueryRejection>,
+) -> ApiResult<Response> {
+    // Camera, threshold and format, checked before any work.
+    let Path(name) = path?;
+    let Query(q) = query?;
+    let d = dataset(&state, &name)?;
+    let plane = view_plane(&d, &q)?;
+    let t = eq4(&d, plane.ratio);
+    let format = match q.get("format").map(String::as_str) {
+        None | Some("json") => Format::Json,
+        Some("glb") => Format::Glb,
+        Some("obj") => Format::Obj,
+        Some(other) => {
+            return Err(ApiError::bad_request(
+                "bad_format",
+                format!("format must be json, glb or obj, got {other:?}"),
+            ))
+        }
+    };
+    let (zoom, tiles) = tiles_in_view(&d, &plane)?;
+
+    // Mesh off the async threads.
+    let permit = state
+        .cpu
+        .clone()
+        .acquire_owned()
+        .await
+        .map_err(ApiError::internal)?;
+    let job_state = state.clone();
+    let job_d = d.clone();
+    let job_plane = plane.clone();
+    let mesh = tokio::task::spawn_blocking(move || {
+        let _permit = permit;
+        view_mesh(&job_state, &job_d, &tiles, t, &job_plane)
+    })
+    .await
+    .map_err(ApiError::internal)?
+    .map_err(ApiError::internal)?;
+    if mesh.faces.is_empty() {
+        return Err(ApiError::not_found(
+            "empty_view",
+            "the view plane covers no terrain of this dataset",
+        ));
+    }
+
+    // The body: JSON with the figures, or a mesh file with them in headers.
+    let triangles = mesh.faces.len();
+    let (bytes, media) = match format {
+        Format::Json => {
+            let positions: Vec<f64> = mesh.positions.iter().flat_map(|p| p.to_array()).collect();
+            let indices: Vec<u32> = mesh.faces.iter().flatten().copied().collect();
+            let v = json!({
+                "threshold": t,
+                "ratio": plane.ratio,
+                "a_v": plane.a_v,
+                "a_t": plane.a_t,
+                "zoom": zoom,
+                "footprint": plane.footprint,
+                "triangles": triangles,
+                "mesh": { "positions": positions, "indices": indices },
+            });
+            (
+                serde_json::to_vec(&v).map_err(ApiError::internal)?,
+                "application/json",
+            )
+        }
+        Format::Glb => (
+            io::write_bytes(&mesh, format).map_err(ApiError::internal)?,
+            "model/gltf-binary",
+        ),
+        _ => (
+            io::write_bytes(&mesh, format).map_err(ApiError::internal)?,
+            "model/obj",
+        ),
+    };
+    let mut res = Response::new(Body::from(bytes));
+    let h = res.headers_mut();
+    h.insert(CONTENT_TYPE, HeaderValue::from_static(media));
+    for (k, v) in [
+        ("x-threshold", t),
+        ("x-view-ratio", plane.ratio),
+        ("x-a-v", plane.a_v),
+        ("x-a-t", plane.a_t),
+    ] {
+        h.insert(k, header(&v.to_string())?);
+    }
+    h.insert("x-triangles", header(&triangles.to_string())?);
+    h.insert("x-zoom", header(&zoom.to_string())?);
+    Ok(res)
+}
+
+fn header(s: &str) -> ApiResult<HeaderValue> {
+    HeaderValue::from_str(s).map_err(ApiError::internal)
+}
+
+/// The deepest zoom whose tiles over the footprint (clipped to the data) are few enough,
+/// and those of its tiles the dataset holds.
+fn tiles_in_view(d: &Dataset, plane: &ViewPlane) -> ApiResult<(u8, Vec<TileId>)> {
+    let m = d.metadata();
+    let [west, south, east, north] = m.bounds;
+    let (xs, ys): (Vec<f64>, Vec<f64>) = plane.footprint.iter().map(|p| (p[0], p[1])).unzip();
+    let lo = |v: &[f64]| v.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = |v: &[f64]| v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let bbox = Bounds {
+        min_x: lo(&xs).max(west.min(east)),
+        max_x: hi(&xs).min(west.max(east)),
+        min_y: lo(&ys).max(south.min(north)),
+        max_y: hi(&ys).min(south.max(north)),
+    };
+    let empty = || {
+        ApiError::not_found(
+            "empty_view",
+            "the view plane covers no terrain of this dataset",
+        )
+    };
+    if !(bbox.min_x <= bbox.max_x && bbox.min_y <= bbox.max_y) {
+        return Err(empty());
+    }
+    for z in (m.min_zoom..=m.max_zoom).rev() {
+        let Ok(Some(range)) = d.tiling.tile_range(z, &bbox) else {
+            continue;
+        };
+        if range.count() > MAX_VIEW_TILES && z > m.min_zoom {
+            continue;
+        }
+        let tiles: Vec<TileId> = range
+            .tiles()
+            .map(|t| TileId {
+                z: t.z,
+                x: t.x,
+                y: t.y,
+            })
+            .filter(|&id| d.has_tile(id))
+            .collect();
+        return Ok((z, tiles));
+    }
+    Err(empty())
+}
+
+/// The stitched meshes of `tiles` at `t`, cut to the footprint and welded into one.
+fn view_mesh(
+    state: &AppState,
+    d: &Dataset,
+    tiles: &[TileId],
+    t: f64,
+    plane: &ViewPlane,
+) -> anyhow::Result<TriMesh> {
+    // The footprint in the mesh's coordinates (see `render::tri_mesh`).
+    let polygon: Vec<[f64; 2]> = plane
+        .footprint
+        .iter()
+        .map(|&[x, y]| match d.tiling.scheme() {
+            Scheme::Local { .. } => [x, -y],
+            Scheme::Geodetic => [x, y],
+            Scheme::Mercator => lonlat_to_mercator([x, y]),
+        })
+        .collect();
+    let mut positions: Vec<DVec3> = Vec::new();
+    let mut faces = Vec::new();
+    let mut welded: HashMap<[u64; 2], u32> = HashMap::new();
+    for &id in tiles {
+        let (_, mesh) = pipeline::stitched(state, d, id, t)?;
+        let tile = render::tri_mesh(d, id, &mesh)?;
+        for f in &tile.faces {
+            let p = f.map(|i| tile.positions[i as usize]);
+            let c = (p[0] + p[1] + p[2]) / 3.0;
+            if !inside(&polygon, [c.x, c.y]) {
+                continue;
+            }
+            // Stitched edges are bit-identical in x and y: weld on the bits.
+            let mut out = [0u32; 3];
+            for (slot, q) in out.iter_mut().zip(p) {
+                let key = [q.x.to_bits(), q.y.to_bits()];
+                *slot = *welded.entry(key).or_insert_with(|| {
+                    positions.push(q);
+                    (positions.len() - 1) as u32
+                });
+            }
+            faces.push(out);
+        }
+    }
+    Ok(TriMesh::new(positions, faces))
+}
+
+/// Point in polygon (even-odd rule).
+fn inside(poly: &[[f64; 2]], p: [f64; 2]) -> bool {
+    let mut odd = false;
+    let n = poly.len();
+    for i in 0..n {
+        let (a, b) = (poly[i], poly[(i + n - 1) % n]);
+        if (a[1] > p[1]) != (b[1] > p[1]) {
+            let x = a[0] + (p[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0]);
+            if p[0] < x {
+                odd = !odd;
+            }
+        }
+    }
+    odd
+}
+
+#[cfg(test)]
+mod tests {
+    use super::inside;
+
+    #[test]
+    fn inside_follows_the_even_odd_rule() {
+        let square = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
+        assert!(inside(&square, [0.5, 0.5]));
+        assert!(!inside(&square, [1.5, 0.5]));
+        assert!(!inside(&square, [0.5, -0.1]));
+    }
+}

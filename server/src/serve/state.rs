@@ -1,0 +1,60 @@
+//! What every handler shares: the datasets, the decoded-tile cache, the counters, and the
+//! permits that bound CPU work.
+
+use std::sync::Arc;
+
+use tokio::sync::Semaphore;
+
+use super::catalog::Catalog;
+use super::metrics::Metrics;
+use super::tile_cache::{new_cache, new_response_cache, ResponseCache, TileCache};
+
+/// Settings with their defaults.
+#[derive(Clone, Debug)]
+pub struct Config {
+    /// Decoded-tile cache size, bytes.
+    pub cache_bytes: u64,
+    /// Encoded-response cache size, bytes.
+    pub response_cache_bytes: u64,
+    /// Tiles rendered at once (decode + mesh + encode on the blocking pool); requests past
+    /// it wait, so a burst cannot start more CPU work than the machine has cores for.
+    pub cpu_jobs: usize,
+    /// `Cache-Control: max-age` of tiles, seconds.
+    pub tile_max_age: u32,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        let cores = std::thread::available_parallelism().map_or(2, |n| n.get());
+        Self {
+            cache_bytes: super::tile_cache::DEFAULT_CACHE_BYTES,
+            response_cache_bytes: super::tile_cache::DEFAULT_RESPONSE_CACHE_BYTES,
+            cpu_jobs: cores * 2,
+            tile_max_age: 3600,
+        }
+    }
+}
+
+/// Cloned into every handler: all fields are shared handles.
+#[derive(Clone)]
+pub struct AppState {
+    pub catalog: Arc<Catalog>,
+    pub cache: Arc<TileCache>,
+    pub responses: Arc<ResponseCache>,
+    pub metrics: Arc<Metrics>,
+    pub cpu: Arc<Semaphore>,
+    pub config: Arc<Config>,
+}
+
+impl AppState {
+    pub fn new(catalog: Catalog, config: Config) -> Self {
+        Self {
+            catalog: Arc::new(catalog),
+            cache: Arc::new(new_cache(config.cache_bytes)),
+            responses: Arc::new(new_response_cache(config.response_cache_bytes)),
+            metrics: Arc::new(Metrics::default()),
+            cpu: Arc::new(Semaphore::new(config.cpu_jobs.max(1))),
+            config: Arc::new(config),
+        }
+    }
+}

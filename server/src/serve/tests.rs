@@ -1,0 +1,236 @@
+//! The router in-process (`oneshot`), on a one-tile dataset written to a scratch folder:
+//! status codes, headers and the error shape, without a socket.
+
+use axum::body::{to_bytes, Body};
+use axum::http::{header, Method, Request, StatusCode};
+use axum::Router;
+use tower::ServiceExt;
+use zerotile_codec::container::{Availability, Metadata, TileId, ViewParams, Writer};
+use zerotile_codec::ezw::{self, EncodeParams};
+use zerotile_codec::wavelet::Wavelet;
+use zerotile_codec::Grid;
+
+use super::{app, AppState, Catalog, Config};
+use crate::serve::dataset::Dataset;
+
+/// A smooth 257² hill as a one-tile local dataset.
+fn router(tag: &str) -> Router {
+    let dir = std::env::temp_dir().join(format!("zerotile-router-{}-{tag}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let g = Grid::new(
+        257,
+        257,
+        (0..257 * 257)
+            .map(|k| {
+                let (r, c) = ((k / 257) as f64, (k % 257) as f64);
+                100.0 + 40.0 * (r / 30.0).sin() * (c / 45.0).cos()
+            })
+            .collect(),
+    )
+    .unwrap();
+    let enc = ezw::encode(&g, &EncodeParams::new(Wavelet::Cdf97, 0.01)).unwrap();
+    let mut w = Writer::new();
+    let corners = [
+        *g.get(0, 0),
+        *g.get(0, 256),
+        *g.get(256, 0),
+        *g.get(256, 256),
+    ];
+    w.add(TileId { z: 0, x: 0, y: 0 }, corners, &enc.bytes);
+    let m = Metadata {
+        name: "hill".into(),
+        scheme: "local".into(),
+        tile_side: 257,
+        min_zoom: 0,
+        max_zoom: 0,
+        bounds: [0.0, 256.0, 256.0, 0.0],
+        source_size: [257, 257],
+        wavelet: Wavelet::Cdf97,
+        step: 0.01,
+        precision: None,
+        height_range: [60.0, 140.0],
+        fill: 60.0,
+        view: ViewParams { a: 2.5, b: 0.0 },
+        available: vec![vec![Availability {
+            start_x: 0,
+            start_y: 0,
+            end_x: 0,
+            end_y: 0,
+        }]],
+        source: "synthetic".into(),
+        source_crs: "none".into(),
+        samples: 257 * 257,
+        stream_bytes: enc.bytes.len() as u64,
+        created: "2026-01-01T00:00:00Z".into(),
+    };
+    let path = dir.join("hill.ztd");
+    std::fs::write(&path, w.finish(&m).unwrap()).unwrap();
+    let mut catalog = Catalog::default();
+    catalog.insert(Dataset::open(&path).unwrap());
+    app(AppState::new(catalog, Config::default()))
+}
+
+async fn send(
+    app: &Router,
+    method: Method,
+    uri: &str,
+    headers: &[(&str, &str)],
+) -> (StatusCode, axum::http::HeaderMap, Vec<u8>) {
+    let mut req = Request::builder().method(method).uri(uri);
+    for (k, v) in headers {
+        req = req.header(*k, *v);
+    }
+    let res = app
+        .clone()
+        .oneshot(req.body(Body::empty()).unwrap())
+        .await
+        .unwrap();
+    let (parts, body) = res.into_parts();
+    let bytes = to_bytes(body, 64 << 20).await.unwrap().to_vec();
+    (parts.status, parts.headers, bytes)
+}
+
+fn error_code(body: &[u8]) -> String {
+    let v: serde_json::Value = serde_json::from_slice(body).unwrap();
+    assert!(v["message"].as_str().is_some_and(|m| !m.is_empty()));
+    v["error"].as_str().unwrap().to_string()
+}
+
+#[tokio::test]
+async fn tiles_carry_threshold_triangles_and_cache_headers() {
+    let app = router("headers");
+    let (s, h, body) = send(
+        &app,
+        Method::GET,
+        "/v1/datasets/hill/tiles/0/0/0.bin?threshold=2",
+        &[],
+    )
+    .await;
+    assert_eq!(s, StatusCode::OK);
+    assert_eq!(h[header::CONTENT_TYPE], "application/vnd.zerotile.ztm1");
+    assert_eq!(h["x-threshold"], "2");
+    let n: usize = h["x-triangles"].to_str().unwrap().parse().unwrap();
+    assert!(n >= 2);
+    assert_eq!(&body[..4], b"ZTM1");
+    assert!(h[header::CACHE_CONTROL]
+        .to_str()
+        .unwrap()
+        .contains("max-age"));
+    assert_eq!(h[header::ACCESS_CONTROL_ALLOW_ORIGIN], "*");
+
+    // The same tile again: 304 for the tag, and HEAD without a body.
+    let etag = h[header::ETAG].to_str().unwrap().to_string();
+    let uri = "/v1/datasets/hill/tiles/0/0/0.bin?threshold=2";
+    let (s, _, body) = send(&app, Method::GET, uri, &[("if-none-match", &etag)]).await;
+    assert_eq!((s, body.len()), (StatusCode::NOT_MODIFIED, 0));
+    let (s, h, body) = send(&app, Method::HEAD, uri, &[]).await;
+    assert_eq!((s, body.len()), (StatusCode::OK, 0));
+    assert_eq!(h[header::ETAG].to_str().unwrap(), etag);
+
+    // The default threshold is the zoom's geometric error, capped at the relief.
+    let (_, h, _) = send(&app, Method::GET, "/v1/datasets/hill/tiles/0/0/0.json", &[]).await;
+    let t: f64 = h["x-threshold"].to_str().unwrap().parse().unwrap();
+    assert!(t > 0.0 && t <= 80.0, "{t}");
+}
+
+#[tokio::test]
+async fn errors_are_json_with_their_codes() {
+    let app = router("errors");
+    for (method, uri, status, code) in [
+        (Method::GET, "/nope", StatusCode::NOT_FOUND, "not_found"),
+        (
+            Method::POST,
+            "/healthz",
+            StatusCode::METHOD_NOT_ALLOWED,
+            "method_not_allowed",
+        ),
+        (
+            Method::GET,
+            "/v1/datasets/hill/tiles/0/0/0.png?threshold=nan",
+            StatusCode::BAD_REQUEST,
+            "out_of_range",
+        ),
+        (
+            Method::GET,
+            "/v1/datasets/hill/tiles/0/0/0.png?ratio=1e9",
+            StatusCode::BAD_REQUEST,
+            "out_of_range",
+        ),
+        (
+            Method::GET,
+            "/v1/datasets/hill/tiles/0/1/0.png",
+            StatusCode::NOT_FOUND,
+            "tile_not_found",
+        ),
+        (
+            Method::GET,
+            "/v1/datasets/hill/tiles/300/0/0.png",
+            StatusCode::BAD_REQUEST,
+            "bad_tile_address",
+        ),
+        (
+            Method::GET,
+            "/v1/datasets/hill/tiles/0/0/0.terrain",
+            StatusCode::NOT_FOUND,
+            "not_georeferenced",
+        ),
+        (
+            Method::GET,
+            "/v1/datasets/hill/view?eye=0,0,1&target=0,0,1&fov=60",
+            StatusCode::BAD_REQUEST,
+            "bad_view",
+        ),
+    ] {
+        let (s, h, body) = send(&app, method, uri, &[]).await;
+        assert_eq!(s, status, "{uri}");
+        assert_eq!(h[header::CONTENT_TYPE], "application/json", "{uri}");
+        assert_eq!(error_code(&body), code, "{uri}");
+    }
+}
+
+#[tokio::test]
+async fn metrics_count_by_route_template() {
+    let app = router("metrics");
+    send(
+        &app,
+        Method::GET,
+        "/v1/datasets/hill/tiles/0/0/0.png?threshold=4",
+        &[],
+    )
+    .await;
+    send(
+        &app,
+        Method::GET,
+        "/v1/datasets/hill/tiles/0/0/0.png?threshold=4",
+        &[],
+    )
+    .await;
+    let (_, _, body) = send(&app, Method::GET, "/metrics", &[]).await;
+    let text = String::from_utf8(body).unwrap();
+    assert!(
+        text.contains(
+            "zerotile_requests_total{route=\"/v1/datasets/{name}/tiles/{z}/{x}/{y}\",status=\"200\"} 2"
+        ),
+        "{text}"
+    );
+    assert!(text.contains("zerotile_tiles_decoded_total 1"), "{text}");
+    assert!(
+        text.contains("zerotile_response_cache_hits_total 1"),
+        "{text}"
+    );
+}
+
+#[tokio::test]
+async fn errors_made_by_layers_become_json_too() {
+    let app = Router::new()
+        .route(
+            "/slow",
+            axum::routing::get(|| async { StatusCode::SERVICE_UNAVAILABLE }),
+        )
+        .layer(axum::middleware::from_fn(super::error::json_errors));
+    let (s, h, body) = send(&app, Method::GET, "/slow", &[]).await;
+    assert_eq!(s, StatusCode::SERVICE_UNAVAILABLE);
+    assert_eq!(h[header::CONTENT_TYPE], "application/json");
+    assert_eq!(error_code(&body), "unavailable");
+}

@@ -1,0 +1,288 @@
+//! The threshold T of a tile request: explicit, from the view ratio of eq. 4, from a camera,
+//! or the zoom's default. And how T is split between decoding and meshing.
+//!
+//! T is an error budget in metres. The stream is read to T · [`DECODE_SHARE`] (rounded down
+//! to a power of two, so nearby budgets share one cached decode) and the mesh gets the rest,
+//! T · (1 − [`DECODE_SHARE`]), as `zerotile eval terrain` does.
+
+use std::collections::HashMap;
+
+use glam::DVec3;
+use serde::Serialize;
+use zerotile_codec::ezw::DecodeLimit;
+use zerotile_codec::geo::Scheme;
+
+use super::dataset::Dataset;
+use super::error::ApiError;
+use super::view_plane::{footprint, polygon_area, Camera};
+
+/// Share of the budget spent on decoding, the same split `zerotile eval terrain` measures.
+pub use crate::eval::terrain::DECODE_SHARE;
+/// Largest threshold accepted, metres: far above any relief, so larger values are mistakes.
+pub const MAX_THRESHOLD: f64 = 100_000.0;
+/// Largest view ratio A_v / A_t accepted.
+pub const MAX_RATIO: f64 = 1.0e6;
+/// Largest coordinate accepted in `eye` and `target` (degrees, samples or metres).
+pub const MAX_COORDINATE: f64 = 1.0e8;
+/// Metres per degree of latitude (and of longitude on the equator), spherical.
+const METRES_PER_DEGREE: f64 = 111_319.490_793_273_57;
+/// Decode depths finer than 2^-20 m read the whole stream anyway.
+const FINEST_LEVEL: i32 = -20;
+
+/// How T was chosen: reported in `/view` and in logs.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[serde(tag = "source", rename_all = "snake_case")]
+pub enum Choice {
+    Threshold,
+    Ratio { ratio: f64 },
+    View { ratio: f64, a_v: f64, a_t: f64 },
+    Default,
+}
+
+/// A threshold and where it came from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Threshold {
+    pub t: f64,
+    pub choice: Choice,
+}
+
+/// Which passes of the streams are decoded: every pass at or above 2^level metres, or all
+/// of them (T = 0: the stream's own precision).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Depth {
+    All,
+    Level(i32),
+}
+
+impl Depth {
+    pub fn for_threshold(t: f64) -> Self {
+        let d = t * DECODE_SHARE;
+        if d <= 0.0 {
+            return Self::All;
+        }
+        let level = d.log2().floor() as i32;
+        if level < FINEST_LEVEL {
+            Self::All
+        } else {
+            Self::Level(level)
+        }
+    }
+
+    pub fn limit(self) -> DecodeLimit {
+        match self {
+            Self::All => DecodeLimit::All,
+            Self::Level(k) => DecodeLimit::Threshold(f64::from(k).exp2()),
+        }
+    }
+}
+
+/// The mesh's share of the budget.
+pub fn mesh_tolerance(t: f64) -> f64 {
+    t * (1.0 - DECODE_SHARE)
+}
+
+/// The default threshold at zoom `z`: the level's geometric error (Cesium's error budget,
+/// `Tiling::level_geometric_error`), capped at the dataset's relief, beyond which every
+/// budget gives the same two-triangle mesh. For a local grid the error is in sample spacings,
+/// read as metres (a grid without georeference has no other scale).
+pub fn default_threshold(d: &Dataset, z: u8) -> f64 {
+    let [lo, hi] = d.metadata().height_range;
+    let relief = (hi - lo).max(1.0);
+    d.tiling.level_geometric_error(z).min(relief)
+}
+
+/// The threshold a request asks for: `threshold`, `ratio`, or `eye`+`target`+`fov`
+/// (+`aspect`), else the zoom's default. At most one of the three may be given.
+pub fn from_query(d: &Dataset, z: u8, q: &HashMap<String, String>) -> Result<Threshold, ApiError> {
+    let has = |k: &str| q.contains_key(k);
+    let given = [has("threshold"), has("ratio"), has("eye")]
+        .iter()
+        .filter(|&&b| b)
+        .count();
+    if given > 1 {
+        return Err(ApiError::bad_request(
+            "conflicting_threshold",
+            "give one of threshold, ratio or eye/target/fov",
+        ));
+    }
+    if let Some(s) = q.get("threshold") {
+        let t = number("threshold", s, 0.0, MAX_THRESHOLD)?;
+        return Ok(Threshold {
+            t,
+            choice: Choice::Threshold,
+        });
+    }
+    if let Some(s) = q.get("ratio") {
+        let ratio = number("ratio", s, 0.0, MAX_RATIO)?;
+        return Ok(Threshold {
+            t: eq4(d, ratio),
+            choice: Choice::Ratio { ratio },
+        });
+    }
+    if has("eye") || has("target") || has("fov") {
+        let ViewPlane {
+            ratio, a_v, a_t, ..
+        } = view_plane(d, q)?;
+        return Ok(Threshold {
+            t: eq4(d, ratio),
+            choice: Choice::View { ratio, a_v, a_t },
+        });
+    }
+    Ok(Threshold {
+        t: default_threshold(d, z),
+        choice: Choice::Default,
+    })
+}
+
+/// Paper eq. 4: T = a · ratio + b, never below the finest threshold (0) nor above the cap.
+pub fn eq4(d: &Dataset, ratio: f64) -> f64 {
+    let v = d.metadata().view;
+    (v.a * ratio + v.b).clamp(0.0, MAX_THRESHOLD)
+}
+
+/// A camera's view plane on a dataset.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ViewPlane {
+    /// A_v / A_t.
+    pub ratio: f64,
+    /// Footprint area and terrain area: square metres (square samples for a local grid).
+    pub a_v: f64,
+    pub a_t: f64,
+    /// The footprint's corners in the query's own coordinates: longitude and latitude
+    /// degrees, or column and row.
+    pub footprint: [[f64; 2]; 4],
+}
+
+/// The view plane of the camera in the query (see docs/api.md for the model).
+pub fn view_plane(d: &Dataset, q: &HashMap<String, String>) -> Result<ViewPlane, ApiError> {
+    let get = |k: &str| {
+        q.get(k).ok_or_else(|| {
+            ApiError::bad_request(
+                "missing_parameter",
+                format!("a view needs eye, target and fov; {k} is missing"),
+            )
+        })
+    };
+    let eye = vec3("eye", get("eye")?)?;
+    let target = vec3("target", get("target")?)?;
+    let fov_deg = number("fov", get("fov")?, f64::MIN_POSITIVE, 179.0)?;
+    let aspect = match q.get("aspect") {
+        Some(s) => number("aspect", s, 1e-3, 1e3)?,
+        None => 1.0,
+    };
+
+    // Horizontal metres around the target (degrees scaled at the target's latitude; grid
+    // samples as they are, rows flipped so y points north), and back.
+    let m = d.metadata();
+    let [west, south, east, north] = m.bounds;
+    let local = matches!(d.tiling.scheme(), Scheme::Local { .. });
+    let (lon0, lat0) = (target.x, target.y);
+    let k = lat0.to_radians().cos().max(1e-6);
+    let to_plane = |p: DVec3| {
+        if local {
+            DVec3::new(p.x, -p.y, p.z)
+        } else {
+            DVec3::new(
+                (p.x - lon0) * METRES_PER_DEGREE * k,
+                (p.y - lat0) * METRES_PER_DEGREE,
+                p.z,
+            )
+        }
+    };
+    let from_plane = |x: f64, y: f64| {
+        if local {
+            [x, -y]
+        } else {
+            [
+                lon0 + x / (METRES_PER_DEGREE * k),
+                lat0 + y / METRES_PER_DEGREE,
+            ]
+        }
+    };
+    let a_t = if local {
+        ((east - west) * (south - north)).abs()
+    } else {
+        let mid = ((south + north) / 2.0).to_radians().cos();
+        ((east - west) * mid * (north - south)).abs() * METRES_PER_DEGREE.powi(2)
+    };
+    let cam = Camera {
+        eye: to_plane(eye),
+        target: to_plane(target),
+        fov_deg,
+        aspect,
+    };
+    // Rays past the horizon stop at the terrain's own diagonal.
+    let far = (2.0 * a_t).sqrt().max(1.0);
+    let points =
+        footprint(&cam, far).map_err(|e| ApiError::bad_request("bad_view", e.to_string()))?;
+    let a_v = polygon_area(&points);
+    let a_t = a_t.max(1.0);
+    Ok(ViewPlane {
+        ratio: a_v / a_t,
+        a_v,
+        a_t,
+        footprint: points.map(|p| from_plane(p.x, p.y)),
+    })
+}
+
+/// A finite number in [lo, hi].
+pub fn number(name: &str, s: &str, lo: f64, hi: f64) -> Result<f64, ApiError> {
+    let v: f64 = s.trim().parse().map_err(|_| {
+        ApiError::bad_request("bad_number", format!("{name} must be a number, got {s:?}"))
+    })?;
+    if !v.is_finite() || v < lo || v > hi {
+        return Err(ApiError::bad_request(
+            "out_of_range",
+            format!("{name} must be finite and in [{lo}, {hi}], got {s}"),
+        ));
+    }
+    Ok(v)
+}
+
+/// `x,y,z`, each finite and within [`MAX_COORDINATE`].
+fn vec3(name: &str, s: &str) -> Result<DVec3, ApiError> {
+    let parts: Vec<&str> = s.split(',').collect();
+    if parts.len() != 3 {
+        return Err(ApiError::bad_request(
+            "bad_vector",
+            format!("{name} must be x,y,z, got {s:?}"),
+        ));
+    }
+    let mut v = [0.0; 3];
+    for (slot, p) in v.iter_mut().zip(&parts) {
+        *slot = number(name, p, -MAX_COORDINATE, MAX_COORDINATE)?;
+    }
+    Ok(DVec3::from_array(v))
+}
+
+/// The geometric error of every zoom, for the dataset description.
+pub fn defaults(d: &Dataset) -> Vec<(u8, f64)> {
+    let m = d.metadata();
+    (m.min_zoom..=m.max_zoom)
+        .map(|z| (z, default_threshold(d, z)))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn depth_rounds_the_decode_share_down_to_a_power_of_two() {
+        assert_eq!(Depth::for_threshold(0.0), Depth::All);
+        assert_eq!(Depth::for_threshold(8.0), Depth::Level(0));
+        assert_eq!(Depth::for_threshold(15.9), Depth::Level(0));
+        assert_eq!(Depth::for_threshold(16.0), Depth::Level(1));
+        assert_eq!(Depth::for_threshold(1e-12), Depth::All);
+    }
+
+    #[test]
+    fn numbers_are_checked() {
+        assert!(number("t", "NaN", 0.0, 1.0).is_err());
+        assert!(number("t", "inf", 0.0, 1.0).is_err());
+        assert!(number("t", "-1", 0.0, 1.0).is_err());
+        assert!(number("t", "1e300", 0.0, 1.0).is_err());
+        assert!(number("t", "x", 0.0, 1.0).is_err());
+        assert_eq!(number("t", "0.5", 0.0, 1.0), Ok(0.5));
+    }
+}

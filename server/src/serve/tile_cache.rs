@@ -1,0 +1,96 @@
+//! Decoded tiles kept between requests, bounded by bytes.
+//!
+//! A stitched mesh needs the tile and its four edge neighbours decoded to the same depth, so
+//! one cold request decodes up to five tiles and its neighbours' requests find four of them
+//! here. Keys are (dataset build, tile, depth); a re-ingested dataset has a new build id and
+//! its old entries simply age out.
+
+use std::sync::Arc;
+
+use quick_cache::sync::Cache;
+use quick_cache::Weighter;
+use zerotile_codec::bintree::TileErrors;
+use zerotile_codec::container::TileId;
+use zerotile_codec::Grid;
+
+use super::threshold::Depth;
+
+/// Default cache size, bytes.
+pub const DEFAULT_CACHE_BYTES: u64 = 256 << 20;
+
+/// A tile decoded to one depth, with everything the formats need.
+#[derive(Debug)]
+pub struct DecodedTile {
+    pub heights: Grid<f64>,
+    /// The mesher's per-sample error tree over `heights`.
+    pub errors: TileErrors,
+    /// Exact source heights at the corners: NW, NE, SW, SE.
+    pub corners: [f64; 4],
+    /// The stream prefix this decode read: what `.ezw` sends.
+    pub prefix: Vec<u8>,
+}
+
+impl DecodedTile {
+    /// Approximate heap bytes: the cache's weight.
+    pub fn bytes(&self) -> u64 {
+        let samples = self.heights.len() as u64;
+        // f64 heights plus the error tree (f32 per sample) plus the prefix.
+        samples * 12 + self.prefix.len() as u64 + 128
+    }
+}
+
+/// Cache key: dataset build, tile, decode depth.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Key {
+    pub dataset: u64,
+    pub tile: TileId,
+    pub depth: Depth,
+}
+
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ByBytes;
+
+impl Weighter<Key, Arc<DecodedTile>> for ByBytes {
+    fn weight(&self, _key: &Key, val: &Arc<DecodedTile>) -> u64 {
+        val.bytes().max(1)
+    }
+}
+
+/// The bounded cache.
+pub type TileCache = Cache<Key, Arc<DecodedTile>, ByBytes>;
+
+/// Default size of the cache of encoded responses, bytes.
+pub const DEFAULT_RESPONSE_CACHE_BYTES: u64 = 64 << 20;
+
+/// An encoded tile body, ready to send again.
+#[derive(Debug)]
+pub struct Encoded {
+    pub bytes: bytes::Bytes,
+    pub triangles: Option<usize>,
+}
+
+#[derive(Clone, Copy, Debug, Default)]
+pub struct EncodedBytes;
+
+impl Weighter<u64, Arc<Encoded>> for EncodedBytes {
+    fn weight(&self, _key: &u64, val: &Arc<Encoded>) -> u64 {
+        val.bytes.len() as u64 + 64
+    }
+}
+
+/// Encoded responses by their ETag hash: a warm tile skips meshing and encoding (PNG
+/// encoding alone costs tens of milliseconds).
+pub type ResponseCache = Cache<u64, Arc<Encoded>, EncodedBytes>;
+
+/// A response cache holding about `bytes`.
+pub fn new_response_cache(bytes: u64) -> ResponseCache {
+    let items = (bytes / 50_000).clamp(16, 1 << 20) as usize;
+    Cache::with_weighter(items, bytes.max(1), EncodedBytes)
+}
+
+/// A cache holding about `bytes` of decoded tiles.
+pub fn new_cache(bytes: u64) -> TileCache {
+    // 257² tiles weigh about 0.8 MB: size the item estimate from that.
+    let items = (bytes / 800_000).clamp(16, 1 << 20) as usize;
+    Cache::with_weighter(items, bytes.max(1), ByBytes)
+}

@@ -1,0 +1,804 @@
+//! `zerotile serve` run as a user would: a real dataset ingested by the real binary from
+//! SRTM data, the real server on an ephemeral port, every route over HTTP.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    reason = "end-to-end test: any failure should stop the test loudly"
+)]
+
+use std::io::{BufRead, BufReader, Read, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::OnceLock;
+
+use serde_json::Value;
+use zerotile_codec::container::{Availability, Metadata, TileId, ViewParams, Writer};
+use zerotile_codec::ezw::{self, DecodeLimit, EncodeParams};
+use zerotile_codec::formats::{mesh_bin, quantized_mesh, terrain_rgb};
+use zerotile_codec::raster::Encoding;
+use zerotile_codec::wavelet::Wavelet;
+use zerotile_codec::zerotree::{mesh_error, TerrainMesh};
+use zerotile_codec::Grid;
+use zerotile_tests::{qm, shared_data, zerotile_bin};
+
+/// Top-left sample of the crop in N44W072 and its side: 2 × 2 tiles of 257 samples.
+const CROP: (usize, usize, usize) = (300, 400, 513);
+
+fn n44w072() -> Grid<f64> {
+    let bytes = std::fs::read(shared_data().join("dem/N44W072.hgt")).unwrap();
+    let data = bytes
+        .chunks_exact(2)
+        .map(|b| f64::from(i16::from_be_bytes([b[0], b[1]])))
+        .collect();
+    Grid::new(1201, 1201, data).unwrap()
+}
+
+fn crop() -> Grid<f64> {
+    let (r, c, n) = CROP;
+    n44w072().crop(r, c, n, n).unwrap()
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("zerotile-serve-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// The data folder, built once per test run: `crop` ingested by the real binary (local
+/// scheme) and `world`, a geodetic container of two real root tiles written with the codec
+/// (ingest builds only local datasets so far).
+fn data_dir() -> &'static Path {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = scratch("data");
+        // An ESRI ASCII grid of the crop: what a user would hand to ingest.
+        let g = crop();
+        let asc = dir.join("crop.asc");
+        let mut text = format!(
+            "ncols {n}\nnrows {n}\nxllcorner 0\nyllcorner 0\ncellsize 1\nNODATA_value -32768\n",
+            n = g.cols()
+        );
+        for r in 0..g.rows() {
+            let row: Vec<String> = g.row(r).iter().map(|h| format!("{h}")).collect();
+            text.push_str(&row.join(" "));
+            text.push('\n');
+        }
+        std::fs::write(&asc, text).unwrap();
+        let out = Command::new(zerotile_bin())
+            .args(["ingest", "--quiet", "--name", "crop", "--data"])
+            .arg(&dir)
+            .arg(&asc)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        std::fs::remove_file(&asc).unwrap();
+        write_world(&dir.join("world.ztd"), "geodetic", &[0, 1]);
+        write_world(&dir.join("half.ztd"), "geodetic", &[0]);
+        write_world(&dir.join("merc.ztd"), "mercator", &[0]);
+        dir
+    })
+}
+
+/// Root tiles of a world `scheme` (0/0/0 west, 0/1/0 east for geodetic) holding adjacent
+/// real crops, so a shared edge holds the same samples.
+fn write_world(path: &Path, scheme: &str, xs: &[u32]) {
+    let dem = n44w072();
+    let mut w = Writer::new();
+    let mut samples = 0;
+    let mut bytes = 0;
+    for &x in xs {
+        let g = dem.crop(300, 400 + 256 * x as usize, 257, 257).unwrap();
+        let corners = [
+            *g.get(0, 0),
+            *g.get(0, 256),
+            *g.get(256, 0),
+            *g.get(256, 256),
+        ];
+        let enc = ezw::encode(&g, &EncodeParams::new(Wavelet::Cdf97, 1.0)).unwrap();
+        samples += 257 * 257;
+        bytes += enc.bytes.len() as u64;
+        w.add(TileId { z: 0, x, y: 0 }, corners, &enc.bytes);
+    }
+    let m = Metadata {
+        name: "world".into(),
+        scheme: scheme.into(),
+        tile_side: 257,
+        min_zoom: 0,
+        max_zoom: 0,
+        bounds: if scheme == "mercator" {
+            [-180.0, -85.0, 180.0, 85.0]
+        } else {
+            [-180.0, -90.0, 180.0, 90.0]
+        },
+        source_size: [257, 513],
+        wavelet: Wavelet::Cdf97,
+        step: 1.0,
+        precision: None,
+        height_range: [0.0, 1500.0],
+        fill: 0.0,
+        view: ViewParams { a: 40.0, b: 0.0 },
+        available: vec![vec![Availability {
+            start_x: 0,
+            start_y: 0,
+            end_x: xs.len() as u32 - 1,
+            end_y: 0,
+        }]],
+        source: "N44W072.hgt".into(),
+        source_crs: "EPSG:4326".into(),
+        samples,
+        stream_bytes: bytes,
+        created: "2026-01-01T00:00:00Z".into(),
+    };
+    std::fs::write(path, w.finish(&m).unwrap()).unwrap();
+}
+
+/// A running `zerotile serve`, stopped on drop. Its log must hold no WARN or ERROR line
+/// unless the test expects some.
+struct Server {
+    child: Child,
+    base: String,
+    agent: ureq::Agent,
+    log: PathBuf,
+    warnings_expected: bool,
+}
+
+impl Server {
+    fn start(data: &Path) -> Self {
+        static STARTED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+        let n = STARTED.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let log =
+            std::env::temp_dir().join(format!("zerotile-serve-{}-{n}.log", std::process::id()));
+        let mut child = Command::new(zerotile_bin())
+            .args(["serve", "--addr", "127.0.0.1:0", "--data"])
+            .arg(data)
+            .stdout(Stdio::piped())
+            .stderr(std::fs::File::create(&log).unwrap())
+            .spawn()
+            .unwrap();
+        // The first line names the URL (port 0 picks a free port).
+        let mut line = String::new();
+        BufReader::new(child.stdout.take().unwrap())
+            .read_line(&mut line)
+            .unwrap();
+        let at = line.find("http://").expect("the server prints its URL");
+        let base = line[at..].trim().trim_end_matches('/').to_string();
+        let agent = ureq::Agent::config_builder()
+            .http_status_as_error(false)
+            .build()
+            .into();
+        Self {
+            child,
+            base,
+            agent,
+            log,
+            warnings_expected: false,
+        }
+    }
+
+    fn get(&self, path: &str, headers: &[(&str, &str)]) -> Reply {
+        let mut req = self.agent.get(format!("{}{path}", self.base));
+        for (k, v) in headers {
+            req = req.header(*k, *v);
+        }
+        let mut res = req.call().unwrap();
+        let status = res.status().as_u16();
+        let headers = res
+            .headers()
+            .iter()
+            .map(|(k, v)| (k.as_str().to_string(), v.to_str().unwrap_or("").to_string()))
+            .collect();
+        let body = res
+            .body_mut()
+            .with_config()
+            .limit(64 << 20)
+            .read_to_vec()
+            .unwrap();
+        Reply {
+            status,
+            headers,
+            body,
+        }
+    }
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+        let log = std::fs::read_to_string(&self.log).unwrap_or_default();
+        let _ = std::fs::remove_file(&self.log);
+        let bad: Vec<&str> = log
+            .lines()
+            .filter(|l| l.contains(" WARN ") || l.contains(" ERROR "))
+            .collect();
+        if !self.warnings_expected && !bad.is_empty() && !std::thread::panicking() {
+            panic!("unexpected server log lines:\n{}", bad.join("\n"));
+        }
+    }
+}
+
+struct Reply {
+    status: u16,
+    headers: Vec<(String, String)>,
+    body: Vec<u8>,
+}
+
+impl Reply {
+    fn header(&self, name: &str) -> Option<&str> {
+        self.headers
+            .iter()
+            .find(|(k, _)| k.eq_ignore_ascii_case(name))
+            .map(|(_, v)| v.as_str())
+    }
+
+    fn json(&self) -> Value {
+        serde_json::from_slice(&self.body).unwrap_or_else(|e| {
+            panic!("{e}: {}", String::from_utf8_lossy(&self.body));
+        })
+    }
+
+    /// A 4xx with the JSON error shape and the given code.
+    fn assert_error(&self, status: u16, code: &str, what: &str) {
+        assert_eq!(
+            self.status,
+            status,
+            "{what}: {}",
+            String::from_utf8_lossy(&self.body)
+        );
+        let v = self.json();
+        assert_eq!(v["error"], code, "{what}: {v}");
+        assert!(
+            v["message"].as_str().is_some_and(|m| !m.is_empty()),
+            "{what}"
+        );
+    }
+}
+
+#[test]
+fn health_list_and_describe() {
+    let s = Server::start(data_dir());
+    let h = s.get("/healthz", &[]);
+    assert_eq!(h.status, 200);
+    assert_eq!(h.json()["status"], "ok");
+
+    let list = s.get("/v1/datasets", &[]).json();
+    let names: Vec<&str> = list["datasets"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|d| d["name"].as_str())
+        .collect();
+    assert_eq!(names, ["crop", "half", "merc", "world"]);
+
+    let d = s.get("/v1/datasets/crop", &[]).json();
+    assert_eq!(d["scheme"], "local");
+    assert_eq!(d["maxzoom"], 1);
+    assert_eq!(d["tiles"], 5);
+    assert_eq!(d["default_thresholds"].as_array().unwrap().len(), 2);
+    assert!(d["view"]["a"].as_f64().unwrap() > 0.0);
+    assert!(d["codec"]["stream_bytes"].as_u64().unwrap() > 0);
+
+    let m = String::from_utf8(s.get("/metrics", &[]).body).unwrap();
+    assert!(
+        m.contains("zerotile_requests_total{route=\"/healthz\",status=\"200\"} 1"),
+        "{m}"
+    );
+    assert!(m.contains("zerotile_request_duration_seconds_bucket"));
+    assert!(m.contains("zerotile_cache_hits_total"));
+}
+
+/// Bilinear sample of `g` at fractional (row, col).
+fn bilinear(g: &Grid<f64>, r: f64, c: f64) -> f64 {
+    let (r0, c0) = (r.floor() as usize, c.floor() as usize);
+    let (r1, c1) = ((r0 + 1).min(g.rows() - 1), (c0 + 1).min(g.cols() - 1));
+    let (fr, fc) = (r - r0 as f64, c - c0 as f64);
+    let top = g.get(r0, c0) * (1.0 - fc) + g.get(r0, c1) * fc;
+    let bottom = g.get(r1, c0) * (1.0 - fc) + g.get(r1, c1) * fc;
+    top * (1.0 - fr) + bottom * fr
+}
+
+#[test]
+fn png_heights_agree_with_the_source_within_the_threshold() {
+    let s = Server::start(data_dir());
+    let source = crop();
+    for (encoding, query) in [
+        (Encoding::TerrainRgb, ""),
+        (Encoding::Terrarium, "&encoding=terrarium"),
+    ] {
+        let t = 2.0;
+        let r = s.get(
+            &format!("/v1/datasets/crop/tiles/1/1/0.png?threshold={t}&size=256{query}"),
+            &[],
+        );
+        assert_eq!(r.status, 200);
+        assert_eq!(r.header("content-type"), Some("image/png"));
+        assert_eq!(r.header("x-threshold"), Some("2"));
+        let heights = terrain_rgb::decode(&r.body, encoding, 1 << 20).unwrap();
+        assert_eq!((heights.rows(), heights.cols()), (256, 256));
+        // Tile 1/1/0 is the crop's top-right quarter; pixel centres fall between samples.
+        let mut worst = 0f64;
+        for i in 0..256 {
+            for j in 0..256 {
+                let want = bilinear(&source, i as f64 + 0.5, 256.0 + j as f64 + 0.5);
+                worst = worst.max((heights.get(i, j) - want).abs());
+            }
+        }
+        assert!(
+            worst <= t + 0.1,
+            "{encoding:?}: max error {worst} above T = {t}"
+        );
+    }
+}
+
+/// Vertices of a JSON tile mesh on the vertical line x = `col`: (y, z), sorted.
+fn column(mesh: &Value, col: f64) -> Vec<(f64, f64)> {
+    let p: Vec<f64> = mesh["positions"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    let mut v: Vec<(f64, f64)> = p
+        .chunks_exact(3)
+        .filter(|q| q[0] == col)
+        .map(|q| (q[1], q[2]))
+        .collect();
+    v.sort_by(|a, b| a.0.total_cmp(&b.0));
+    v
+}
+
+/// A local tile's JSON mesh (tile 1/0/0: x = column, y = −row) as the codec's grid mesh.
+fn terrain_mesh(v: &Value) -> TerrainMesh {
+    let f = |k: &str| -> Vec<f64> {
+        v[k].as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect()
+    };
+    let (p, i) = (f("positions"), f("indices"));
+    TerrainMesh {
+        rows: 257,
+        cols: 257,
+        positions: p.chunks_exact(3).map(|q| [q[0], -q[1], q[2]]).collect(),
+        triangles: i
+            .chunks_exact(3)
+            .map(|t| [t[0] as u32, t[1] as u32, t[2] as u32])
+            .collect(),
+    }
+}
+
+#[test]
+fn mesh_formats_agree_and_neighbours_share_their_edge() {
+    let s = Server::start(data_dir());
+    let q = "?threshold=4";
+    let west = s.get(&format!("/v1/datasets/crop/tiles/1/0/0.json{q}"), &[]);
+    let east = s.get(&format!("/v1/datasets/crop/tiles/1/1/0.json{q}"), &[]);
+    assert_eq!(west.status, 200);
+    let triangles: usize = west.header("x-triangles").unwrap().parse().unwrap();
+    let (wj, ej) = (west.json(), east.json());
+    assert_eq!(wj["indices"].as_array().unwrap().len(), 3 * triangles);
+    // The shared edge: full-resolution column 256 in both tiles, same vertices, same heights.
+    let (a, b) = (column(&wj, 256.0), column(&ej, 256.0));
+    assert!(a.len() >= 2);
+    assert_eq!(a, b, "tiles 1/0/0 and 1/1/0 disagree on their shared edge");
+
+    // ZTM1 holds the same triangles; OBJ and GLB are what their headers say.
+    let bin = s.get(&format!("/v1/datasets/crop/tiles/1/0/0.bin{q}"), &[]);
+    let m = mesh_bin::decode(&bin.body).unwrap();
+    assert_eq!(m.triangles.len(), triangles);
+    assert_eq!(m.crs, mesh_bin::MeshCrs::LocalGrid);
+    let obj = s.get(&format!("/v1/datasets/crop/tiles/1/0/0.obj{q}"), &[]);
+    let text = String::from_utf8(obj.body).unwrap();
+    assert_eq!(
+        text.lines().filter(|l| l.starts_with("f ")).count(),
+        triangles
+    );
+    let glb = s.get(&format!("/v1/datasets/crop/tiles/1/0/0.glb{q}"), &[]);
+    assert_eq!(&glb.body[..4], b"glTF");
+
+    // The mesh covers its tile without holes and stays within the budget of the source.
+    let source = crop().crop(0, 0, 257, 257).unwrap();
+    for t in [1.0, 4.0, 16.0] {
+        let r = s.get(
+            &format!("/v1/datasets/crop/tiles/1/0/0.json?threshold={t}"),
+            &[],
+        );
+        let e = mesh_error(&terrain_mesh(&r.json()), &source);
+        assert_eq!(e.uncovered, 0, "T = {t}");
+        assert!(e.max_abs <= t, "T = {t}: mesh max error {} m", e.max_abs);
+    }
+
+    // A coarser threshold gives fewer triangles.
+    let coarse = s.get("/v1/datasets/crop/tiles/1/0/0.json?threshold=32", &[]);
+    let n: usize = coarse.header("x-triangles").unwrap().parse().unwrap();
+    assert!(n < triangles, "{n} ≥ {triangles}");
+}
+
+#[test]
+fn view_threshold_rises_with_camera_height() {
+    let s = Server::start(data_dir());
+    let t_at = |h: f64| -> f64 {
+        let r = s.get(
+            &format!(
+                "/v1/datasets/crop/tiles/1/0/0.json?eye=256,256,{h}&target=300,300,300&fov=60"
+            ),
+            &[],
+        );
+        assert_eq!(r.status, 200, "{}", String::from_utf8_lossy(&r.body));
+        r.header("x-threshold").unwrap().parse().unwrap()
+    };
+    let (low, high) = (t_at(400.0), t_at(3000.0));
+    assert!(high > low, "T at 3000 m = {high}, at 400 m = {low}");
+    let ratio = s.get("/v1/datasets/crop/tiles/1/0/0.png?ratio=0.5", &[]);
+    assert_eq!(ratio.status, 200);
+}
+
+#[test]
+fn ezw_prefixes_grow_as_the_threshold_falls_and_honour_ranges() {
+    let s = Server::start(data_dir());
+    let coarse = s.get("/v1/datasets/crop/tiles/1/0/1.ezw?threshold=64", &[]);
+    let fine = s.get("/v1/datasets/crop/tiles/1/0/1.ezw?threshold=1", &[]);
+    assert_eq!(coarse.status, 200);
+    assert_eq!(coarse.header("accept-ranges"), Some("bytes"));
+    assert_eq!(&coarse.body[..4], b"ZTW1");
+    assert!(coarse.body.len() < fine.body.len());
+    // The coarse prefix is a prefix of the fine one, and decodes on its own.
+    assert_eq!(&fine.body[..coarse.body.len()], &coarse.body[..]);
+    let d = ezw::decode(&coarse.body, DecodeLimit::All, ezw::DEFAULT_MAX_SAMPLES).unwrap();
+    assert_eq!((d.heights.rows(), d.heights.cols()), (257, 257));
+
+    let part = s.get(
+        "/v1/datasets/crop/tiles/1/0/1.ezw?threshold=1",
+        &[("Range", "bytes=10-109")],
+    );
+    assert_eq!(part.status, 206);
+    assert_eq!(part.body, &fine.body[10..110]);
+    let len = fine.body.len();
+    assert_eq!(
+        part.header("content-range"),
+        Some(format!("bytes 10-109/{len}").as_str())
+    );
+    let past = s.get(
+        "/v1/datasets/crop/tiles/1/0/1.ezw?threshold=1",
+        &[("Range", "bytes=99999999-")],
+    );
+    past.assert_error(416, "range_not_satisfiable", "range past the end");
+    assert_eq!(
+        past.header("content-range"),
+        Some(format!("bytes */{len}").as_str())
+    );
+}
+
+#[test]
+fn etags_give_304_and_change_with_the_threshold() {
+    let s = Server::start(data_dir());
+    let url = "/v1/datasets/crop/tiles/0/0/0.png?threshold=8";
+    let first = s.get(url, &[]);
+    let etag = first.header("etag").unwrap().to_string();
+    assert!(first.header("cache-control").unwrap().contains("max-age"));
+    let again = s.get(url, &[("If-None-Match", &etag)]);
+    assert_eq!(again.status, 304);
+    assert!(again.body.is_empty());
+    let other = s.get("/v1/datasets/crop/tiles/0/0/0.png?threshold=9", &[]);
+    assert_ne!(other.header("etag").unwrap(), etag);
+}
+
+#[test]
+fn json_is_compressed_when_the_client_accepts_it() {
+    let s = Server::start(data_dir());
+    let url = "/v1/datasets/crop/tiles/1/0/0.json?threshold=16";
+    let plain = s.get(url, &[]);
+    assert_eq!(plain.header("content-encoding"), None);
+    let gz = s.get(url, &[("Accept-Encoding", "gzip")]);
+    assert_eq!(gz.header("content-encoding"), Some("gzip"));
+    let mut back = Vec::new();
+    flate2::read::GzDecoder::new(&gz.body[..])
+        .read_to_end(&mut back)
+        .unwrap();
+    assert_eq!(back, plain.body);
+}
+
+#[test]
+fn quantized_mesh_root_tiles_decode_and_share_their_edge() {
+    let s = Server::start(data_dir());
+    let layer = s.get("/v1/datasets/world/layer.json", &[]).json();
+    assert_eq!(layer["format"], "quantized-mesh-1.0");
+    assert_eq!(layer["scheme"], "tms");
+    assert_eq!(layer["available"][0][0]["endX"], 1);
+    let template = layer["tiles"][0].as_str().unwrap();
+    assert!(
+        template.starts_with("tiles/{z}/{x}/{y}.terrain"),
+        "{template}"
+    );
+
+    let accept = "application/vnd.quantized-mesh;extensions=octvertexnormals-metadata";
+    let tile = |x: u32| {
+        let r = s.get(
+            &format!("/v1/datasets/world/tiles/0/{x}/0.terrain?threshold=4"),
+            &[("Accept", accept)],
+        );
+        assert_eq!(r.status, 200, "{}", String::from_utf8_lossy(&r.body));
+        assert_eq!(r.header("content-encoding"), None);
+        assert!(r.header("vary").unwrap().contains("Accept-Encoding"));
+        assert!(r
+            .header("content-type")
+            .unwrap()
+            .starts_with("application/vnd.quantized-mesh"));
+        let triangles: usize = r.header("x-triangles").unwrap().parse().unwrap();
+        // Our own reader first: every invariant of the wire format.
+        let wire = qm::read(&r.body).unwrap();
+        let n = wire.u.len();
+        assert_eq!(wire.triangles.len(), triangles);
+        let ids: Vec<u8> = wire.extensions.iter().map(|e| e.0).collect();
+        assert_eq!(ids, [1, 4], "octvertexnormals then metadata");
+        assert_eq!(wire.extensions[0].1.len(), 2 * n);
+        let meta = &wire.extensions[1].1;
+        let json_len = u32::from_le_bytes([meta[0], meta[1], meta[2], meta[3]]) as usize;
+        let meta: Value = serde_json::from_slice(&meta[4..4 + json_len]).unwrap();
+        assert!(meta["available"].is_array(), "{meta}");
+        // Every vertex on a border is in that border's list.
+        let on = |f: &dyn Fn(usize) -> bool| (0..n).filter(|&i| f(i)).count();
+        assert_eq!(on(&|i| wire.u[i] == 0), wire.edges[0].len());
+        assert_eq!(on(&|i| wire.v[i] == 0), wire.edges[1].len());
+        assert_eq!(on(&|i| wire.u[i] == 32767), wire.edges[2].len());
+        assert_eq!(on(&|i| wire.v[i] == 32767), wire.edges[3].len());
+        assert!(wire.min_height < wire.max_height);
+        assert!(wire.h.contains(&0) && wire.h.contains(&32767));
+
+        // The codec's decoder agrees with it.
+        let qm = quantized_mesh::decode(&r.body).unwrap();
+        assert_eq!(qm.triangles, wire.triangles);
+        assert_eq!((&qm.u, &qm.v), (&wire.u, &wire.v));
+        assert_eq!(qm.normals.as_ref().map(Vec::len), Some(qm.vertex_count()));
+        assert!(qm.metadata.as_ref().unwrap()["available"].is_array());
+        assert!(qm.header.min_height < qm.header.max_height);
+        for &i in &qm.west {
+            assert_eq!(qm.u[i as usize], 0);
+        }
+        for &i in &qm.east {
+            assert_eq!(qm.u[i as usize], 32767);
+        }
+        qm
+    };
+    let (w, e) = (tile(0), tile(1));
+    // West tile's east edge against east tile's west edge: same v, same heights.
+    let edge = |qm: &quantized_mesh::QuantizedMesh, idx: &[u32]| -> Vec<(u16, f64)> {
+        let mut v: Vec<(u16, f64)> = idx
+            .iter()
+            .map(|&i| (qm.v[i as usize], qm.height_m(i as usize).unwrap()))
+            .collect();
+        v.sort_by_key(|p| p.0);
+        v
+    };
+    let (a, b) = (edge(&w, &w.east), edge(&e, &e.west));
+    assert_eq!(a.len(), b.len());
+    for (p, q) in a.iter().zip(&b) {
+        assert_eq!(p.0, q.0);
+        // Quantised heights: within one step of each tile's height range.
+        assert!((p.1 - q.1).abs() < 0.1, "{p:?} vs {q:?}");
+    }
+
+    // gzip only when asked for, labelled, and identical once unpacked.
+    let url = "/v1/datasets/world/tiles/0/0/0.terrain?threshold=4";
+    let plain = s.get(url, &[]);
+    let gz = s.get(url, &[("Accept-Encoding", "gzip, deflate")]);
+    assert_eq!(gz.header("content-encoding"), Some("gzip"));
+    let mut back = Vec::new();
+    flate2::read::GzDecoder::new(&gz.body[..])
+        .read_to_end(&mut back)
+        .unwrap();
+    assert_eq!(back, plain.body);
+    s.get(url, &[("Accept", "image/png")]).assert_error(
+        406,
+        "not_acceptable",
+        "terrain for an image client",
+    );
+}
+
+#[test]
+fn bad_requests_are_4xx_json() {
+    let s = Server::start(data_dir());
+    let t = "/v1/datasets/crop/tiles";
+    for (path, status, code) in [
+        ("/v1/datasets/nope", 404, "unknown_dataset"),
+        ("/v1/datasets/nope/tiles/0/0/0.png", 404, "unknown_dataset"),
+        (
+            "/v1/datasets/..%2F..%2Fetc%2Fpasswd/tiles/0/0/0.png",
+            404,
+            "unknown_dataset",
+        ),
+        ("/nope", 404, "not_found"),
+        (&format!("{t}/9/0/0.png"), 404, "tile_not_found"),
+        (&format!("{t}/1/7/7.png"), 404, "tile_not_found"),
+        (&format!("{t}/1/x/0.png"), 400, "bad_tile_address"),
+        (&format!("{t}/1/0/-1.png"), 400, "bad_tile_address"),
+        (&format!("{t}/1/0/0.tif"), 404, "unknown_format"),
+        (&format!("{t}/1/0/0"), 404, "unknown_format"),
+        (&format!("{t}/1/0/0.terrain"), 404, "not_georeferenced"),
+        ("/v1/datasets/crop/layer.json", 404, "not_georeferenced"),
+        (&format!("{t}/1/0/0.png?threshold=NaN"), 400, "out_of_range"),
+        (&format!("{t}/1/0/0.png?threshold=inf"), 400, "out_of_range"),
+        (&format!("{t}/1/0/0.png?threshold=-1"), 400, "out_of_range"),
+        (
+            &format!("{t}/1/0/0.png?threshold=1e300"),
+            400,
+            "out_of_range",
+        ),
+        (&format!("{t}/1/0/0.png?threshold=abc"), 400, "bad_number"),
+        (&format!("{t}/1/0/0.png?ratio=-2"), 400, "out_of_range"),
+        (
+            &format!("{t}/1/0/0.png?threshold=1&ratio=1"),
+            400,
+            "conflicting_threshold",
+        ),
+        (
+            &format!("{t}/1/0/0.json?eye=1,2&target=0,0,0&fov=60"),
+            400,
+            "bad_vector",
+        ),
+        (
+            &format!("{t}/1/0/0.json?eye=1,2,3&target=0,0,0"),
+            400,
+            "missing_parameter",
+        ),
+        (
+            &format!("{t}/1/0/0.json?eye=0,0,-5&target=9,9,0&fov=60"),
+            400,
+            "bad_view",
+        ),
+        (
+            &format!("{t}/1/0/0.json?eye=0,0,NaN&target=9,9,0&fov=60"),
+            400,
+            "out_of_range",
+        ),
+        (
+            &format!("{t}/1/0/0.json?eye=0,0,50&target=9,9,0&fov=500"),
+            400,
+            "out_of_range",
+        ),
+        (&format!("{t}/1/0/0.png?encoding=gray"), 400, "bad_encoding"),
+        (&format!("{t}/1/0/0.png?size=100000"), 400, "out_of_range"),
+    ] {
+        s.get(path, &[]).assert_error(status, code, path);
+    }
+    let post = s
+        .agent
+        .post(format!("{}/v1/datasets", s.base))
+        .send("x")
+        .unwrap();
+    assert_eq!(post.status().as_u16(), 405);
+}
+
+#[test]
+fn a_corrupt_dataset_is_skipped_and_the_others_serve() {
+    let dir = scratch("corrupt");
+    std::fs::copy(data_dir().join("crop.ztd"), dir.join("good.ztd")).unwrap();
+    let mut bad = std::fs::read(data_dir().join("crop.ztd")).unwrap();
+    bad[30] ^= 0xff; // inside the header: its CRC fails
+    std::fs::write(dir.join("bad.ztd"), &bad).unwrap();
+    std::fs::File::create(dir.join("empty.ztd"))
+        .unwrap()
+        .write_all(b"")
+        .unwrap();
+    let mut s = Server::start(&dir);
+    s.warnings_expected = true;
+    let list = s.get("/v1/datasets", &[]).json();
+    assert_eq!(list["datasets"].as_array().unwrap().len(), 1);
+    assert_eq!(list["skipped"].as_array().unwrap().len(), 2);
+    assert_eq!(s.get("/v1/datasets/good/tiles/0/0/0.png", &[]).status, 200);
+    s.get("/v1/datasets/bad", &[])
+        .assert_error(404, "unknown_dataset", "skipped dataset");
+    drop(s);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_missing_data_folder_is_a_clear_error() {
+    let out = Command::new(zerotile_bin())
+        .args([
+            "serve",
+            "--addr",
+            "127.0.0.1:0",
+            "--data",
+            "/nonexistent/zerotile-data",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("/nonexistent/zerotile-data"), "{err}");
+}
+
+#[test]
+fn the_view_endpoint_meshes_the_view_plane_at_eq4_threshold() {
+    let s = Server::start(data_dir());
+    let view = |h: f64, extra: &str| {
+        s.get(
+            &format!("/v1/datasets/crop/view?eye=256,400,{h}&target=256,256,300&fov=60{extra}"),
+            &[],
+        )
+    };
+    let (low, high) = (view(400.0, ""), view(3000.0, ""));
+    assert_eq!(low.status, 200, "{}", String::from_utf8_lossy(&low.body));
+    let (l, h) = (low.json(), high.json());
+    for v in [&l, &h] {
+        let a = v["a_v"].as_f64().unwrap() / v["a_t"].as_f64().unwrap();
+        assert!((a - v["ratio"].as_f64().unwrap()).abs() < 1e-9);
+        let n = v["triangles"].as_u64().unwrap() as usize;
+        assert_eq!(v["mesh"]["indices"].as_array().unwrap().len(), 3 * n);
+    }
+    let t = |v: &Value| v["threshold"].as_f64().unwrap();
+    assert!(
+        t(&h) > t(&l),
+        "T at 3000 m {} ≤ T at 400 m {}",
+        t(&h),
+        t(&l)
+    );
+    assert!(h["triangles"].as_u64() < l["triangles"].as_u64());
+
+    let glb = view(400.0, "&format=glb");
+    assert_eq!(&glb.body[..4], b"glTF");
+    assert_eq!(glb.header("x-threshold"), Some(t(&l).to_string().as_str()));
+    view(400.0, "&format=stl").assert_error(400, "bad_format", "view as stl");
+    s.get(
+        "/v1/datasets/crop/view?eye=-9000,-9000,50&target=-9000,-9100,0&fov=30",
+        &[],
+    )
+    .assert_error(404, "empty_view", "a view beside the data");
+}
+
+#[test]
+fn a_missing_root_tile_is_flat_and_mercator_tiles_work() {
+    let s = Server::start(data_dir());
+    // `half` holds only the western root: the eastern one comes flat, as Cesium needs both.
+    let r = s.get("/v1/datasets/half/tiles/0/1/0.terrain", &[]);
+    assert_eq!(r.status, 200, "{}", String::from_utf8_lossy(&r.body));
+    let qm = quantized_mesh::decode(&r.body).unwrap();
+    assert_eq!(qm.triangles.len(), 2);
+    assert_eq!(qm.header.min_height, qm.header.max_height);
+    let layer = s.get("/v1/datasets/half/layer.json", &[]).json();
+    assert_eq!(layer["available"][0][0]["endX"], 1);
+    // Below the roots, a missing tile is a 404, not a flat tile.
+    s.get("/v1/datasets/half/tiles/0/1/0.png", &[])
+        .assert_error(404, "tile_not_found", "missing tile as PNG");
+
+    let layer = s.get("/v1/datasets/merc/layer.json", &[]).json();
+    assert_eq!(layer["scheme"], "slippyMap");
+    assert_eq!(layer["projection"], "EPSG:3857");
+    let r = s.get("/v1/datasets/merc/tiles/0/0/0.terrain?threshold=8", &[]);
+    assert_eq!(r.status, 200);
+    let qm = quantized_mesh::decode(&r.body).unwrap();
+    assert!(qm.triangles.len() > 2);
+    let bin = s.get("/v1/datasets/merc/tiles/0/0/0.bin?threshold=8", &[]);
+    assert_eq!(
+        mesh_bin::decode(&bin.body).unwrap().crs,
+        mesh_bin::MeshCrs::WebMercator
+    );
+}
+
+#[test]
+fn sigterm_drains_and_exits_cleanly() {
+    let mut s = Server::start(data_dir());
+    assert_eq!(s.get("/healthz", &[]).status, 200);
+    let pid = s.child.id().to_string();
+    let killed = Command::new("kill").args(["-TERM", &pid]).status().unwrap();
+    assert!(killed.success());
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(10);
+    let status = loop {
+        if let Some(st) = s.child.try_wait().unwrap() {
+            break st;
+        }
+        assert!(
+            std::time::Instant::now() < deadline,
+            "still running 10 s after SIGTERM"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    assert!(status.success(), "{status:?}");
+}
