@@ -14,6 +14,7 @@
 pub mod catalog;
 pub mod dataset;
 pub mod error;
+pub mod meshes;
 pub mod metrics;
 pub mod negotiate;
 pub mod pipeline;
@@ -63,6 +64,16 @@ pub fn app(state: AppState) -> Router {
             "/v1/datasets/{name}/tiles/{z}/{x}/{y}",
             get(routes::tiles::tile),
         )
+        .route("/v1/meshes", get(routes::meshes::list))
+        .route(
+            "/v1/meshes/{name}",
+            get(routes::meshes::describe)
+                .post(routes::meshes::upload)
+                .layer(axum::extract::DefaultBodyLimit::max(
+                    meshes::MAX_UPLOAD_BYTES,
+                )),
+        )
+        .route("/v1/meshes/{name}/{method}", get(routes::meshes::lod))
         .fallback(error::not_found)
         .method_not_allowed_fallback(error::method_not_allowed);
 
@@ -72,7 +83,7 @@ pub fn app(state: AppState) -> Router {
         .and(NotForContentType::const_new("model/gltf-binary"));
     let cors = CorsLayer::new()
         .allow_origin(Any)
-        .allow_methods([Method::GET, Method::HEAD, Method::OPTIONS])
+        .allow_methods([Method::GET, Method::HEAD, Method::OPTIONS, Method::POST])
         .allow_headers(Any)
         .expose_headers([
             header::ETAG,
@@ -84,6 +95,9 @@ pub fn app(state: AppState) -> Router {
             header::HeaderName::from_static("x-a-v"),
             header::HeaderName::from_static("x-a-t"),
             header::HeaderName::from_static("x-zoom"),
+            header::HeaderName::from_static("x-vertices"),
+            header::HeaderName::from_static("x-faces"),
+            header::HeaderName::from_static("x-error"),
         ]);
     routes
         .layer(axum::middleware::from_fn_with_state(
@@ -120,7 +134,8 @@ pub fn run(opts: ServeOptions) -> Result<()> {
         );
     }
     let n = catalog.len();
-    let state = AppState::new(catalog, opts.config);
+    let meshes = meshes::MeshCatalog::open(&opts.data, opts.config.response_cache_bytes);
+    let state = AppState::new(catalog, opts.config).with_meshes(meshes);
     let rt = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()

@@ -6,6 +6,7 @@ use std::sync::Arc;
 use tokio::sync::Semaphore;
 
 use super::catalog::Catalog;
+use super::meshes::MeshCatalog;
 use super::metrics::Metrics;
 use super::tile_cache::{new_cache, new_response_cache, ResponseCache, TileCache};
 
@@ -44,6 +45,8 @@ pub struct AppState {
     pub metrics: Arc<Metrics>,
     pub cpu: Arc<Semaphore>,
     pub config: Arc<Config>,
+    /// Object meshes and their LODs.
+    pub meshes: Arc<MeshCatalog>,
 }
 
 impl AppState {
@@ -54,7 +57,15 @@ impl AppState {
             responses: Arc::new(new_response_cache(config.response_cache_bytes)),
             metrics: Arc::new(Metrics::default()),
             cpu: Arc::new(Semaphore::new(config.cpu_jobs.max(1))),
+            meshes: Arc::new(MeshCatalog::empty(config.response_cache_bytes / 4)),
             config: Arc::new(config),
         }
+    }
+
+    /// Serves `meshes` too.
+    #[must_use]
+    pub fn with_meshes(mut self, meshes: MeshCatalog) -> Self {
+        self.meshes = Arc::new(meshes);
+        self
     }
 }

@@ -240,7 +240,7 @@ pub fn number(name: &str, s: &str, lo: f64, hi: f64) -> Result<f64, ApiError> {
 }
 
 /// `x,y,z`, each finite and within [`MAX_COORDINATE`].
-fn vec3(name: &str, s: &str) -> Result<DVec3, ApiError> {
+pub fn vec3(name: &str, s: &str) -> Result<DVec3, ApiError> {
     let parts: Vec<&str> = s.split(',').collect();
     if parts.len() != 3 {
         return Err(ApiError::bad_request(

@@ -1,5 +1,6 @@
 //! Route handlers: HTTP in, HTTP out; the work lives in `pipeline` and `render`.
 
+pub mod meshes;
 pub mod meta;
 pub mod tiles;
 pub mod view;

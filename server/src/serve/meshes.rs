@@ -1,0 +1,199 @@
+//! Object meshes of the data folder (`DATA/meshes/*.obj|ply|stl`) and their LODs.
+//!
+//! Meshes are read and repaired once, at start or upload. LOD structures are built on first
+//! use and kept with the mesh (the view sphere once per mesh; curvature levels once per ε);
+//! answers are cached by bytes. Uploads are size-limited, validated and written atomically
+//! before they replace anything.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, OnceLock, RwLock};
+
+use anyhow::{Context, Result};
+use quick_cache::sync::Cache;
+use quick_cache::Weighter;
+use zerotile_codec::mesh::io::{self, Format, MeshLimits};
+use zerotile_codec::mesh::silhouette::ViewSphere;
+use zerotile_codec::mesh::{repair, TriMesh};
+
+/// Folder of meshes inside the data folder.
+pub const MESH_DIR: &str = "meshes";
+
+/// Largest upload, bytes (also the largest file read at start).
+pub const MAX_UPLOAD_BYTES: usize = 64 << 20;
+
+/// Largest mesh served, faces: LOD structures hold a few copies of it.
+pub const MAX_FACES: usize = 2_000_000;
+
+/// One mesh, repaired, with its LOD structures built when first asked for.
+pub struct MeshEntry {
+    pub name: String,
+    pub mesh: TriMesh,
+    /// Bumped on every replacement, so cached answers of an old upload never match.
+    pub generation: u64,
+    pub source: PathBuf,
+    silhouette: OnceLock<Result<ViewSphere, String>>,
+}
+
+impl MeshEntry {
+    fn new(name: String, mesh: TriMesh, generation: u64, source: PathBuf) -> Self {
+        Self {
+            name,
+            mesh,
+            generation,
+            source,
+            silhouette: OnceLock::new(),
+        }
+    }
+
+    /// The view sphere, built once.
+    pub fn view_sphere(&self) -> Result<&ViewSphere, String> {
+        self.silhouette
+            .get_or_init(|| ViewSphere::new(&self.mesh).map_err(|e| e.to_string()))
+            .as_ref()
+            .map_err(Clone::clone)
+    }
+}
+
+/// An encoded LOD answer.
+#[derive(Debug)]
+pub struct MeshAnswer {
+    pub bytes: bytes::Bytes,
+    pub vertices: usize,
+    pub faces: usize,
+    /// The method's own error figure (ε, level, or the QEM error), for `X-Error`.
+    pub error: f64,
+}
+
+#[derive(Clone, Copy, Debug, Default)]
+pub struct AnswerBytes;
+
+impl Weighter<u64, Arc<MeshAnswer>> for AnswerBytes {
+    fn weight(&self, _key: &u64, val: &Arc<MeshAnswer>) -> u64 {
+        val.bytes.len() as u64 + 64
+    }
+}
+
+/// The meshes, by name, and the answer cache.
+pub struct MeshCatalog {
+    dir: PathBuf,
+    entries: RwLock<BTreeMap<String, Arc<MeshEntry>>>,
+    next_generation: std::sync::atomic::AtomicU64,
+    pub answers: Cache<u64, Arc<MeshAnswer>, AnswerBytes>,
+}
+
+/// Read limits for served meshes.
+pub fn limits() -> MeshLimits {
+    MeshLimits {
+        max_faces: MAX_FACES,
+        max_vertices: MAX_FACES,
+        max_bytes: MAX_UPLOAD_BYTES as u64,
+    }
+}
+
+impl MeshCatalog {
+    /// No meshes (uploads are refused: there is no folder to keep them in).
+    pub fn empty(answer_bytes: u64) -> Self {
+        let mut c = Self::open(Path::new(""), answer_bytes);
+        c.dir = PathBuf::new();
+        c
+    }
+
+    /// Opens `data/meshes` (absent: an empty catalog). A mesh that fails to read is logged
+    /// and skipped.
+    pub fn open(data: &Path, answer_bytes: u64) -> Self {
+        let dir = data.join(MESH_DIR);
+        let mut entries = BTreeMap::new();
+        let mut generation = 0;
+        if let Ok(rd) = std::fs::read_dir(&dir) {
+            let mut paths: Vec<PathBuf> = rd.filter_map(|e| e.ok().map(|e| e.path())).collect();
+            paths.sort();
+            for path in paths {
+                let (Some(stem), Some(_)) = (
+                    path.file_stem().and_then(|s| s.to_str()),
+                    Format::from_path(&path),
+                ) else {
+                    continue;
+                };
+                if crate::ingest::check_name(stem).is_err() || entries.contains_key(stem) {
+                    continue;
+                }
+                match load(&path) {
+                    Ok(mesh) => {
+                        generation += 1;
+                        let e = MeshEntry::new(stem.to_string(), mesh, generation, path.clone());
+                        entries.insert(stem.to_string(), Arc::new(e));
+                    }
+                    Err(e) => tracing::warn!("skipping mesh {}: {e:#}", path.display()),
+                }
+            }
+        }
+        let items = (answer_bytes / 200_000).clamp(16, 1 << 16) as usize;
+        Self {
+            dir,
+            entries: RwLock::new(entries),
+            next_generation: std::sync::atomic::AtomicU64::new(generation + 1),
+            answers: Cache::with_weighter(items, answer_bytes.max(1), AnswerBytes),
+        }
+    }
+
+    pub fn list(&self) -> Vec<Arc<MeshEntry>> {
+        self.entries
+            .read()
+            .map(|m| m.values().cloned().collect())
+            .unwrap_or_default()
+    }
+
+    pub fn get(&self, name: &str) -> Option<Arc<MeshEntry>> {
+        self.entries.read().ok()?.get(name).cloned()
+    }
+
+    /// Validates `bytes` as a mesh, writes it atomically as `meshes/NAME.EXT` (replacing an
+    /// older file of that name only once the new one is whole) and serves it from now on.
+    pub fn upload(
+        &self,
+        name: &str,
+        bytes: &[u8],
+        format: Option<Format>,
+    ) -> Result<Arc<MeshEntry>> {
+        if self.dir.as_os_str().is_empty() {
+            anyhow::bail!("this server has no mesh folder to store uploads in");
+        }
+        let mesh = io::read_bytes(bytes, format, &limits())?;
+        let (mesh, _report) = repair(&mesh)?;
+        if mesh.faces.is_empty() {
+            anyhow::bail!("the mesh has no valid faces");
+        }
+        let format = format
+            .or_else(|| Format::sniff(bytes))
+            .unwrap_or(Format::Obj);
+        let ext = match format {
+            Format::Ply => "ply",
+            Format::Stl => "stl",
+            _ => "obj",
+        };
+        let path = self.dir.join(format!("{name}.{ext}"));
+        crate::ingest::write_atomically(&path, bytes)?;
+        // An older upload under another extension would shadow this one at the next start.
+        for other in ["obj", "ply", "stl"].iter().filter(|&&e| e != ext) {
+            let _ = std::fs::remove_file(self.dir.join(format!("{name}.{other}")));
+        }
+        let generation = self
+            .next_generation
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let entry = Arc::new(MeshEntry::new(name.to_string(), mesh, generation, path));
+        let mut map = self
+            .entries
+            .write()
+            .map_err(|_| anyhow::anyhow!("mesh catalog lock poisoned"))?;
+        map.insert(name.to_string(), entry.clone());
+        Ok(entry)
+    }
+}
+
+fn load(path: &Path) -> Result<TriMesh> {
+    let mesh =
+        io::read_path(path, &limits()).with_context(|| format!("reading {}", path.display()))?;
+    let (clean, _) = repair(&mesh)?;
+    Ok(clean)
+}

@@ -1,0 +1,366 @@
+//! Object-mesh routes: the meshes of `DATA/meshes` and their LODs.
+//!
+//! - `GET /v1/meshes`, `GET /v1/meshes/{name}`
+//! - `GET /v1/meshes/{name}/{method}` with `method` one of `original`, `curvature`
+//!   (`error=E` or `level=1..3`), `silhouette` (`level=K` and/or `eye=x,y,z&target=x,y,z`),
+//!   `qem` (`faces=N`, `ratio=R` or `error=E`), and `format=obj|ply|glb|json`; headers
+//!   `X-Vertices`, `X-Faces`, `X-Error`.
+//! - `POST /v1/meshes/{name}`: an OBJ, PLY or STL body (≤ 64 MiB), validated, stored.
+
+use std::collections::HashMap;
+use std::hash::{Hash, Hasher};
+use std::sync::Arc;
+
+use axum::body::{Body, Bytes};
+use axum::extract::rejection::{PathRejection, QueryRejection};
+use axum::extract::{Path, Query, State};
+use axum::http::header::{CACHE_CONTROL, CONTENT_TYPE, ETAG};
+use axum::http::{HeaderMap, HeaderValue, StatusCode};
+use axum::response::Response;
+use axum::Json;
+use serde_json::{json, Value};
+use zerotile_codec::mesh::curvature::{self, CurvatureOptions, PAPER_LEVELS};
+use zerotile_codec::mesh::io::{self, Format};
+use zerotile_codec::mesh::silhouette::View;
+use zerotile_codec::mesh::{qem, QemOptions, TriMesh};
+
+use crate::serve::error::{ApiError, ApiResult};
+use crate::serve::meshes::{MeshAnswer, MeshEntry};
+use crate::serve::negotiate;
+use crate::serve::state::AppState;
+use crate::serve::threshold::{number, vec3};
+
+/// The LOD methods, as path segments.
+pub const METHODS: [&str; 4] = ["original", "curvature", "silhouette", "qem"];
+
+pub async fn list(State(state): State<AppState>) -> Json<Value> {
+    let meshes: Vec<Value> = state.meshes.list().iter().map(|e| summary(e)).collect();
+    Json(json!({ "meshes": meshes }))
+}
+
+pub async fn describe(
+    State(state): State<AppState>,
+    path: Result<Path<String>, PathRejection>,
+) -> ApiResult<Json<Value>> {
+    let Path(name) = path?;
+    let e = entry(&state, &name)?;
+    let mut v = summary(&e);
+    let base = format!("/v1/meshes/{name}");
+    v["methods"] = json!({
+        "original": format!("{base}/original"),
+        "curvature": { "url": format!("{base}/curvature"), "params": "error=E | level=1..3 (ε 0.15, 0.20, 0.25)" },
+        "silhouette": { "url": format!("{base}/silhouette"), "params": "level=0..7 and/or eye=x,y,z&target=x,y,z" },
+        "qem": { "url": format!("{base}/qem"), "params": "faces=N | ratio=R | error=E (fraction of the diagonal)" },
+    });
+    v["formats"] = json!(["obj", "ply", "glb", "json"]);
+    Ok(Json(v))
+}
+
+fn summary(e: &MeshEntry) -> Value {
+    let b = e.mesh.bounding_box();
+    json!({
+        "name": e.name,
+        "vertices": e.mesh.vertex_count(),
+        "faces": e.mesh.face_count(),
+        "bbox": [b.min.to_array(), b.max.to_array()],
+        "diagonal": b.diagonal(),
+        "url": format!("/v1/meshes/{}", e.name),
+    })
+}
+
+fn entry(state: &AppState, name: &str) -> ApiResult<Arc<MeshEntry>> {
+    state.meshes.get(name).ok_or_else(|| {
+        ApiError::not_found(
+            "mesh_not_found",
+            format!("no mesh {name:?}; GET /v1/meshes lists them"),
+        )
+    })
+}
+
+/// What to compute, checked and canonical (so equal asks share a cache entry).
+#[derive(Clone, Debug, PartialEq)]
+enum Ask {
+    Original,
+    Curvature(f64),
+    Silhouette {
+        level: Option<u8>,
+        view: Option<View>,
+    },
+    QemFaces(usize),
+    QemError(f64),
+}
+
+fn parse_ask(method: &str, q: &HashMap<String, String>, mesh: &TriMesh) -> ApiResult<Ask> {
+    let get = |k: &str| q.get(k).map(String::as_str);
+    let only = |allowed: &[&str]| -> ApiResult<()> {
+        match q
+            .keys()
+            .find(|k| k.as_str() != "format" && !allowed.contains(&k.as_str()))
+        {
+            Some(k) => Err(ApiError::bad_request(
+                "bad_query",
+                format!("{method} does not take {k:?}; it takes {allowed:?} and format"),
+            )),
+            None => Ok(()),
+        }
+    };
+    match method {
+        "original" => {
+            only(&[])?;
+            Ok(Ask::Original)
+        }
+        "curvature" => {
+            only(&["error", "level"])?;
+            match (get("error"), get("level")) {
+                (Some(e), None) => Ok(Ask::Curvature(number("error", e, 0.0, 10.0)?)),
+                (None, l) => {
+                    let k = number("level", l.unwrap_or("1"), 1.0, 3.0)?;
+                    if k.fract() != 0.0 {
+                        return Err(ApiError::bad_request(
+                            "out_of_range",
+                            "level must be 1, 2 or 3",
+                        ));
+                    }
+                    Ok(Ask::Curvature(PAPER_LEVELS[k as usize - 1]))
+                }
+                _ => Err(ApiError::bad_request(
+                    "bad_query",
+                    "give error=E or level=K, not both",
+                )),
+            }
+        }
+        "silhouette" => {
+            only(&["level", "eye", "target"])?;
+            let level = get("level")
+                .map(|l| number("level", l, 0.0, 7.0))
+                .transpose()?
+                .map(|l| l as u8);
+            let view = match (get("eye"), get("target")) {
+                (Some(e), Some(t)) => Some(View {
+                    eye: vec3("eye", e)?,
+                    target: vec3("target", t)?,
+                }),
+                (None, None) => None,
+                _ => {
+                    return Err(ApiError::bad_request(
+                        "bad_query",
+                        "give eye and target together",
+                    ))
+                }
+            };
+            if level.is_none() && view.is_none() {
+                return Err(ApiError::bad_request(
+                    "bad_query",
+                    "silhouette needs level=K, or eye=x,y,z&target=x,y,z (or both)",
+                ));
+            }
+            Ok(Ask::Silhouette { level, view })
+        }
+        "qem" => {
+            only(&["faces", "ratio", "error"])?;
+            let n = mesh.face_count() as f64;
+            match (get("faces"), get("ratio"), get("error")) {
+                (Some(f), None, None) => {
+                    Ok(Ask::QemFaces(number("faces", f, 1.0, n.max(1.0))? as usize))
+                }
+                (None, Some(r), None) => {
+                    let r = number("ratio", r, 0.0, 1.0)?;
+                    Ok(Ask::QemFaces(((r * n).round() as usize).max(1)))
+                }
+                (None, None, Some(e)) => Ok(Ask::QemError(number("error", e, 0.0, 1.0)?)),
+                _ => Err(ApiError::bad_request(
+                    "bad_query",
+                    "give one of faces=N, ratio=R, error=E",
+                )),
+            }
+        }
+        other => Err(ApiError::not_found(
+            "unknown_method",
+            format!("no LOD method {other:?}; use one of {METHODS:?}"),
+        )),
+    }
+}
+
+fn parse_format(q: &HashMap<String, String>) -> ApiResult<(Format, &'static str)> {
+    match q.get("format").map(String::as_str).unwrap_or("json") {
+        "obj" => Ok((Format::Obj, "model/obj")),
+        "ply" => Ok((Format::Ply, "application/ply")),
+        "glb" => Ok((Format::Glb, "model/gltf-binary")),
+        "json" => Ok((Format::Json, "application/json")),
+        other => Err(ApiError::bad_request(
+            "bad_format",
+            format!("format must be obj, ply, glb or json, got {other:?}"),
+        )),
+    }
+}
+
+/// Runs an ask: the mesh and its error figure.
+fn compute(e: &MeshEntry, ask: &Ask) -> Result<(TriMesh, f64), ApiError> {
+    let bad = |m: String| ApiError::bad_request("bad_mesh_query", m);
+    match ask {
+        Ask::Original => Ok((e.mesh.clone(), 0.0)),
+        Ask::Curvature(eps) => {
+            let m = curvature::to_error(&e.mesh, *eps, &CurvatureOptions::default())
+                .map_err(|x| bad(x.to_string()))?;
+            Ok((m, *eps))
+        }
+        Ask::Silhouette { level, view } => {
+            let vs = e.view_sphere().map_err(bad)?;
+            match view {
+                Some(v) => {
+                    let (m, drawn) = vs.view(v, *level).map_err(|x| bad(x.to_string()))?;
+                    Ok((m, f64::from(drawn.level)))
+                }
+                None => {
+                    let level = level.unwrap_or(vs.max_level());
+                    Ok((
+                        vs.level(level).map_err(|x| bad(x.to_string()))?,
+                        f64::from(level),
+                    ))
+                }
+            }
+        }
+        Ask::QemFaces(n) => {
+            let (m, r) = qem::simplify(&e.mesh, &QemOptions::to_faces(*n))
+                .map_err(|x| bad(x.to_string()))?;
+            Ok((m, r.max_error))
+        }
+        Ask::QemError(err) => {
+            let (m, r) = qem::simplify(&e.mesh, &QemOptions::to_error(*err))
+                .map_err(|x| bad(x.to_string()))?;
+            Ok((m, r.max_error))
+        }
+    }
+}
+
+pub async fn lod(
+    State(state): State<AppState>,
+    path: Result<Path<(String, String)>, PathRejection>,
+    query: Result<Query<HashMap<String, String>>, QueryRejection>,
+    headers: HeaderMap,
+) -> ApiResult<Response> {
+    let Path((name, method)) = path?;
+    let Query(q) = query?;
+    let e = entry(&state, &name)?;
+    let ask = parse_ask(&method, &q, &e.mesh)?;
+    let (format, content_type) = parse_format(&q)?;
+
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    (
+        e.name.as_str(),
+        e.generation,
+        format!("{ask:?}"),
+        format.name(),
+    )
+        .hash(&mut h);
+    let key = h.finish();
+    let etag = format!("\"m{key:016x}\"");
+    if negotiate::not_modified(&headers, &etag) {
+        let mut res = Response::new(Body::empty());
+        *res.status_mut() = StatusCode::NOT_MODIFIED;
+        res.headers_mut().insert(ETAG, value(&etag)?);
+        return Ok(res);
+    }
+
+    let answer = match state.meshes.answers.get(&key) {
+        Some(hit) => hit,
+        None => {
+            let permit = state
+                .cpu
+                .clone()
+                .acquire_owned()
+                .await
+                .map_err(ApiError::internal)?;
+            let job = e.clone();
+            let fresh = tokio::task::spawn_blocking(move || -> ApiResult<MeshAnswer> {
+                let _permit = permit;
+                let (mesh, error) = compute(&job, &ask)?;
+                let bytes = io::write_bytes(&mesh, format).map_err(ApiError::internal)?;
+                Ok(MeshAnswer {
+                    bytes: bytes.into(),
+                    vertices: mesh.vertex_count(),
+                    faces: mesh.face_count(),
+                    error,
+                })
+            })
+            .await
+            .map_err(ApiError::internal)??;
+            let fresh = Arc::new(fresh);
+            state.meshes.answers.insert(key, fresh.clone());
+            fresh
+        }
+    };
+
+    let mut res = Response::new(Body::from(answer.bytes.clone()));
+    let h = res.headers_mut();
+    h.insert(CONTENT_TYPE, HeaderValue::from_static(content_type));
+    h.insert(ETAG, value(&etag)?);
+    h.insert(
+        CACHE_CONTROL,
+        HeaderValue::from_static("public, max-age=3600"),
+    );
+    h.insert("x-vertices", value(&answer.vertices.to_string())?);
+    h.insert("x-faces", value(&answer.faces.to_string())?);
+    h.insert("x-error", value(&answer.error.to_string())?);
+    Ok(res)
+}
+
+/// `POST /v1/meshes/{name}`: the body is the mesh.
+pub async fn upload(
+    State(state): State<AppState>,
+    path: Result<Path<String>, PathRejection>,
+    headers: HeaderMap,
+    body: Bytes,
+) -> ApiResult<(StatusCode, Json<Value>)> {
+    let Path(name) = path?;
+    crate::ingest::check_name(&name)
+        .map_err(|e| ApiError::bad_request("bad_name", e.to_string()))?;
+    let ct = headers
+        .get(CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+        .map(|s| {
+            s.split(';')
+                .next()
+                .unwrap_or("")
+                .trim()
+                .to_ascii_lowercase()
+        });
+    let format = match ct.as_deref() {
+        Some("model/obj" | "text/plain") => Some(Format::Obj),
+        Some("application/ply" | "model/ply" | "application/x-ply") => Some(Format::Ply),
+        Some("model/stl" | "application/sla" | "application/vnd.ms-pki.stl") => Some(Format::Stl),
+        None | Some("application/octet-stream") => None,
+        Some(other) => {
+            return Err(ApiError::new(
+                StatusCode::UNSUPPORTED_MEDIA_TYPE,
+                "unsupported_media_type",
+                format!(
+                    "{other} is not a mesh; send model/obj, application/ply, model/stl or \
+                     application/octet-stream (sniffed)"
+                ),
+            ))
+        }
+    };
+    if body.is_empty() {
+        return Err(ApiError::bad_request(
+            "empty_body",
+            "the body must hold the mesh",
+        ));
+    }
+    let job_state = state.clone();
+    let entry = tokio::task::spawn_blocking(move || job_state.meshes.upload(&name, &body, format))
+        .await
+        .map_err(ApiError::internal)?
+        .map_err(|e| {
+            ApiError::new(
+                StatusCode::UNPROCESSABLE_ENTITY,
+                "invalid_mesh",
+                format!("{e:#}"),
+            )
+        })?;
+    Ok((StatusCode::CREATED, Json(summary(&entry))))
+}
+
+fn value(s: &str) -> ApiResult<HeaderValue> {
+    HeaderValue::from_str(s).map_err(ApiError::internal)
+}

@@ -1,0 +1,296 @@
+//! The object-mesh routes of `zerotile serve`, over HTTP on the classic test meshes.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    reason = "test helpers: a failure to spawn the binary should fail the test loudly"
+)]
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+
+use serde_json::Value;
+use zerotile_tests::{shared_data, zerotile_bin};
+
+/// A `zerotile serve` on a free port, killed on drop.
+struct Server {
+    child: Child,
+    base: String,
+    agent: ureq::Agent,
+}
+
+struct Reply {
+    status: u16,
+    headers: Vec<(String, String)>,
+    body: Vec<u8>,
+}
+
+impl Reply {
+    fn header(&self, name: &str) -> Option<&str> {
+        self.headers
+            .iter()
+            .find(|(k, _)| k.eq_ignore_ascii_case(name))
+            .map(|(_, v)| v.as_str())
+    }
+
+    fn number(&self, name: &str) -> f64 {
+        self.header(name).unwrap().parse().unwrap()
+    }
+
+    fn json(&self) -> Value {
+        serde_json::from_slice(&self.body).unwrap()
+    }
+
+    fn error(&self, status: u16, code: &str) {
+        assert_eq!(
+            self.status,
+            status,
+            "{}",
+            String::from_utf8_lossy(&self.body)
+        );
+        assert_eq!(self.json()["error"], code);
+    }
+}
+
+impl Server {
+    fn start(data: &Path) -> Self {
+        let mut child = Command::new(zerotile_bin())
+            .args(["serve", "--addr", "127.0.0.1:0", "--data"])
+            .arg(data)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        let mut line = String::new();
+        BufReader::new(child.stdout.take().unwrap())
+            .read_line(&mut line)
+            .unwrap();
+        let at = line.find("http://").expect("the server prints its URL");
+        let agent = ureq::Agent::config_builder()
+            .http_status_as_error(false)
+            .build()
+            .into();
+        Self {
+            child,
+            base: line[at..].trim().trim_end_matches('/').to_string(),
+            agent,
+        }
+    }
+
+    fn reply(mut res: ureq::http::Response<ureq::Body>) -> Reply {
+        let status = res.status().as_u16();
+        let headers = res
+            .headers()
+            .iter()
+            .map(|(k, v)| (k.as_str().to_string(), v.to_str().unwrap_or("").to_string()))
+            .collect();
+        let body = res
+            .body_mut()
+            .with_config()
+            .limit(64 << 20)
+            .read_to_vec()
+            .unwrap();
+        Reply {
+            status,
+            headers,
+            body,
+        }
+    }
+
+    fn get(&self, path: &str, headers: &[(&str, &str)]) -> Reply {
+        let mut req = self.agent.get(format!("{}{path}", self.base));
+        for (k, v) in headers {
+            req = req.header(*k, *v);
+        }
+        Self::reply(req.call().unwrap())
+    }
+
+    fn post(&self, path: &str, content_type: &str, body: &[u8]) -> Reply {
+        let req = self
+            .agent
+            .post(format!("{}{path}", self.base))
+            .header("content-type", content_type);
+        Self::reply(req.send(body).unwrap())
+    }
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn data_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("zerotile-meshes-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(dir.join("meshes")).unwrap();
+    for m in ["fandisk.obj", "uv-sphere-5002.obj"] {
+        std::fs::copy(
+            shared_data().join("meshes").join(m),
+            dir.join("meshes").join(m),
+        )
+        .unwrap();
+    }
+    dir
+}
+
+/// Vertex and face counts of an OBJ body, read here line by line.
+fn obj_counts(body: &[u8]) -> (usize, usize) {
+    let text = String::from_utf8_lossy(body);
+    let v = text.lines().filter(|l| l.starts_with("v ")).count();
+    let f = text.lines().filter(|l| l.starts_with("f ")).count();
+    (v, f)
+}
+
+#[test]
+fn lods_come_in_every_format_with_their_counts() {
+    let data = data_dir("lods");
+    let s = Server::start(&data);
+    let list = s.get("/v1/meshes", &[]).json();
+    let names: Vec<&str> = list["meshes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["fandisk", "uv-sphere-5002"]);
+    let d = s.get("/v1/meshes/fandisk", &[]).json();
+    assert_eq!(
+        (d["vertices"].as_u64(), d["faces"].as_u64()),
+        (Some(6475), Some(12946))
+    );
+
+    // Curvature level 1 (ε = 0.15) as OBJ: the headers say what the body holds.
+    let r = s.get(
+        "/v1/meshes/uv-sphere-5002/curvature?level=1&format=obj",
+        &[],
+    );
+    assert_eq!(r.status, 200);
+    let (v, f) = obj_counts(&r.body);
+    assert_eq!(
+        (v as f64, f as f64),
+        (r.number("x-vertices"), r.number("x-faces"))
+    );
+    assert!(f < 10_000 && f > 1_000, "{f}");
+    assert_eq!(r.number("x-error"), 0.15);
+    // A larger ε keeps fewer faces.
+    let r3 = s.get(
+        "/v1/meshes/uv-sphere-5002/curvature?level=3&format=obj",
+        &[],
+    );
+    assert!(r3.number("x-faces") < r.number("x-faces"));
+
+    // QEM to the fandisk's paper count, as PLY and GLB.
+    let r = s.get("/v1/meshes/fandisk/qem?faces=978&format=ply", &[]);
+    assert_eq!(r.status, 200);
+    assert!(r.body.starts_with(b"ply"));
+    assert!(r.number("x-faces") <= 978.0 && r.number("x-faces") >= 970.0);
+    let r = s.get("/v1/meshes/fandisk/qem?ratio=0.1&format=glb", &[]);
+    assert_eq!(&r.body[..4], b"glTF");
+    assert_eq!(r.header("content-type"), Some("model/gltf-binary"));
+
+    // Silhouette for a view, as JSON: the view's refinement keeps more faces than the same
+    // level drawn without a view, and the body holds what the headers say.
+    let view = s.get(
+        "/v1/meshes/uv-sphere-5002/silhouette?eye=10,0,0&target=0,0,0&level=2",
+        &[],
+    );
+    assert_eq!(view.status, 200);
+    let j = view.json();
+    let faces = j["indices"].as_array().map_or(0, Vec::len) / 3;
+    assert_eq!(faces as f64, view.number("x-faces"));
+    assert!(faces > 0 && faces < 10_000, "{faces}");
+    let plain = s.get("/v1/meshes/uv-sphere-5002/silhouette?level=2", &[]);
+    assert!(view.number("x-faces") > plain.number("x-faces"));
+
+    // ETag: the same ask again is 304.
+    let r = s.get("/v1/meshes/fandisk/qem?faces=978&format=ply", &[]);
+    let etag = r.header("etag").unwrap().to_string();
+    let again = s.get(
+        "/v1/meshes/fandisk/qem?faces=978&format=ply",
+        &[("if-none-match", &etag)],
+    );
+    assert_eq!(again.status, 304);
+    let _ = std::fs::remove_dir_all(&data);
+}
+
+#[test]
+fn bad_asks_get_specific_json_errors() {
+    let data = data_dir("errors");
+    let s = Server::start(&data);
+    for (path, status, code) in [
+        ("/v1/meshes/nope", 404, "mesh_not_found"),
+        ("/v1/meshes/nope/qem?faces=10", 404, "mesh_not_found"),
+        ("/v1/meshes/fandisk/marching", 404, "unknown_method"),
+        ("/v1/meshes/fandisk/qem?faces=abc", 400, "bad_number"),
+        ("/v1/meshes/fandisk/qem?faces=-3", 400, "out_of_range"),
+        ("/v1/meshes/fandisk/qem?faces=1e9", 400, "out_of_range"),
+        (
+            "/v1/meshes/fandisk/qem?faces=10&ratio=0.5",
+            400,
+            "bad_query",
+        ),
+        ("/v1/meshes/fandisk/qem?error=NaN", 400, "out_of_range"),
+        ("/v1/meshes/fandisk/curvature?level=4", 400, "out_of_range"),
+        (
+            "/v1/meshes/fandisk/curvature?error=0.2&level=1",
+            400,
+            "bad_query",
+        ),
+        ("/v1/meshes/fandisk/curvature?faces=10", 400, "bad_query"),
+        ("/v1/meshes/fandisk/silhouette", 400, "bad_query"),
+        (
+            "/v1/meshes/fandisk/silhouette?eye=1,2&target=0,0,0",
+            400,
+            "bad_vector",
+        ),
+        (
+            "/v1/meshes/fandisk/silhouette?eye=inf,0,0&target=0,0,0",
+            400,
+            "out_of_range",
+        ),
+        (
+            "/v1/meshes/fandisk/silhouette?eye=1,1,1&target=1,1,1",
+            400,
+            "bad_mesh_query",
+        ),
+        ("/v1/meshes/fandisk/original?format=stl", 400, "bad_format"),
+    ] {
+        s.get(path, &[]).error(status, code);
+    }
+    let _ = std::fs::remove_dir_all(&data);
+}
+
+#[test]
+fn uploads_are_validated_limited_and_never_replace_a_mesh_with_a_bad_one() {
+    let data = data_dir("upload");
+    let s = Server::start(&data);
+    let cow = std::fs::read(shared_data().join("meshes/cow.obj")).unwrap();
+    let r = s.post("/v1/meshes/cow", "model/obj", &cow);
+    assert_eq!(r.status, 201, "{}", String::from_utf8_lossy(&r.body));
+    assert!(data.join("meshes/cow.obj").exists());
+    assert_eq!(s.get("/v1/meshes/cow/original?format=obj", &[]).status, 200);
+
+    // Garbage under an existing name: refused, the old mesh still served and on disk.
+    let before = std::fs::read(data.join("meshes/fandisk.obj")).unwrap();
+    s.post("/v1/meshes/fandisk", "model/obj", b"v 1 2\nf 1 2 3\n")
+        .error(422, "invalid_mesh");
+    assert_eq!(
+        std::fs::read(data.join("meshes/fandisk.obj")).unwrap(),
+        before
+    );
+    assert_eq!(s.get("/v1/meshes/fandisk", &[]).json()["faces"], 12946);
+
+    s.post("/v1/meshes/cow2", "image/png", b"\x89PNG")
+        .error(415, "unsupported_media_type");
+    s.post("/v1/meshes/..%2Fescape", "model/obj", &cow)
+        .error(400, "bad_name");
+    s.post("/v1/meshes/empty", "model/obj", b"")
+        .error(400, "empty_body");
+    let huge = vec![b' '; (64 << 20) + 1];
+    s.post("/v1/meshes/huge", "model/obj", &huge)
+        .error(413, "too_large");
+    assert!(!data.join("meshes/huge.obj").exists());
+    let _ = std::fs::remove_dir_all(&data);
+}
