@@ -7,6 +7,7 @@
 use std::path::PathBuf;
 
 pub mod qm;
+pub mod server;
 
 /// `../shared/data` beside the repository: real rasters and meshes, read in place.
 pub fn shared_data() -> PathBuf {

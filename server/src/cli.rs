@@ -26,6 +26,8 @@ pub enum Command {
     Ingest(IngestArgs),
     /// Serve every dataset of a folder over HTTP (routes: docs/api.md).
     Serve(ServeArgs),
+    /// Write a dataset as a static tile tree (layer.json + z/x/y files) for a CDN.
+    Export(ExportArgs),
     /// Measure the codec and mesher on one input.
     #[command(subcommand)]
     Eval(EvalCommand),
@@ -35,6 +37,27 @@ pub enum Command {
     /// Exit 0 if a server answers GET /healthz with 200 (for container health checks, where
     /// there is no curl).
     Healthcheck(HealthArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct ExportArgs {
+    /// Dataset: a name in DATA, or the path of a .ztd file.
+    pub dataset: String,
+    /// Folder of datasets.
+    #[arg(long, default_value = "data")]
+    pub data: PathBuf,
+    /// Tile format: terrain (Cesium quantized-mesh), png (terrain-RGB, 512²) or json (mesh).
+    #[arg(long, default_value = "terrain")]
+    pub format: String,
+    /// Output folder; replaced atomically when the export is complete.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Zooms to export: A-B or Z (default: all).
+    #[arg(long, value_name = "A-B", value_parser = crate::export::parse_zooms)]
+    pub zoom: Option<(u8, u8)>,
+    /// No progress bar.
+    #[arg(long)]
+    pub quiet: bool,
 }
 
 #[derive(Args, Debug)]
@@ -177,6 +200,7 @@ pub fn run() -> ExitCode {
         Command::DemoData(args) => demo_data(&args),
         Command::Healthcheck(args) => healthcheck(&args.addr),
         Command::Serve(args) => serve(args),
+        Command::Export(args) => export(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -216,6 +240,27 @@ fn ingest(a: IngestArgs) -> anyhow::Result<()> {
         m.max_zoom,
         m.stream_bytes,
         m.stream_bytes as f64 * 8.0 / m.samples.max(1) as f64,
+        started.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+fn export(a: ExportArgs) -> anyhow::Result<()> {
+    let started = std::time::Instant::now();
+    let job = crate::export::Export {
+        dataset: a.dataset,
+        data: a.data,
+        format: a.format,
+        out: a.out,
+        zooms: a.zoom,
+        progress: !a.quiet,
+    };
+    let done = crate::export::run(&job)?;
+    println!(
+        "{}: {} tiles, {} bytes, {:.1} s",
+        job.out.display(),
+        done.tiles,
+        done.bytes,
         started.elapsed().as_secs_f64()
     );
     Ok(())

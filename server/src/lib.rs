@@ -5,5 +5,6 @@
 pub mod cli;
 pub mod demo;
 pub mod eval;
+pub mod export;
 pub mod ingest;
 pub mod serve;

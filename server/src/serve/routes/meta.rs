@@ -117,7 +117,6 @@ pub async fn layer_json(
 ) -> ApiResult<Response> {
     let Path(name) = path?;
     let d = dataset(&state, &name)?;
-    let m = d.metadata();
     if matches!(d.tiling.scheme(), Scheme::Local { .. }) {
         return Err(ApiError::not_found(
             "not_georeferenced",
@@ -127,6 +126,14 @@ pub async fn layer_json(
             ),
         ));
     }
+    let layer = layer(&d).map_err(ApiError::internal)?;
+    let value = layer.to_value().map_err(ApiError::internal)?;
+    Ok(([(CACHE_CONTROL, "public, max-age=60")], Json(value)).into_response())
+}
+
+/// The dataset's layer.json, tiles at `tiles/{z}/{x}/{y}.terrain` beside it.
+pub(crate) fn layer(d: &Dataset) -> anyhow::Result<LayerJson> {
+    let m = d.metadata();
     // Cesium wants bounds in degrees and every root tile available.
     let [west, south, east, north] = m.bounds;
     let bounds = Bounds {
@@ -135,8 +142,7 @@ pub async fn layer_json(
         max_x: east,
         max_y: north,
     };
-    let mut layer =
-        LayerJson::for_tiling(&d.tiling, bounds, 0, m.max_zoom).map_err(ApiError::internal)?;
+    let mut layer = LayerJson::for_tiling(&d.tiling, bounds, 0, m.max_zoom)?;
     layer.name = d.name.clone();
     layer.version = format!("{:016x}", d.version);
     layer.extensions = vec![
@@ -153,11 +159,7 @@ pub async fn layer_json(
         if z == 0 || z >= layer.available.len() {
             continue;
         }
-        let ny = d
-            .tiling
-            .tiles_per_axis(z as u8)
-            .map_err(ApiError::internal)?
-            .1;
+        let ny = d.tiling.tiles_per_axis(z as u8)?.1;
         layer.available[z] = ranges
             .iter()
             .map(|a| match d.tiling.scheme() {
@@ -176,6 +178,5 @@ pub async fn layer_json(
             })
             .collect();
     }
-    let value = layer.to_value().map_err(ApiError::internal)?;
-    Ok(([(CACHE_CONTROL, "public, max-age=60")], Json(value)).into_response())
+    Ok(layer)
 }

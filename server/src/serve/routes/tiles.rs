@@ -86,7 +86,7 @@ impl TileFormat {
 
 /// Format options that change the bytes (and so the ETag).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-enum Variant {
+pub(crate) enum Variant {
     Terrain {
         ext: Extensions,
         gzip: bool,
@@ -350,7 +350,7 @@ fn header(s: &str) -> ApiResult<HeaderValue> {
 }
 
 /// Decode, mesh and encode one tile (blocking).
-fn render_tile(
+pub(crate) fn render_tile(
     state: &AppState,
     d: &Dataset,
     id: TileId,

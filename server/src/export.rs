@@ -1,0 +1,228 @@
+//! `zerotile export`: a dataset as a static tile tree (`layer.json` + `{z}/{x}/{y}.EXT`) for
+//! a CDN or any file server, rendered exactly as `zerotile serve` renders it at each zoom's
+//! default threshold.
+//!
+//! Written into a temporary folder beside `--out` and swapped in at the end: a failed export
+//! leaves an existing `--out` as it was.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
+
+use anyhow::{bail, Context, Result};
+use indicatif::{ProgressBar, ProgressStyle};
+use rayon::prelude::*;
+use zerotile_codec::container::TileId;
+use zerotile_codec::geo::Scheme;
+
+use crate::serve::dataset::Dataset;
+use crate::serve::negotiate::Extensions;
+use crate::serve::routes::meta::layer;
+use crate::serve::routes::tiles::{render_tile, TileFormat, Variant};
+use crate::serve::{threshold, AppState, Catalog, Config};
+
+/// What to export.
+#[derive(Clone, Debug)]
+pub struct Export {
+    /// A dataset name in `data`, or a path to a `.ztd` file.
+    pub dataset: String,
+    pub data: PathBuf,
+    pub format: String,
+    pub out: PathBuf,
+    pub zooms: Option<(u8, u8)>,
+    pub progress: bool,
+}
+
+/// What was written.
+#[derive(Debug)]
+pub struct Exported {
+    pub tiles: u64,
+    pub bytes: u64,
+}
+
+/// Parses `A-B` or `Z`.
+pub fn parse_zooms(s: &str) -> Result<(u8, u8), String> {
+    let parse = |v: &str| {
+        v.trim()
+            .parse::<u8>()
+            .map_err(|_| format!("zoom {v:?} is not 0..=255"))
+    };
+    let (a, b) = match s.split_once('-') {
+        Some((a, b)) => (parse(a)?, parse(b)?),
+        None => (parse(s)?, parse(s)?),
+    };
+    if a > b {
+        return Err(format!(
+            "--zoom {s}: the first zoom must not exceed the second"
+        ));
+    }
+    Ok((a, b))
+}
+
+pub fn run(job: &Export) -> Result<Exported> {
+    let (format, ext) = match job.format.as_str() {
+        "terrain" => (TileFormat::Terrain, "terrain"),
+        "png" => (TileFormat::Png, "png"),
+        "json" => (TileFormat::Json, "json"),
+        other => bail!("--format {other}: use terrain, png or json"),
+    };
+    let variant = match format {
+        // Every extension a client may ask for: CesiumJS skips the ones it did not request.
+        TileFormat::Terrain => Variant::Terrain {
+            ext: Extensions {
+                octvertexnormals: true,
+                watermask: false,
+                metadata: true,
+            },
+            gzip: false,
+        },
+        TileFormat::Png => Variant::Png {
+            terrarium: false,
+            size: 512,
+        },
+        _ => Variant::Mesh { gzip: false },
+    };
+
+    let path = {
+        let as_path = Path::new(&job.dataset);
+        if as_path
+            .extension()
+            .is_some_and(|e| e == crate::ingest::EXTENSION)
+            || as_path.is_file()
+        {
+            as_path.to_path_buf()
+        } else {
+            crate::ingest::check_name(&job.dataset)?;
+            job.data
+                .join(format!("{}.{}", job.dataset, crate::ingest::EXTENSION))
+        }
+    };
+    let d = Dataset::open(&path)?;
+    let m = d.metadata().clone();
+    let world = !matches!(d.tiling.scheme(), Scheme::Local { .. });
+    if format == TileFormat::Terrain && !world {
+        bail!("{}: a local grid has no georeference; quantized-mesh needs a geodetic or mercator dataset (export png or json)", d.name);
+    }
+    let (z0, z1) = job.zooms.unwrap_or((m.min_zoom, m.max_zoom));
+    if z1 > m.max_zoom || z0 < m.min_zoom {
+        bail!(
+            "--zoom {z0}-{z1}: {} has zooms {}-{}",
+            d.name,
+            m.min_zoom,
+            m.max_zoom
+        );
+    }
+    let tiles: Vec<TileId> = d
+        .container
+        .tiles()
+        .map(|(id, _)| id)
+        .filter(|id| (z0..=z1).contains(&id.z))
+        .collect();
+    if tiles.is_empty() {
+        bail!("{}: no tiles in zooms {z0}-{z1}", d.name);
+    }
+
+    // Render into a fresh folder beside the target.
+    let parent = job
+        .out
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    std::fs::create_dir_all(parent).with_context(|| format!("creating {}", parent.display()))?;
+    let name = job
+        .out
+        .file_name()
+        .context("--out must name a folder")?
+        .to_string_lossy()
+        .into_owned();
+    let tmp = parent.join(format!(".{name}.export-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&tmp);
+    let result = render_all(&d, &tiles, format, variant, ext, &tmp, job.progress).and_then(|n| {
+        if world {
+            let layer = layer(&d)?;
+            let mut value = layer.to_value()?;
+            // Static trees keep tiles beside layer.json, not under tiles/.
+            value["tiles"] = serde_json::json!([format!("{{z}}/{{x}}/{{y}}.{ext}?v={{version}}")]);
+            let bytes = serde_json::to_vec_pretty(&value)?;
+            std::fs::write(tmp.join("layer.json"), &bytes)?;
+        }
+        Ok(n)
+    });
+    let exported = match result {
+        Ok(n) => n,
+        Err(e) => {
+            let _ = std::fs::remove_dir_all(&tmp);
+            return Err(e);
+        }
+    };
+    // Swap: the old tree moves aside only once the new one is complete.
+    let old = parent.join(format!(".{name}.old-{}", std::process::id()));
+    let had_old = job.out.exists();
+    if had_old {
+        std::fs::rename(&job.out, &old)
+            .with_context(|| format!("moving {} aside", job.out.display()))?;
+    }
+    if let Err(e) = std::fs::rename(&tmp, &job.out) {
+        if had_old {
+            let _ = std::fs::rename(&old, &job.out);
+        }
+        let _ = std::fs::remove_dir_all(&tmp);
+        return Err(e).with_context(|| format!("writing {}", job.out.display()));
+    }
+    if had_old {
+        let _ = std::fs::remove_dir_all(&old);
+    }
+    Ok(exported)
+}
+
+fn render_all(
+    d: &Dataset,
+    tiles: &[TileId],
+    format: TileFormat,
+    variant: Variant,
+    ext: &str,
+    dir: &Path,
+    progress: bool,
+) -> Result<Exported> {
+    // A private state: the decode cache serves the neighbours that stitching needs.
+    let mut catalog = Catalog::default();
+    catalog.insert(Dataset::open(&d.path)?);
+    let state = AppState::new(catalog, Config::default());
+    let d = state
+        .catalog
+        .iter()
+        .next()
+        .context("dataset vanished")?
+        .clone();
+    let bar = if progress {
+        let b = ProgressBar::new(tiles.len() as u64);
+        if let Ok(s) = ProgressStyle::with_template("exporting {bar:40} {pos}/{len} tiles {eta}") {
+            b.set_style(s);
+        }
+        b
+    } else {
+        ProgressBar::hidden()
+    };
+    let bytes = AtomicU64::new(0);
+    // Neighbouring tiles share decodes: go zoom by zoom, row by row.
+    let mut order = tiles.to_vec();
+    order.sort_by_key(|t| (t.z, t.y, t.x));
+    order.par_iter().try_for_each(|&id| -> Result<()> {
+        let t = threshold::default_threshold(&d, id.z);
+        let enc = render_tile(&state, &d, id, t, format, variant, false)
+            .with_context(|| format!("tile {}/{}/{}", id.z, id.x, id.y))?;
+        // Paths follow the serving URLs, which use the stored y: TMS rows for geodetic
+        // (layer.json scheme "tms"), XYZ rows for mercator ("slippyMap").
+        let y = id.y;
+        let folder = dir.join(id.z.to_string()).join(id.x.to_string());
+        std::fs::create_dir_all(&folder)?;
+        std::fs::write(folder.join(format!("{y}.{ext}")), &enc.bytes)?;
+        bytes.fetch_add(enc.bytes.len() as u64, Relaxed);
+        bar.inc(1);
+        Ok(())
+    })?;
+    bar.finish_and_clear();
+    Ok(Exported {
+        tiles: tiles.len() as u64,
+        bytes: bytes.into_inner(),
+    })
+}

@@ -1,0 +1,178 @@
+//! `zerotile export`: a static tree that serves the same bytes as `zerotile serve`.
+#![allow(
+    clippy::unwrap_used,
+    reason = "test helpers: a failure to spawn the binary should fail the test loudly"
+)]
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use zerotile_codec::container::{Container, Limits};
+use zerotile_codec::formats::quantized_mesh;
+use zerotile_tests::server::Server;
+use zerotile_tests::{shared_data, zerotile_bin};
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("zerotile-export-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn zerotile(args: &[&str], dir: &Path) -> std::process::Output {
+    Command::new(zerotile_bin())
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .unwrap()
+}
+
+fn files(dir: &Path, ext: &str) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap().filter_map(Result::ok) {
+            let p = e.path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.extension().is_some_and(|x| x == ext) {
+                out.push(p);
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+#[test]
+fn a_static_tree_holds_what_the_server_serves() {
+    let dir = scratch("tree");
+    let hgt = shared_data().join("dem/N44W072.hgt");
+    let hgt = hgt.to_str().unwrap();
+    let out = zerotile(
+        &[
+            "ingest", hgt, "--name", "n44", "--scheme", "geodetic", "--quiet",
+        ],
+        &dir,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let out = zerotile(
+        &[
+            "export", "n44", "--out", "static", "--zoom", "8-10", "--quiet",
+        ],
+        &dir,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+
+    // Every tile of zooms 8–10 is there and decodes; layer.json points at them.
+    let tiles = files(&dir.join("static"), "terrain");
+    let per_zoom = |z: &str| {
+        tiles
+            .iter()
+            .filter(|p| p.strip_prefix(dir.join("static")).unwrap().starts_with(z))
+            .count()
+    };
+    // Exactly the container's tiles of each zoom, which cover lon −72..−71, lat 44..45:
+    // at least 2×2, 4×3 and 7×6 tiles at zooms 8, 9, 10.
+    let bytes = std::fs::read(dir.join("data/n44.ztd")).unwrap();
+    let c = Container::parse(&bytes, &Limits::default()).unwrap();
+    for (z, footprint) in [(8u8, 4), (9, 12), (10, 42)] {
+        let stored = c.tiles().filter(|(id, _)| id.z == z).count();
+        assert_eq!(per_zoom(&z.to_string()), stored, "zoom {z}");
+        assert!(stored >= footprint, "zoom {z}: {stored}");
+    }
+    for t in &tiles {
+        let qm = quantized_mesh::decode(&std::fs::read(t).unwrap()).unwrap();
+        assert!(!qm.triangles.is_empty(), "{}", t.display());
+    }
+    let layer: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("static/layer.json")).unwrap()).unwrap();
+    assert_eq!(layer["scheme"], "tms");
+    assert!(layer["tiles"][0]
+        .as_str()
+        .unwrap()
+        .starts_with("{z}/{x}/{y}.terrain"));
+
+    // Byte for byte what `zerotile serve` sends for the same ask.
+    let s = Server::start(&dir.join("data"));
+    for rel in [
+        "10/617/765.terrain",
+        "9/308/382.terrain",
+        "8/154/191.terrain",
+    ] {
+        let file = std::fs::read(dir.join("static").join(rel)).unwrap();
+        let r = s.get(
+            &format!("/v1/datasets/n44/tiles/{rel}"),
+            &[(
+                "accept",
+                "application/vnd.quantized-mesh;extensions=octvertexnormals-metadata",
+            )],
+        );
+        assert_eq!(r.status, 200, "{rel}");
+        assert_eq!(r.body, file, "{rel}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_failed_export_leaves_the_previous_tree_and_says_why() {
+    let dir = scratch("atomic");
+    let tif = shared_data().join("dem/terra_elev.tif");
+    let tif = tif.to_str().unwrap();
+    assert!(zerotile(
+        &["ingest", tif, "--name", "lux", "--scheme", "geodetic", "--quiet"],
+        &dir
+    )
+    .status
+    .success());
+    let ok = zerotile(
+        &[
+            "export", "lux", "--format", "png", "--out", "tree", "--quiet",
+        ],
+        &dir,
+    );
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    let before = files(&dir.join("tree"), "png");
+    assert!(!before.is_empty());
+
+    for (args, needle) in [
+        (
+            &["export", "lux", "--out", "tree", "--zoom", "3-40"][..],
+            "--zoom",
+        ),
+        (&["export", "nope", "--out", "tree"][..], "nope"),
+        (
+            &["export", "lux", "--out", "tree", "--format", "tiff"][..],
+            "--format",
+        ),
+        (&["export", "../lux", "--out", "tree"][..], "dataset name"),
+    ] {
+        let out = zerotile(args, &dir);
+        assert_eq!(out.status.code(), Some(1), "{args:?}");
+        assert!(
+            String::from_utf8_lossy(&out.stderr).contains(needle),
+            "{args:?}"
+        );
+        assert_eq!(files(&dir.join("tree"), "png"), before, "{args:?}");
+    }
+    // No temporary folders left beside it.
+    let stray = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter_map(Result::ok)
+        .filter(|e| e.file_name().to_string_lossy().starts_with('.'))
+        .count();
+    assert_eq!(stray, 0);
+    let _ = std::fs::remove_dir_all(&dir);
+}
