@@ -12,7 +12,9 @@ use std::process::{Child, Command, Stdio};
 use std::sync::OnceLock;
 
 use serde_json::Value;
-use zerotile_codec::container::{Availability, Metadata, TileId, ViewParams, Writer};
+use zerotile_codec::container::{
+    Availability, Container, Limits, Metadata, TileId, ViewParams, Writer,
+};
 use zerotile_codec::ezw::{self, DecodeLimit, EncodeParams};
 use zerotile_codec::formats::{mesh_bin, quantized_mesh, terrain_rgb};
 use zerotile_codec::raster::Encoding;
@@ -801,4 +803,23 @@ fn sigterm_drains_and_exits_cleanly() {
         std::thread::sleep(std::time::Duration::from_millis(20));
     };
     assert!(status.success(), "{status:?}");
+}
+
+#[test]
+fn a_corrupt_tile_fails_alone() {
+    let dir = scratch("corrupt-tile");
+    let mut bytes = std::fs::read(data_dir().join("crop.ztd")).unwrap();
+    let c = Container::parse(&bytes, &Limits::default()).unwrap();
+    let e = c.entry(TileId { z: 1, x: 1, y: 1 }).unwrap();
+    bytes[e.offset as usize + 40] ^= 0x55; // inside the stream: the record's CRC fails
+    std::fs::write(dir.join("crop.ztd"), &bytes).unwrap();
+    let mut s = Server::start(&dir);
+    s.warnings_expected = true;
+    s.get("/v1/datasets/crop/tiles/1/1/1.png", &[])
+        .assert_error(500, "internal", "corrupt tile");
+    // Its neighbour still meshes (without the corrupt edge), other tiles are untouched.
+    assert_eq!(s.get("/v1/datasets/crop/tiles/1/0/1.json", &[]).status, 200);
+    assert_eq!(s.get("/v1/datasets/crop/tiles/1/0/0.png", &[]).status, 200);
+    drop(s);
+    let _ = std::fs::remove_dir_all(&dir);
 }

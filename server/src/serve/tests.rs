@@ -234,3 +234,27 @@ async fn errors_made_by_layers_become_json_too() {
     assert_eq!(h[header::CONTENT_TYPE], "application/json");
     assert_eq!(error_code(&body), "unavailable");
 }
+
+#[tokio::test]
+async fn renders_past_the_queue_are_shed_with_503() {
+    let state = AppState::new(
+        Catalog::default(),
+        Config {
+            cpu_jobs: 1,
+            cpu_queue: 0,
+            ..Config::default()
+        },
+    );
+    let held = state.cpu_permit().await.unwrap();
+    let shed = state.cpu_permit().await.unwrap_err();
+    assert_eq!(
+        (shed.status, shed.code),
+        (StatusCode::SERVICE_UNAVAILABLE, "overloaded")
+    );
+    drop(held);
+    assert!(state.cpu_permit().await.is_ok());
+    assert_eq!(
+        state.cpu_waiting.load(std::sync::atomic::Ordering::Relaxed),
+        0
+    );
+}

@@ -173,12 +173,7 @@ pub async fn tile(
             hit
         }
         None => {
-            let permit = state
-                .cpu
-                .clone()
-                .acquire_owned()
-                .await
-                .map_err(ApiError::internal)?;
+            let permit = state.cpu_permit().await?;
             let job_state = state.clone();
             let job_d = d.clone();
             let fresh = tokio::task::spawn_blocking(move || {
