@@ -416,10 +416,19 @@ fn mesh_formats_agree_and_neighbours_share_their_edge() {
         assert!(e.max_abs <= t, "T = {t}: mesh max error {} m", e.max_abs);
     }
 
-    // A coarser threshold gives fewer triangles.
-    let coarse = s.get("/v1/datasets/crop/tiles/1/0/0.json?threshold=32", &[]);
-    let n: usize = coarse.header("x-triangles").unwrap().parse().unwrap();
-    assert!(n < triangles, "{n} ≥ {triangles}");
+    // Triangle counts fall as T rises.
+    let counts: Vec<usize> = [0.0, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0]
+        .iter()
+        .map(|t| {
+            let r = s.get(
+                &format!("/v1/datasets/crop/tiles/1/0/0.bin?threshold={t}"),
+                &[],
+            );
+            r.header("x-triangles").unwrap().parse().unwrap()
+        })
+        .collect();
+    assert!(counts.windows(2).all(|w| w[1] <= w[0]), "{counts:?}");
+    assert!(counts[0] > 20 * counts[8], "{counts:?}");
 }
 
 #[test]
