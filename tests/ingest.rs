@@ -98,7 +98,7 @@ fn bad_names_and_schemes_are_refused_with_a_message() {
     let hgt = shared_data().join("dem/terra_elev.tif");
     for (name, extra, needle) in [
         ("../escape", &[][..], "dataset name"),
-        ("ok", &["--scheme", "geodetic"][..], "--scheme geodetic"),
+        ("ok", &["--scheme", "utm"][..], "--scheme utm"),
         ("ok", &["--precision", "0"][..], "--precision"),
     ] {
         let out = ingest(&hgt, name, &data, extra);
@@ -107,4 +107,168 @@ fn bad_names_and_schemes_are_refused_with_a_message() {
         assert!(err.contains(needle), "{name} {extra:?}: {err}");
     }
     assert!(!data.join("ok.ztd").exists());
+}
+
+/// Reads a tile's stream from a container and decodes every pass.
+fn decode_tile(bytes: &[u8], c: &Container, id: TileId) -> zerotile_codec::Grid<f64> {
+    let e = c.entry(id).unwrap_or_else(|| panic!("tile {id:?} missing"));
+    let rec = TileRecord::parse(id, &bytes[e.offset as usize..][..e.len as usize], &e).unwrap();
+    ezw::decode(rec.stream, DecodeLimit::All, ezw::DEFAULT_MAX_SAMPLES)
+        .unwrap()
+        .heights
+}
+
+/// The SRTM tile's height at (`lon`, `lat`) by bilinear interpolation, computed here from
+/// the file and its name alone (1201² samples, row 0 on lat 45, column 0 on lon −72).
+fn srtm_height(source: &[f64], lon: f64, lat: f64) -> f64 {
+    let (r, c) = ((45.0 - lat) * 1200.0, (lon + 72.0) * 1200.0);
+    let (r0, c0) = (r.floor().clamp(0.0, 1199.0), c.floor().clamp(0.0, 1199.0));
+    let (fr, fc) = (r - r0, c - c0);
+    let at = |dr: usize, dc: usize| source[(r0 as usize + dr) * 1201 + c0 as usize + dc];
+    (1.0 - fr) * ((1.0 - fc) * at(0, 0) + fc * at(0, 1))
+        + fr * ((1.0 - fc) * at(1, 0) + fc * at(1, 1))
+}
+
+fn srtm() -> Vec<f64> {
+    std::fs::read(shared_data().join("dem/N44W072.hgt"))
+        .unwrap()
+        .chunks_exact(2)
+        .map(|b| f64::from(i16::from_be_bytes([b[0], b[1]])))
+        .collect()
+}
+
+#[test]
+fn geodetic_ingest_places_srtm_on_cesiums_grid() {
+    let data = scratch("geodetic");
+    let hgt = shared_data().join("dem/N44W072.hgt");
+    let out = ingest(
+        &hgt,
+        "n44",
+        &data,
+        &["--scheme", "geodetic", "--wavelet", "53"],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let bytes = std::fs::read(data.join("n44.ztd")).unwrap();
+    let c = Container::parse(&bytes, &Limits::default()).unwrap();
+    let m = &c.metadata;
+    // 3" SRTM: 180° / (256 · 2^z) ≤ 1/1200° first at z = 10.
+    assert_eq!(
+        (m.scheme.as_str(), m.min_zoom, m.max_zoom),
+        ("geodetic", 0, 10)
+    );
+    for (got, want) in m.bounds.iter().zip([-72.0, 44.0, -71.0, 45.0]) {
+        assert!((got - want).abs() < 1e-9, "{:?}", m.bounds);
+    }
+    // Both root tiles exist; at zoom 10 lon −72..−71 is x 614..620 (2048 across, 614.4..620.1) and
+    // lat 44..45 is TMS y 762..767 (1024 down, from the south; lat 45 is exactly 768).
+    assert!(c.entry(TileId { z: 0, x: 0, y: 0 }).is_some());
+    assert!(c.entry(TileId { z: 0, x: 1, y: 0 }).is_some());
+    let a = m.available[10][0];
+    assert_eq!(
+        (a.start_x, a.end_x, a.start_y, a.end_y),
+        (614, 620, 762, 767)
+    );
+    assert_eq!(c.len() as u64, c.tiles().count() as u64);
+
+    // Every sample of a deepest tile is the source, bilinearly, at the tile's own lon/lat.
+    let source = srtm();
+    let (x, y) = (617u32, 765u32);
+    let h = decode_tile(&bytes, &c, TileId { z: 10, x, y });
+    let mut worst = 0f64;
+    for r in (0..257).step_by(8) {
+        for col in (0..257).step_by(8) {
+            let lon = -180.0 + 360.0 * f64::from(x * 256 + col) / (2048.0 * 256.0);
+            let lat = 90.0 - 180.0 * f64::from((1023 - y) * 256 + r) / (1024.0 * 256.0);
+            let want = srtm_height(&source, lon, lat);
+            worst = worst.max((h.get(r as usize, col as usize) - want).abs());
+        }
+    }
+    // Lossless 5/3 on a 1 m step: only the rounding of the interpolated height remains.
+    assert!(worst <= 0.5 + 1e-9, "max error {worst} m");
+    let _ = std::fs::remove_dir_all(&data);
+}
+
+#[test]
+fn mercator_ingest_uses_xyz_rows_from_the_north() {
+    let data = scratch("mercator");
+    let hgt = shared_data().join("dem/N44W072.hgt");
+    let out = ingest(
+        &hgt,
+        "n44m",
+        &data,
+        &["--scheme", "mercator", "--max-zoom", "9", "--wavelet", "53"],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let bytes = std::fs::read(data.join("n44m.ztd")).unwrap();
+    let c = Container::parse(&bytes, &Limits::default()).unwrap();
+    assert_eq!(
+        (c.metadata.scheme.as_str(), c.metadata.max_zoom),
+        ("mercator", 9)
+    );
+
+    // The XYZ tile holding (−71.5°, 44.5°) at zoom 9, from the slippy-map formula.
+    let n = 512.0f64;
+    let (lon, lat) = (-71.5f64, 44.5f64);
+    let x = ((lon + 180.0) / 360.0 * n).floor();
+    let lat_r = lat.to_radians();
+    let y =
+        ((1.0 - (lat_r.tan() + 1.0 / lat_r.cos()).ln() / std::f64::consts::PI) / 2.0 * n).floor();
+    let h = decode_tile(
+        &bytes,
+        &c,
+        TileId {
+            z: 9,
+            x: x as u32,
+            y: y as u32,
+        },
+    );
+    // Its centre sample's lon/lat, then the source there.
+    let (gx, gy) = (
+        (x * 256.0 + 128.0) / (n * 256.0),
+        (y * 256.0 + 128.0) / (n * 256.0),
+    );
+    let clon = gx * 360.0 - 180.0;
+    let clat = (std::f64::consts::PI * (1.0 - 2.0 * gy))
+        .sinh()
+        .atan()
+        .to_degrees();
+    let want = srtm_height(&srtm(), clon, clat);
+    let got = *h.get(128, 128);
+    assert!(
+        (got - want).abs() <= 0.5 + 1e-6,
+        "{got} vs {want} at {clon}, {clat}"
+    );
+    let _ = std::fs::remove_dir_all(&data);
+}
+
+#[test]
+fn world_schemes_refuse_sources_they_cannot_place() {
+    let data = scratch("crs");
+    // EPSG:32632 (UTM): not reprojected here.
+    let utm = shared_data().join("dem/terra_elev_vinschgau.tif");
+    let out = ingest(&utm, "v", &data, &["--scheme", "geodetic"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("EPSG:32632"));
+    // No georeference at all.
+    let png = shared_data().join("dem/fuji.png");
+    let out = ingest(
+        &png,
+        "j",
+        &data,
+        &["--scheme", "mercator", "--encoding", "terrain-rgb"],
+    );
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no georeference"));
+    // --max-zoom means nothing for a local grid.
+    let out = ingest(&utm, "v", &data, &["--max-zoom", "3"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(!data.join("v.ztd").exists() && !data.join("j.ztd").exists());
 }

@@ -29,6 +29,32 @@ pub enum Command {
     /// Measure the codec and mesher on one input.
     #[command(subcommand)]
     Eval(EvalCommand),
+    /// Generate the default data (a synthetic terrain dataset and object meshes) into DATA
+    /// unless it already has some; `serve` does this on its default folder.
+    DemoData(DemoArgs),
+    /// Exit 0 if a server answers GET /healthz with 200 (for container health checks, where
+    /// there is no curl).
+    Healthcheck(HealthArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct HealthArgs {
+    /// Address of the server.
+    #[arg(long, default_value = "127.0.0.1:8080")]
+    pub addr: String,
+}
+
+#[derive(Args, Debug)]
+pub struct DemoArgs {
+    /// Folder of datasets.
+    #[arg(long, default_value = "data")]
+    pub data: PathBuf,
+    /// Rebuild even when the folder already has datasets and meshes.
+    #[arg(long)]
+    pub force: bool,
+    /// No progress bar.
+    #[arg(long)]
+    pub quiet: bool,
 }
 
 #[derive(Args, Debug)]
@@ -41,9 +67,15 @@ pub struct IngestArgs {
     /// Folder of datasets.
     #[arg(long, default_value = "data")]
     pub data: PathBuf,
-    /// Tiling: local (the source grid; geodetic and mercator come with the tile server).
+    /// Tiling: local (the source grid as is), geodetic (EPSG:4326, Cesium quantized-mesh
+    /// TMS) or mercator (EPSG:3857, XYZ as MapLibre uses); the last two need a source in
+    /// EPSG:4326 or EPSG:3857.
     #[arg(long, default_value = "local")]
     pub scheme: String,
+    /// Deepest zoom of a geodetic or mercator pyramid (default: the first zoom as fine as
+    /// the source).
+    #[arg(long, value_name = "Z", value_parser = clap::value_parser!(u8).range(0..=28))]
+    pub max_zoom: Option<u8>,
     /// Wavelet: 97 (CDF 9/7, default) or 53 (reversible LeGall 5/3).
     #[arg(long, default_value = "97")]
     pub wavelet: Wavelet,
@@ -57,7 +89,8 @@ pub struct IngestArgs {
     /// Array name inside an .npz file.
     #[arg(long)]
     pub key: Option<String>,
-    /// Height for samples without data (default: the lowest valid height).
+    /// Height for samples without data (default: the lowest valid height for local
+    /// datasets, 0 m around and inside geodetic and mercator ones).
     #[arg(long, value_name = "METRES")]
     pub fill: Option<f64>,
     /// No progress bar.
@@ -65,11 +98,15 @@ pub struct IngestArgs {
     pub quiet: bool,
 }
 
+/// Where `serve` looks without `--data`.
+pub const DEFAULT_DATA: &str = "data";
+
 #[derive(Args, Debug)]
 pub struct ServeArgs {
-    /// Folder of datasets (`*.ztd`, as `zerotile ingest` writes them).
-    #[arg(long, default_value = "data")]
-    pub data: PathBuf,
+    /// Folder of datasets (`*.ztd`, as `zerotile ingest` writes them). Without it, `./data`,
+    /// where the default data is built first if it holds none (`zerotile demo-data`).
+    #[arg(long)]
+    pub data: Option<PathBuf>,
     /// Address to listen on; port 0 picks a free port (the URL is printed).
     #[arg(long, default_value = "127.0.0.1:8080")]
     pub addr: std::net::SocketAddr,
@@ -141,6 +178,8 @@ pub fn run() -> ExitCode {
         Command::Eval(EvalCommand::Mesh(args)) => eval::mesh::run(&args),
         Command::Ingest(args) => ingest(args),
         Command::Serve(args) => serve(args),
+        Command::DemoData(args) => demo_data(&args),
+        Command::Healthcheck(args) => healthcheck(&args.addr),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -162,6 +201,7 @@ fn ingest(a: IngestArgs) -> anyhow::Result<()> {
         encoding: a.encoding,
         npz_key: a.key,
         fill: a.fill,
+        max_zoom: a.max_zoom,
         progress: !a.quiet,
     };
     let started = std::time::Instant::now();
@@ -189,11 +229,60 @@ fn serve(a: ServeArgs) -> anyhow::Result<()> {
         cache_bytes: a.cache_mb.saturating_mul(1 << 20),
         ..crate::serve::Config::default()
     };
+    // A fresh clone serves with no flags: the default folder gets the default data.
+    let data = match a.data {
+        Some(d) => d,
+        None => {
+            let d = PathBuf::from(DEFAULT_DATA);
+            crate::demo::ensure(&d, false, true)?;
+            d
+        }
+    };
     crate::serve::run(crate::serve::ServeOptions {
-        data: a.data,
+        data,
         addr: a.addr,
         config,
     })
+}
+
+fn healthcheck(addr: &str) -> anyhow::Result<()> {
+    use std::io::{Read, Write};
+    use std::net::ToSocketAddrs;
+    use std::time::Duration;
+    let timeout = Duration::from_secs(3);
+    let target = addr
+        .to_socket_addrs()?
+        .next()
+        .ok_or_else(|| anyhow::anyhow!("{addr}: no address"))?;
+    let mut s = std::net::TcpStream::connect_timeout(&target, timeout)?;
+    s.set_read_timeout(Some(timeout))?;
+    s.write_all(format!("GET /healthz HTTP/1.0\r\nHost: {addr}\r\n\r\n").as_bytes())?;
+    let mut head = [0u8; 12];
+    s.read_exact(&mut head)?;
+    if &head[9..12] != b"200" {
+        anyhow::bail!(
+            "{addr}: /healthz answered {}",
+            String::from_utf8_lossy(&head)
+        );
+    }
+    Ok(())
+}
+
+fn demo_data(a: &DemoArgs) -> anyhow::Result<()> {
+    let built = crate::demo::ensure(&a.data, a.force, !a.quiet)?;
+    match (built.terrain, built.meshes) {
+        (false, 0) => println!("{}: already has datasets and meshes", a.data.display()),
+        (terrain, meshes) => println!(
+            "{}: built {}{meshes} meshes",
+            a.data.display(),
+            if terrain {
+                format!("dataset {}, ", crate::demo::TERRAIN_NAME)
+            } else {
+                String::new()
+            }
+        ),
+    }
+    Ok(())
 }
 
 fn eval_terrain(a: TerrainArgs) -> anyhow::Result<()> {

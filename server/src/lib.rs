@@ -3,6 +3,7 @@
 //! tile service ([`serve`]).
 
 pub mod cli;
+pub mod demo;
 pub mod eval;
 pub mod ingest;
 pub mod serve;

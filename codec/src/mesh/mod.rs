@@ -9,11 +9,13 @@
 //! - [`distance`] measures any of them: symmetric Hausdorff and mean surface distance.
 //! - [`subdivide`] makes large smooth meshes for tests and benchmarks.
 
+pub mod curvature;
 pub mod distance;
 pub mod error;
 pub mod indexed;
 pub mod io;
 pub mod qem;
+pub mod silhouette;
 pub mod subdivide;
 pub mod topology;
 pub mod validate;

@@ -7,8 +7,10 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use clap::{ArgGroup, Args, ValueEnum};
 use serde::Serialize;
+use zerotile_codec::mesh::curvature::{self, CurvatureOptions};
 use zerotile_codec::mesh::distance::DEFAULT_SAMPLES;
 use zerotile_codec::mesh::io::{self, MeshLimits};
+use zerotile_codec::mesh::silhouette::ViewSphere;
 use zerotile_codec::mesh::{
     qem, repair, surface_distance, DistanceOptions, QemOptions, SurfaceDistance, TriMesh,
 };
@@ -166,7 +168,54 @@ fn simplify(input: &TriMesh, method: Method, param: Param) -> Result<(TriMesh, s
             let (out, report): (TriMesh, qem::QemReport) = qem::simplify(input, &options)?;
             Ok((out, serde_json::to_value(report)?))
         }
-        Method::Curvature | Method::Octree | Method::Silhouette => {
+        Method::Curvature => {
+            let options = CurvatureOptions::default();
+            let (out, error) = match param {
+                Param::Error(e) => (curvature::to_error(input, e, &options)?, e),
+                Param::Faces(n) => curvature::to_faces(input, n, &options)?,
+                Param::Level(k) => {
+                    let Some(&e) = (k as usize)
+                        .checked_sub(1)
+                        .and_then(|i| curvature::PAPER_LEVELS.get(i))
+                    else {
+                        bail!(
+                            "curvature --level is 1, 2 or 3 (ε = 0.15, 0.20, 0.25); \
+                             use --error E for others"
+                        );
+                    };
+                    (curvature::to_error(input, e, &options)?, e)
+                }
+            };
+            Ok((
+                out,
+                serde_json::json!({ "epsilon": error, "options": options }),
+            ))
+        }
+        Method::Silhouette => {
+            let vs = ViewSphere::new(input)?;
+            let (out, level) = match param {
+                Param::Level(k) => {
+                    let k = u8::try_from(k).unwrap_or(u8::MAX);
+                    (vs.level(k)?, k)
+                }
+                // The finest level that meets the target: levels only coarsen downwards.
+                Param::Faces(n) => {
+                    let mut pick = None;
+                    for k in (0..=vs.max_level()).rev() {
+                        let m = vs.level(k)?;
+                        let done = m.face_count() <= n;
+                        pick = Some((m, k));
+                        if done {
+                            break;
+                        }
+                    }
+                    pick.context("no levels")?
+                }
+                Param::Error(_) => bail!("silhouette takes --level K or --faces N"),
+            };
+            Ok((out, serde_json::json!({ "level": level })))
+        }
+        Method::Octree => {
             let name = method
                 .to_possible_value()
                 .map_or_else(|| format!("{method:?}"), |v| v.get_name().to_string());

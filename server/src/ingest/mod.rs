@@ -6,8 +6,12 @@
 //! temporary file beside the target, sync it, and rename it over the target. A failed or
 //! killed ingest leaves the previous dataset of that name untouched.
 //!
-//! Partial: only the `local` scheme (the source grid itself) is built so far; `geodetic` and
-//! `mercator` need the tiling and reprojection module and are refused with a clear error.
+//! Schemes: `local` tiles the source grid itself; `geodetic` and `mercator` resample the
+//! source at the tiling's sample positions (see [`world`]). Sources in EPSG:4326 or
+//! EPSG:3857 go to either world scheme; other CRSs are refused with a pointer to gdalwarp.
+
+mod resample;
+mod world;
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -17,8 +21,9 @@ use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use zerotile_codec::container::{Availability, Metadata, TileId, ViewParams, Writer};
 use zerotile_codec::ezw::{self, EncodeParams};
+use zerotile_codec::geo::Scheme;
 use zerotile_codec::pyramid::Level;
-use zerotile_codec::raster::{self, Encoding, ReadOptions};
+use zerotile_codec::raster::{self, Crs, Encoding, Heightmap, ReadOptions};
 use zerotile_codec::wavelet::Wavelet;
 use zerotile_codec::Grid;
 
@@ -41,7 +46,19 @@ pub struct Ingest {
     pub encoding: Option<Encoding>,
     pub npz_key: Option<String>,
     pub fill: Option<f64>,
+    /// Deepest zoom of a geodetic or mercator pyramid (default: as fine as the source).
+    pub max_zoom: Option<u8>,
     pub progress: bool,
+}
+
+/// Levels, the tiles to encode and their published ranges: what a scheme contributes.
+struct Plan {
+    levels: Vec<Level>,
+    max_zoom: u8,
+    /// (level index, lattice tile x, lattice tile y, the tile's id in the container).
+    jobs: Vec<(usize, u32, u32, TileId)>,
+    available: Vec<Vec<Availability>>,
+    bounds: [f64; 4],
 }
 
 /// Dataset names become file names: keep them to a safe alphabet.
@@ -57,94 +74,128 @@ pub fn check_name(name: &str) -> Result<()> {
     Ok(())
 }
 
-/// Builds the dataset and returns where it was written and its metadata.
-pub fn run(job: &Ingest) -> Result<(PathBuf, Metadata)> {
+/// Refuses bad options before any work; returns the scheme.
+fn check(job: &Ingest) -> Result<&str> {
     check_name(&job.name)?;
-    if job.scheme != "local" {
-        bail!(
-            "--scheme {}: only `local` is built in this version (geodetic and mercator \
-             need the tiling module, coming with the tile server)",
-            job.scheme
-        );
+    let scheme = match job.scheme.as_str() {
+        "local" | "geodetic" | "mercator" => job.scheme.as_str(),
+        other => bail!("--scheme {other}: use geodetic, mercator or local"),
+    };
+    if job.max_zoom.is_some() && scheme == "local" {
+        bail!("--max-zoom applies to geodetic and mercator; a local pyramid ends at the source's resolution");
     }
     if let Some(p) = job.precision {
         if !(p.is_finite() && p > 0.0) {
             bail!("--precision must be finite and > 0 metres, got {p}");
         }
     }
+    if let Some(f) = job.fill {
+        if !f.is_finite() {
+            bail!("--fill must be a finite height, got {f}");
+        }
+    }
+    Ok(scheme)
+}
 
-    // Read and fill.
+/// Builds the dataset and returns where it was written and its metadata.
+pub fn run(job: &Ingest) -> Result<(PathBuf, Metadata)> {
+    check(job)?;
     let opts = ReadOptions {
         encoding: job.encoding,
         npz_key: job.npz_key.clone(),
         ..ReadOptions::default()
     };
     let map = raster::read_heightmap(&job.input, &opts)?;
+    build(job, &map)
+}
+
+/// Builds the dataset from a heightmap already in memory (`job.input` only names it).
+pub fn build(job: &Ingest, map: &Heightmap) -> Result<(PathBuf, Metadata)> {
+    let scheme = check(job)?;
     let (lo, hi) = map
         .min_max()
         .with_context(|| format!("{}: no valid samples", job.input.display()))?;
-    let fill = job.fill.unwrap_or(lo);
     let step = map.step.unwrap_or(0.01);
-    let heights = map.heights.map(|&h| if h.is_finite() { h } else { fill });
-
-    // Levels: full resolution first, then low-passes until one tile covers everything.
-    let mut levels = vec![full_resolution(&heights)];
-    while levels.last().is_some_and(|l| l.tiles(TILE_SIDE) != (1, 1)) {
-        let next = levels[levels.len() - 1].coarser(TILE_SIDE);
-        levels.push(next);
-    }
-    let max_zoom = u8::try_from(levels.len() - 1).context("too many zoom levels")?;
-    for (k, level) in levels.iter_mut().enumerate() {
-        level.zoom = max_zoom - k as u8;
-    }
-
-    // Tiles that hold source samples, every level.
-    let mut jobs = Vec::new();
-    let mut available = vec![Vec::new(); levels.len()];
-    for level in &levels {
-        let scale = 1usize << (max_zoom - level.zoom);
-        let span = (TILE_SIDE - 1) * scale;
-        let (w, h) = level.tiles(TILE_SIDE);
-        let inside_x = ((map.heights.cols() - 1).div_ceil(span).max(1) as u32).min(w);
-        let inside_y = ((map.heights.rows() - 1).div_ceil(span).max(1) as u32).min(h);
-        available[level.zoom as usize].push(Availability {
-            start_x: 0,
-            start_y: 0,
-            end_x: inside_x - 1,
-            end_y: inside_y - 1,
-        });
-        for y in 0..inside_y {
-            for x in 0..inside_x {
-                jobs.push((level, x, y));
-            }
+    let (plan, fill) = if scheme == "local" {
+        let fill = job.fill.unwrap_or(lo);
+        let heights = map.heights.map(|&h| if h.is_finite() { h } else { fill });
+        (local_plan(&heights), fill)
+    } else {
+        // Outside the source is sea level unless told otherwise; holes inside get the same.
+        let fill = job.fill.unwrap_or(0.0);
+        let georef = map.georef.with_context(|| {
+            format!(
+                "{}: no georeference, so it cannot be placed on the globe (use --scheme local)",
+                job.input.display()
+            )
+        })?;
+        if !matches!(georef.crs, Crs::Geographic | Crs::WebMercator) {
+            bail!(
+                "{}: its CRS is {}; geodetic and mercator ingest read EPSG:4326 or EPSG:3857 \
+                 (reproject first, e.g. `gdalwarp -t_srs EPSG:4326`), or use --scheme local",
+                job.input.display(),
+                georef.crs
+            );
         }
-    }
+        let source = resample::Source::new(&map.heights, &georef, fill)?;
+        let scheme = if scheme == "geodetic" {
+            Scheme::Geodetic
+        } else {
+            Scheme::Mercator
+        };
+        let w = world::build(&source, scheme, job.max_zoom)?;
+        let plan = Plan {
+            levels: w.levels,
+            max_zoom: w.max_zoom,
+            jobs: w
+                .jobs
+                .into_iter()
+                .map(|(k, x, y, id)| {
+                    (
+                        k,
+                        x,
+                        y,
+                        TileId {
+                            z: id.z,
+                            x: id.x,
+                            y: id.y,
+                        },
+                    )
+                })
+                .collect(),
+            available: w.available,
+            bounds: w.bounds,
+        };
+        (plan, fill)
+    };
+    // The fill is stored wherever there is no data, so it belongs to the range then.
+    let (lo, hi) = if map.has_nodata() || scheme != "local" {
+        (lo.min(fill), hi.max(fill))
+    } else {
+        (lo, hi)
+    };
 
     // Encode in parallel.
-    let bar = progress_bar(job.progress, jobs.len() as u64);
+    let bar = progress_bar(job.progress, plan.jobs.len() as u64);
     let params = EncodeParams {
         max_error: job.precision,
         ..EncodeParams::new(job.wavelet, step)
     };
-    let encoded: Vec<(TileId, [f64; 4], Vec<u8>)> = jobs
+    let encoded: Vec<(TileId, [f64; 4], Vec<u8>)> = plan
+        .jobs
         .par_iter()
-        .map(|&(level, x, y)| {
-            let tile = level
-                .tile(x, y, TILE_SIDE)
-                .with_context(|| format!("tile {}/{x}/{y} outside its level", level.zoom))?;
+        .map(|&(k, x, y, id)| {
+            let name = || format!("tile {}/{}/{}", id.z, id.x, id.y);
+            let tile = plan
+                .levels
+                .get(k)
+                .and_then(|level| level.tile(x, y, TILE_SIDE))
+                .with_context(|| format!("{} outside its level", name()))?;
             let corners = corners(&tile);
-            let stream = ezw::encode(&tile, &params)
-                .with_context(|| format!("encoding tile {}/{x}/{y}", level.zoom))?;
+            let stream =
+                ezw::encode(&tile, &params).with_context(|| format!("encoding {}", name()))?;
             bar.inc(1);
-            Ok((
-                TileId {
-                    z: level.zoom,
-                    x,
-                    y,
-                },
-                corners,
-                stream.bytes,
-            ))
+            Ok((id, corners, stream.bytes))
         })
         .collect::<Result<_>>()?;
     bar.finish_and_clear();
@@ -159,11 +210,11 @@ pub fn run(job: &Ingest) -> Result<(PathBuf, Metadata)> {
     let (rows, cols) = (map.heights.rows(), map.heights.cols());
     let metadata = Metadata {
         name: job.name.clone(),
-        scheme: job.scheme.clone(),
+        scheme: scheme.to_string(),
         tile_side: TILE_SIDE,
         min_zoom: 0,
-        max_zoom,
-        bounds: [0.0, (rows - 1) as f64, (cols - 1) as f64, 0.0],
+        max_zoom: plan.max_zoom,
+        bounds: plan.bounds,
         source_size: [rows, cols],
         wavelet: job.wavelet,
         step,
@@ -174,7 +225,7 @@ pub fn run(job: &Ingest) -> Result<(PathBuf, Metadata)> {
             a: (hi - lo) / 32.0,
             b: 0.0,
         },
-        available,
+        available: plan.available,
         source: job
             .input
             .file_name()
@@ -188,6 +239,59 @@ pub fn run(job: &Ingest) -> Result<(PathBuf, Metadata)> {
     let target = job.data.join(format!("{}.{EXTENSION}", job.name));
     write_atomically(&target, &bytes)?;
     Ok((target, metadata))
+}
+
+/// The `local` pyramid: the source grid at the deepest zoom, halved until one tile holds it.
+fn local_plan(heights: &Grid<f64>) -> Plan {
+    let mut levels = vec![full_resolution(heights)];
+    while levels.last().is_some_and(|l| l.tiles(TILE_SIDE) != (1, 1)) {
+        let next = levels[levels.len() - 1].coarser(TILE_SIDE);
+        levels.push(next);
+    }
+    // A 257-sample tile doubles per zoom, so even a 2^40-sample side needs < 40 zooms.
+    let max_zoom = (levels.len() - 1) as u8;
+    for (k, level) in levels.iter_mut().enumerate() {
+        level.zoom = max_zoom - k as u8;
+    }
+
+    // Tiles that hold source samples, every level.
+    let mut jobs = Vec::new();
+    let mut available = vec![Vec::new(); levels.len()];
+    for (k, level) in levels.iter().enumerate() {
+        let scale = 1usize << (max_zoom - level.zoom);
+        let span = (TILE_SIDE - 1) * scale;
+        let (w, h) = level.tiles(TILE_SIDE);
+        let inside_x = ((heights.cols() - 1).div_ceil(span).max(1) as u32).min(w);
+        let inside_y = ((heights.rows() - 1).div_ceil(span).max(1) as u32).min(h);
+        available[level.zoom as usize].push(Availability {
+            start_x: 0,
+            start_y: 0,
+            end_x: inside_x - 1,
+            end_y: inside_y - 1,
+        });
+        for y in 0..inside_y {
+            for x in 0..inside_x {
+                jobs.push((
+                    k,
+                    x,
+                    y,
+                    TileId {
+                        z: level.zoom,
+                        x,
+                        y,
+                    },
+                ));
+            }
+        }
+    }
+    let (rows, cols) = (heights.rows(), heights.cols());
+    Plan {
+        levels,
+        max_zoom,
+        jobs,
+        available,
+        bounds: [0.0, (rows - 1) as f64, (cols - 1) as f64, 0.0],
+    }
 }
 
 /// The full-resolution lattice: the source padded to whole tiles by repeating its last row

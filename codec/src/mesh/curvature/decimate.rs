@@ -1,0 +1,370 @@
+//! The decimation state: vertices removed one at a time, holes refilled, curvature kept
+//! against the original's (paper §4, fig. 3).
+
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+
+use glam::DVec3;
+
+use super::measure::{discrete_curvature, measure_with, FaceGeom, Measure, Weights};
+use super::retriangulate::triangulate;
+use super::ring::ring;
+use crate::mesh::indexed::TriMesh;
+
+/// A vertex removal worked out but not applied.
+struct Removal {
+    faces: Vec<[u32; 3]>,
+    error: f64,
+}
+
+/// Min-heap entry: key, vertex, the vertex's version when pushed.
+#[derive(PartialEq)]
+struct Entry(f64, u32, u32);
+
+impl Eq for Entry {}
+impl PartialOrd for Entry {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+impl Ord for Entry {
+    fn cmp(&self, other: &Self) -> Ordering {
+        // Reversed: BinaryHeap is a max-heap.
+        other.0.total_cmp(&self.0).then(other.1.cmp(&self.1))
+    }
+}
+
+/// A mesh being decimated.
+pub struct Decimator {
+    pos: Vec<DVec3>,
+    faces: Vec<[u32; 3]>,
+    /// Each face's geometry; `None` for a degenerate face, which then adds nothing.
+    geom: Vec<Option<FaceGeom>>,
+    alive: Vec<bool>,
+    /// Alive faces of each vertex.
+    vf: Vec<Vec<u32>>,
+    removed: Vec<bool>,
+    /// Corners and non-manifold vertices of the input: never removed.
+    locked: Vec<bool>,
+    version: Vec<u32>,
+    /// W of every vertex on the input mesh, and the input's scales.
+    w_orig: Vec<f64>,
+    area_max: f64,
+    weighted_max: f64,
+    /// Vertices of the input: the area scale follows the mean vertex area, which grows as
+    /// N_input / N_now.
+    input_vertices: usize,
+    weights: Weights,
+    lambda_c: f64,
+    live_faces: usize,
+    live_vertices: usize,
+    /// Largest error of any removal applied so far.
+    worst: f64,
+}
+
+impl Decimator {
+    pub fn new(mesh: &TriMesh, weights: Weights, lambda_c: f64) -> Self {
+        let n = mesh.positions.len();
+        let mut vf = vec![Vec::new(); n];
+        for (k, f) in mesh.faces.iter().enumerate() {
+            for &v in f {
+                vf[v as usize].push(k as u32);
+            }
+        }
+        let mut d = Self {
+            pos: mesh.positions.clone(),
+            faces: mesh.faces.clone(),
+            geom: mesh
+                .faces
+                .iter()
+                .map(|f| FaceGeom::new(f.map(|v| mesh.positions[v as usize])))
+                .collect(),
+            alive: vec![true; mesh.faces.len()],
+            vf,
+            removed: vec![false; n],
+            locked: vec![false; n],
+            version: vec![0; n],
+            w_orig: vec![0.0; n],
+            area_max: 0.0,
+            weighted_max: 0.0,
+            input_vertices: 0,
+            weights,
+            lambda_c,
+            live_faces: mesh.faces.len(),
+            live_vertices: 0,
+            worst: 0.0,
+        };
+        let measures: Vec<Measure> = (0..n as u32).map(|v| d.measure_now(v)).collect();
+        let q = d.weights.scale_quantile;
+        d.area_max = quantile(measures.iter().map(|m| m.area).collect(), q);
+        d.weighted_max = quantile(measures.iter().map(|m| m.weighted).collect(), q);
+        for (v, m) in measures.iter().enumerate() {
+            d.w_orig[v] = discrete_curvature(m, d.area_max, d.weighted_max, &d.weights);
+            d.locked[v] = m.is_corner() || m.non_manifold;
+            if d.vf[v].is_empty() {
+                d.removed[v] = true;
+            } else {
+                d.live_vertices += 1;
+            }
+        }
+        d.input_vertices = d.live_vertices;
+        d
+    }
+
+    /// The area scale of eq. 8 when `live` vertices remain: the input's, grown with the mean
+    /// vertex area (the paper's "average area of each step"), so coarsening evenly costs
+    /// nothing and only uneven areas count.
+    fn area_scale(&self, live: usize) -> f64 {
+        self.area_max * self.input_vertices as f64 / live.max(1) as f64
+    }
+
+    pub fn faces(&self) -> usize {
+        self.live_faces
+    }
+
+    pub fn vertices(&self) -> usize {
+        self.live_vertices
+    }
+
+    /// Largest ε of the removals so far.
+    pub fn worst_error(&self) -> f64 {
+        self.worst
+    }
+
+    /// W of each input vertex (paper eq. 8), for inspection.
+    pub fn original_curvature(&self) -> &[f64] {
+        &self.w_orig
+    }
+
+    /// Removes vertices in order of W while each removal's ε stays ≤ `max_error` (paper §4).
+    pub fn run_to_error(&mut self, max_error: f64) {
+        self.run_to_error_until(max_error, 0);
+    }
+
+    /// [`Self::run_to_error`], stopping early once at most `floor` faces remain.
+    pub fn run_to_error_until(&mut self, max_error: f64, floor: usize) {
+        let mut heap = BinaryHeap::new();
+        for v in 0..self.pos.len() as u32 {
+            self.push_by_curvature(&mut heap, v);
+        }
+        while let Some(Entry(_, v, ver)) = heap.pop() {
+            if self.live_faces <= floor {
+                break;
+            }
+            if ver != self.version[v as usize] || self.removed[v as usize] {
+                continue;
+            }
+            let Some(r) = self.evaluate(v) else { continue };
+            if r.error > max_error {
+                continue;
+            }
+            // Only the ring's W changed (the paper recomputes the 1-ring); vertices further
+            // out that were refused stay refused until this level ends.
+            let ring = self.apply(v, r);
+            for u in ring {
+                self.push_by_curvature(&mut heap, u);
+            }
+        }
+    }
+
+    /// Reaches at most `target` faces the paper's way: levels of growing ε, each removing in
+    /// order of W, the last one stopped at the target. Ends early if nothing more can go.
+    pub fn run_to_faces(&mut self, target: usize) {
+        let mut bound = 0.02;
+        while self.live_faces > target && bound < 64.0 {
+            let before = self.live_faces;
+            self.run_to_error_until(bound, target);
+            bound *= if self.live_faces == before { 2.0 } else { 1.15 };
+        }
+    }
+
+    /// The current mesh, unreferenced vertices dropped.
+    pub fn mesh(&self) -> TriMesh {
+        let mut map = vec![u32::MAX; self.pos.len()];
+        let mut positions = Vec::with_capacity(self.live_vertices);
+        let mut faces = Vec::with_capacity(self.live_faces);
+        for (f, _) in self.faces.iter().zip(&self.alive).filter(|(_, &a)| a) {
+            faces.push(f.map(|v| {
+                let slot = &mut map[v as usize];
+                if *slot == u32::MAX {
+                    *slot = positions.len() as u32;
+                    positions.push(self.pos[v as usize]);
+                }
+                *slot
+            }));
+        }
+        TriMesh { positions, faces }
+    }
+
+    fn push_by_curvature(&self, heap: &mut BinaryHeap<Entry>, v: u32) {
+        if self.removed[v as usize] || self.locked[v as usize] {
+            return;
+        }
+        let m = self.measure_now(v);
+        let scale = self.area_scale(self.live_vertices);
+        let w = discrete_curvature(&m, scale, self.weighted_max, &self.weights);
+        heap.push(Entry(w, v, self.version[v as usize]));
+    }
+
+    fn face_list(&self, v: u32) -> Vec<[u32; 3]> {
+        self.vf[v as usize]
+            .iter()
+            .map(|&f| self.faces[f as usize])
+            .collect()
+    }
+
+    /// The alive faces of `v` with their geometry.
+    fn with_geom(&self, v: u32) -> impl Iterator<Item = ([u32; 3], FaceGeom)> + '_ {
+        self.vf[v as usize]
+            .iter()
+            .filter_map(|&f| self.geom[f as usize].map(|g| (self.faces[f as usize], g)))
+    }
+
+    fn measure_now(&self, v: u32) -> Measure {
+        measure_with(
+            v,
+            self.with_geom(v),
+            |i| self.pos[i as usize],
+            &self.weights,
+        )
+    }
+
+    /// Works out removing `v`: the refill and its ε, or `None` if the removal would break
+    /// the surface (non-manifold ring, no valid refill, an edge or face that would double).
+    fn evaluate(&self, v: u32) -> Option<Removal> {
+        if self.removed[v as usize] || self.locked[v as usize] {
+            return None;
+        }
+        let own = self.face_list(v);
+        let r = ring(v, &own)?;
+        let k = r.vertices.len();
+        if k < if r.open { 2 } else { 3 } {
+            return None;
+        }
+        let normal: DVec3 = own
+            .iter()
+            .map(|f| {
+                let [a, b, c] = f.map(|i| self.pos[i as usize]);
+                (b - a).cross(c - a)
+            })
+            .sum();
+        let faces = triangulate(&r.vertices, |i| self.pos[i as usize], normal, self.lambda_c)?;
+
+        // New edges must be new: a diagonal that already exists would get a third face.
+        let adjacent = |a: u32, b: u32| {
+            self.vf[a as usize].iter().any(|&f| {
+                !self.faces[f as usize].contains(&v) && self.faces[f as usize].contains(&b)
+            })
+        };
+        for f in &faces {
+            for e in 0..3 {
+                let (a, b) = (f[e], f[(e + 1) % 3]);
+                let on_ring = r.vertices.iter().position(|&x| x == a).is_some_and(|i| {
+                    r.vertices[(i + 1) % k] == b || r.vertices[(i + k - 1) % k] == b
+                });
+                let closing = r.open && on_ring && {
+                    let (first, last) = (r.vertices[0], r.vertices[k - 1]);
+                    (a == first && b == last) || (a == last && b == first)
+                };
+                if (!on_ring || closing) && adjacent(a, b) {
+                    return None;
+                }
+            }
+        }
+        if r.open && faces.is_empty() && adjacent(r.vertices[0], r.vertices[k - 1]) {
+            return None;
+        }
+        // A triangle refill must not duplicate a face already there (a tetrahedron's cap).
+        if let [f] = faces.as_slice() {
+            let same = self.vf[f[0] as usize].iter().any(|&g| {
+                let g = self.faces[g as usize];
+                !g.contains(&v) && f.iter().all(|x| g.contains(x))
+            });
+            if same {
+                return None;
+            }
+        }
+
+        // ε: the largest change of W on the ring against the input (eq. 9).
+        let scale = self.area_scale(self.live_vertices - 1);
+        let mut error: f64 = 0.0;
+        let fresh: Vec<([u32; 3], FaceGeom)> = faces
+            .iter()
+            .filter_map(|&f| FaceGeom::new(f.map(|i| self.pos[i as usize])).map(|g| (f, g)))
+            .collect();
+        for &u in &r.vertices {
+            let around = self
+                .with_geom(u)
+                .filter(|(f, _)| !f.contains(&v))
+                .chain(fresh.iter().copied().filter(|(f, _)| f.contains(&u)));
+            if self.vf[u as usize]
+                .iter()
+                .all(|&f| self.faces[f as usize].contains(&v))
+                && !faces.iter().any(|f| f.contains(&u))
+            {
+                // u would be left without faces: that is a hole, not a decimation.
+                return None;
+            }
+            let m = measure_with(u, around, |i| self.pos[i as usize], &self.weights);
+            if m.non_manifold {
+                return None;
+            }
+            let w = discrete_curvature(&m, scale, self.weighted_max, &self.weights);
+            error = error.max((w - self.w_orig[u as usize]).abs());
+        }
+        Some(Removal { faces, error })
+    }
+
+    /// Applies a removal; returns the ring, whose W changed (and whose versions move on).
+    fn apply(&mut self, v: u32, r: Removal) -> Vec<u32> {
+        let dead: Vec<u32> = std::mem::take(&mut self.vf[v as usize]);
+        let mut ring: Vec<u32> = Vec::new();
+        for &f in &dead {
+            self.alive[f as usize] = false;
+            self.live_faces -= 1;
+            for u in self.faces[f as usize] {
+                if u != v {
+                    self.vf[u as usize].retain(|&g| g != f);
+                    if !ring.contains(&u) {
+                        ring.push(u);
+                    }
+                }
+            }
+        }
+        for f in r.faces {
+            let id = self.faces.len() as u32;
+            self.faces.push(f);
+            self.geom
+                .push(FaceGeom::new(f.map(|i| self.pos[i as usize])));
+            self.alive.push(true);
+            self.live_faces += 1;
+            for u in f {
+                self.vf[u as usize].push(id);
+            }
+        }
+        self.removed[v as usize] = true;
+        self.live_vertices -= 1;
+        self.worst = self.worst.max(r.error);
+        for &u in &ring {
+            if self.vf[u as usize].is_empty() && !self.removed[u as usize] {
+                self.removed[u as usize] = true;
+                self.live_vertices -= 1;
+            }
+        }
+
+        for &u in &ring {
+            self.version[u as usize] = self.version[u as usize].wrapping_add(1);
+        }
+        ring
+    }
+}
+
+/// The `q`-quantile of `v` (0 for an empty list).
+fn quantile(mut v: Vec<f64>, q: f64) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    v.sort_by(f64::total_cmp);
+    let k = ((v.len() - 1) as f64 * q.clamp(0.0, 1.0)).round() as usize;
+    v[k]
+}

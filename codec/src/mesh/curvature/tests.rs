@@ -1,0 +1,187 @@
+use glam::DVec3;
+
+use super::measure::{measure, Weights};
+use super::*;
+use crate::mesh::topology::Edges;
+
+/// A UV sphere of radius `r`: `rings` latitudes between the poles, `segments` around.
+fn uv_sphere(rings: usize, segments: usize, r: f64) -> TriMesh {
+    let mut positions = vec![DVec3::Z * r];
+    for i in 1..=rings {
+        let t = std::f64::consts::PI * i as f64 / (rings + 1) as f64;
+        for j in 0..segments {
+            let p = std::f64::consts::TAU * j as f64 / segments as f64;
+            positions.push(r * DVec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos()));
+        }
+    }
+    positions.push(-DVec3::Z * r);
+    let s = (positions.len() - 1) as u32;
+    let at = |i: usize, j: usize| (1 + i * segments + j % segments) as u32;
+    let mut faces = Vec::new();
+    for j in 0..segments {
+        faces.push([0, at(0, j), at(0, j + 1)]);
+        faces.push([s, at(rings - 1, j + 1), at(rings - 1, j)]);
+    }
+    for i in 0..rings - 1 {
+        for j in 0..segments {
+            faces.push([at(i, j), at(i + 1, j), at(i, j + 1)]);
+            faces.push([at(i, j + 1), at(i + 1, j), at(i + 1, j + 1)]);
+        }
+    }
+    TriMesh { positions, faces }
+}
+
+fn per_vertex(mesh: &TriMesh) -> Vec<super::Measure> {
+    let mut vf = vec![Vec::new(); mesh.positions.len()];
+    for f in &mesh.faces {
+        for &v in f {
+            vf[v as usize].push(*f);
+        }
+    }
+    (0..mesh.positions.len() as u32)
+        .map(|v| {
+            measure(
+                v,
+                &vf[v as usize],
+                |i| mesh.positions[i as usize],
+                &Weights::default(),
+            )
+        })
+        .collect()
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+#[test]
+fn a_unit_sphere_reads_k_h_r_one_with_the_quarter_convention() {
+    let m = per_vertex(&uv_sphere(50, 100, 1.0));
+    for (name, f) in [
+        (
+            "K",
+            (|m: &super::Measure| m.gaussian) as fn(&super::Measure) -> f64,
+        ),
+        ("H", |m| m.mean),
+        ("R", |m| m.bending),
+    ] {
+        let med = median(m.iter().map(f).collect());
+        assert!((med - 1.0).abs() < 0.02, "{name} = {med}");
+    }
+    // The poles too (the mixed area's reason for being).
+    for pole in [&m[0], &m[m.len() - 1]] {
+        assert!(
+            (pole.gaussian - 1.0).abs() < 0.02,
+            "pole K = {}",
+            pole.gaussian
+        );
+        assert!((pole.mean - 1.0).abs() < 0.02, "pole H = {}", pole.mean);
+    }
+    // Radius 2: curvatures scale as 1/r and 1/r².
+    let m2 = per_vertex(&uv_sphere(50, 100, 2.0));
+    assert!((median(m2.iter().map(|m| m.mean).collect()) - 0.5).abs() < 0.01);
+    assert!((median(m2.iter().map(|m| m.gaussian).collect()) - 0.25).abs() < 0.01);
+}
+
+#[test]
+fn concave_bends_negative_and_flat_is_zero() {
+    // A square pyramid apex: convex when the apex points along the normal side.
+    let up = TriMesh {
+        positions: vec![
+            DVec3::new(0.0, 0.0, 1.0),
+            DVec3::new(1.0, 0.0, 0.0),
+            DVec3::new(0.0, 1.0, 0.0),
+            DVec3::new(-1.0, 0.0, 0.0),
+            DVec3::new(0.0, -1.0, 0.0),
+        ],
+        faces: vec![[0, 1, 2], [0, 2, 3], [0, 3, 4], [0, 4, 1]],
+    };
+    let m = &per_vertex(&up)[0];
+    assert!(m.mean > 0.0 && m.gaussian > 0.0, "{m:?}");
+    let mut down = up.clone();
+    down.positions[0].z = -1.0;
+    let m = &per_vertex(&down)[0];
+    assert!(m.mean < 0.0 && m.gaussian > 0.0, "{m:?}");
+    let mut flat = up;
+    flat.positions[0].z = 0.0;
+    let m = &per_vertex(&flat)[0];
+    assert!(m.mean.abs() < 1e-12 && m.gaussian.abs() < 1e-12 && m.bending < 1e-6);
+}
+
+/// Boundary edges and whether every directed edge occurs once.
+fn boundary_and_winding(m: &TriMesh) -> (usize, bool) {
+    let e = Edges::new(&m.faces, m.positions.len());
+    let boundary = (0..e.len() as u32).filter(|&k| e.is_boundary(k)).count();
+    let mut seen = std::collections::HashSet::new();
+    let ok = m
+        .faces
+        .iter()
+        .all(|&[a, b, c]| [(a, b), (b, c), (c, a)].iter().all(|&d| seen.insert(d)));
+    (boundary, ok)
+}
+
+#[test]
+fn levels_nest_stay_closed_and_shrink_as_epsilon_grows() {
+    let sphere = uv_sphere(30, 60, 1.0);
+    let out = levels(&sphere, &PAPER_LEVELS, &CurvatureOptions::default()).unwrap();
+    let mut last = sphere.faces.len();
+    for l in &out {
+        assert!(
+            l.mesh.faces.len() < last,
+            "ε {} kept {}",
+            l.error,
+            l.mesh.faces.len()
+        );
+        last = l.mesh.faces.len();
+        assert_eq!(boundary_and_winding(&l.mesh), (0, true), "ε {}", l.error);
+        // Euler characteristic of a sphere.
+        let e = Edges::new(&l.mesh.faces, l.mesh.positions.len()).len() as i64;
+        assert_eq!(
+            l.mesh.positions.len() as i64 - e + l.mesh.faces.len() as i64,
+            2
+        );
+    }
+}
+
+#[test]
+fn real_meshes_keep_their_order_sphere_most_fandisk_least() {
+    use crate::mesh::io::{read_path, MeshLimits};
+    let read = |name: &str| {
+        read_path(
+            &crate::fixtures::shared_data(&format!("meshes/{name}")),
+            &MeshLimits::default(),
+        )
+        .unwrap()
+    };
+    let kept = |m: &TriMesh| {
+        let l = levels(m, &[0.20], &CurvatureOptions::default()).unwrap();
+        l[0].mesh.positions.len() as f64 / m.positions.len() as f64
+    };
+    let (fandisk, sphere) = (read("fandisk.obj"), read("uv-sphere-5002.obj"));
+    let (f, s) = (kept(&fandisk), kept(&sphere));
+    assert!(s > f, "sphere kept {s}, fandisk {f}");
+    // The fandisk's corners stay: its bounding box does not shrink.
+    let l = levels(&fandisk, &[0.25], &CurvatureOptions::default()).unwrap();
+    let (a, b) = (fandisk.bounding_box(), l[0].mesh.bounding_box());
+    assert!((a.diagonal() - b.diagonal()).abs() < 1e-9 * a.diagonal());
+    assert!(boundary_and_winding(&l[0].mesh).1);
+}
+
+#[test]
+fn a_face_target_is_met_and_bad_parameters_are_refused() {
+    let sphere = uv_sphere(20, 40, 1.0);
+    let (m, eps) = to_faces(&sphere, 300, &CurvatureOptions::default()).unwrap();
+    assert!(
+        m.faces.len() <= 300 && m.faces.len() >= 290,
+        "{}",
+        m.faces.len()
+    );
+    assert!(eps > 0.0);
+    assert_eq!(boundary_and_winding(&m), (0, true));
+    assert!(levels(&sphere, &[f64::NAN], &CurvatureOptions::default()).is_err());
+    assert!(levels(&sphere, &[0.2, 0.1], &CurvatureOptions::default()).is_err());
+    let mut o = CurvatureOptions::default();
+    o.weights.area = 2.0;
+    assert!(levels(&sphere, &[0.2], &o).is_err());
+}

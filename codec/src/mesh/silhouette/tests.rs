@@ -1,0 +1,107 @@
+use glam::DVec3;
+
+use super::*;
+use crate::mesh::io::{read_path, MeshLimits};
+use crate::mesh::topology::Edges;
+
+fn read(name: &str) -> TriMesh {
+    read_path(
+        &crate::fixtures::shared_data(&format!("meshes/{name}")),
+        &MeshLimits::default(),
+    )
+    .unwrap()
+}
+
+fn boundary_and_winding(m: &TriMesh) -> (usize, bool) {
+    let e = Edges::new(&m.faces, m.positions.len());
+    let boundary = (0..e.len() as u32).filter(|&k| e.is_boundary(k)).count();
+    let mut seen = std::collections::HashSet::new();
+    let ok = m
+        .faces
+        .iter()
+        .all(|&[a, b, c]| [(a, b), (b, c), (c, a)].iter().all(|&d| seen.insert(d)));
+    (boundary, ok)
+}
+
+#[test]
+fn coarser_levels_have_fewer_faces_and_stay_closed() {
+    let input = read("uv-sphere-5002.obj");
+    let vs = ViewSphere::new(&input).unwrap();
+    // At the finest level every face of a 100-segment sphere has its own cell.
+    assert_eq!(vs.level(MAX_LEVEL).unwrap().faces.len(), input.faces.len());
+    let mut last = input.faces.len();
+    for level in (0..MAX_LEVEL).rev() {
+        let m = vs.level(level).unwrap();
+        assert!(
+            m.faces.len() <= last,
+            "level {level}: {} > {last}",
+            m.faces.len()
+        );
+        last = m.faces.len();
+        assert_eq!(boundary_and_winding(&m), (0, true), "level {level}");
+    }
+    assert!(last < input.faces.len() / 4, "level 0 kept {last}");
+}
+
+#[test]
+fn a_view_refines_the_silhouette_and_coarsens_what_faces_the_viewer() {
+    let input = read("uv-sphere-5002.obj");
+    let vs = ViewSphere::new(&input).unwrap();
+    let view = View {
+        eye: DVec3::new(0.0, 0.0, 0.0) + DVec3::new(10.0, 0.0, 0.0),
+        target: DVec3::ZERO,
+    };
+    let level = 3;
+    let uniform = vs.level(level).unwrap();
+    let (viewed, drawn) = vs.view(&view, Some(level)).unwrap();
+    assert!(drawn.silhouette_faces > 0 && drawn.facing_faces > 0);
+    let dir = (view.target - view.eye).normalize();
+    // Faces by kind of normal, in an output mesh.
+    let count = |m: &TriMesh| {
+        let (mut sil, mut front) = (0, 0);
+        for n in m.face_normals() {
+            let c = -n.dot(dir);
+            if c.abs() < 0.2 {
+                sil += 1;
+            } else if c > 0.9 {
+                front += 1;
+            }
+        }
+        (sil, front)
+    };
+    let ((sil_u, front_u), (sil_v, front_v)) = (count(&uniform), count(&viewed));
+    assert!(sil_v > sil_u, "silhouette faces {sil_v} vs uniform {sil_u}");
+    assert!(
+        front_v < front_u,
+        "facing faces {front_v} vs uniform {front_u}"
+    );
+    assert_eq!(boundary_and_winding(&viewed), (0, true));
+}
+
+#[test]
+fn open_and_real_meshes_keep_their_boundaries_and_bad_views_are_refused() {
+    let teapot = {
+        let mut m = read("teapot.obj");
+        m.weld();
+        crate::mesh::repair(&m).unwrap().0
+    };
+    let vs = ViewSphere::new(&teapot).unwrap();
+    let before = boundary_and_winding(&teapot).0;
+    for level in [2, 4] {
+        let m = vs.level(level).unwrap();
+        assert!(m.faces.len() < teapot.faces.len());
+        // Region outlines stay, and input boundaries are outlines.
+        assert_eq!(boundary_and_winding(&m).0, before, "level {level}");
+    }
+    let same = View {
+        eye: DVec3::ONE,
+        target: DVec3::ONE,
+    };
+    assert!(vs.view(&same, None).is_err());
+    assert!(vs.level(MAX_LEVEL + 1).is_err());
+    let far = View {
+        eye: DVec3::new(0.0, 0.0, 1e4),
+        target: DVec3::ZERO,
+    };
+    assert!(vs.level_for(&far) < MAX_LEVEL);
+}
