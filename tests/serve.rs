@@ -47,9 +47,9 @@ fn scratch(name: &str) -> PathBuf {
     dir
 }
 
-/// The data folder, built once per test run: `crop` ingested by the real binary (local
-/// scheme) and `world`, a geodetic container of two real root tiles written with the codec
-/// (ingest builds only local datasets so far).
+/// The data folder, built once per test run: `crop` (local scheme) and `srtm` (geodetic)
+/// ingested by the real binary, and `world`, `half` and `merc`, containers of real root
+/// tiles written with the codec (for root-tile cases a real ingest never produces).
 fn data_dir() -> &'static Path {
     static DIR: OnceLock<PathBuf> = OnceLock::new();
     DIR.get_or_init(|| {
@@ -79,6 +79,20 @@ fn data_dir() -> &'static Path {
             String::from_utf8_lossy(&out.stderr)
         );
         std::fs::remove_file(&asc).unwrap();
+        // The whole SRTM tile on Cesium's geodetic grid.
+        let out = Command::new(zerotile_bin())
+            .args([
+                "ingest", "--quiet", "--scheme", "geodetic", "--name", "srtm", "--data",
+            ])
+            .arg(&dir)
+            .arg(shared_data().join("dem/N44W072.hgt"))
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
         write_world(&dir.join("world.ztd"), "geodetic", &[0, 1]);
         write_world(&dir.join("half.ztd"), "geodetic", &[0]);
         write_world(&dir.join("merc.ztd"), "mercator", &[0]);
@@ -275,7 +289,7 @@ fn health_list_and_describe() {
         .iter()
         .filter_map(|d| d["name"].as_str())
         .collect();
-    assert_eq!(names, ["crop", "half", "merc", "world"]);
+    assert_eq!(names, ["crop", "half", "merc", "srtm", "world"]);
 
     let d = s.get("/v1/datasets/crop", &[]).json();
     assert_eq!(d["scheme"], "local");
@@ -831,4 +845,67 @@ fn a_corrupt_tile_fails_alone() {
     assert_eq!(s.get("/v1/datasets/crop/tiles/1/0/0.png", &[]).status, 200);
     drop(s);
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// (u or v along the edge, height) of the vertices listed in `edge`, sorted.
+fn qm_edge(t: &qm::Tile, edge: usize, along_u: bool) -> Vec<(u16, f64)> {
+    let (lo, hi) = (f64::from(t.min_height), f64::from(t.max_height));
+    let mut v: Vec<(u16, f64)> = t.edges[edge]
+        .iter()
+        .map(|&i| {
+            let i = i as usize;
+            let h = lo + f64::from(t.h[i]) / 32767.0 * (hi - lo);
+            (if along_u { t.u[i] } else { t.v[i] }, h)
+        })
+        .collect();
+    v.sort_by_key(|p| p.0);
+    v
+}
+
+#[test]
+fn real_geodetic_tiles_match_their_neighbours_on_every_side() {
+    let s = Server::start(data_dir());
+    let layer = s.get("/v1/datasets/srtm/layer.json", &[]).json();
+    let z10 = &layer["available"][10][0];
+    let (x0, y0) = (
+        z10["startX"].as_u64().unwrap() as u32,
+        z10["startY"].as_u64().unwrap() as u32,
+    );
+    let tile = |x: u32, y: u32| {
+        let r = s.get(
+            &format!("/v1/datasets/srtm/tiles/10/{x}/{y}.terrain?threshold=4"),
+            &[],
+        );
+        assert_eq!(
+            r.status,
+            200,
+            "10/{x}/{y}: {}",
+            String::from_utf8_lossy(&r.body)
+        );
+        qm::read(&r.body).unwrap()
+    };
+    let close = |a: &[(u16, f64)], b: &[(u16, f64)], what: &str| {
+        assert!(a.len() >= 2, "{what}");
+        assert_eq!(a.len(), b.len(), "{what}: edge vertex counts differ");
+        for (p, q) in a.iter().zip(b) {
+            assert_eq!(p.0, q.0, "{what}");
+            assert!((p.1 - q.1).abs() < 0.1, "{what}: {p:?} vs {q:?}");
+        }
+    };
+    // Edge lists: 0 west, 1 south, 2 east, 3 north; geodetic y grows northwards.
+    let (a, east, north) = (
+        tile(x0 + 1, y0 + 1),
+        tile(x0 + 2, y0 + 1),
+        tile(x0 + 1, y0 + 2),
+    );
+    close(
+        &qm_edge(&a, 2, false),
+        &qm_edge(&east, 0, false),
+        "east edge",
+    );
+    close(
+        &qm_edge(&a, 3, true),
+        &qm_edge(&north, 1, true),
+        "north edge",
+    );
 }
