@@ -12,7 +12,9 @@ use std::process::{Child, Command, Stdio};
 use std::sync::OnceLock;
 
 use serde_json::Value;
-use zerotile_codec::container::{Availability, Metadata, TileId, ViewParams, Writer};
+use zerotile_codec::container::{
+    Availability, Container, Limits, Metadata, TileId, ViewParams, Writer,
+};
 use zerotile_codec::ezw::{self, DecodeLimit, EncodeParams};
 use zerotile_codec::formats::{mesh_bin, quantized_mesh, terrain_rgb};
 use zerotile_codec::raster::Encoding;
@@ -45,9 +47,9 @@ fn scratch(name: &str) -> PathBuf {
     dir
 }
 
-/// The data folder, built once per test run: `crop` ingested by the real binary (local
-/// scheme) and `world`, a geodetic container of two real root tiles written with the codec
-/// (ingest builds only local datasets so far).
+/// The data folder, built once per test run: `crop` (local scheme) and `srtm` (geodetic)
+/// ingested by the real binary, and `world`, `half` and `merc`, containers of real root
+/// tiles written with the codec (for root-tile cases a real ingest never produces).
 fn data_dir() -> &'static Path {
     static DIR: OnceLock<PathBuf> = OnceLock::new();
     DIR.get_or_init(|| {
@@ -77,6 +79,20 @@ fn data_dir() -> &'static Path {
             String::from_utf8_lossy(&out.stderr)
         );
         std::fs::remove_file(&asc).unwrap();
+        // The whole SRTM tile on Cesium's geodetic grid.
+        let out = Command::new(zerotile_bin())
+            .args([
+                "ingest", "--quiet", "--scheme", "geodetic", "--name", "srtm", "--data",
+            ])
+            .arg(&dir)
+            .arg(shared_data().join("dem/N44W072.hgt"))
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
         write_world(&dir.join("world.ztd"), "geodetic", &[0, 1]);
         write_world(&dir.join("half.ztd"), "geodetic", &[0]);
         write_world(&dir.join("merc.ztd"), "mercator", &[0]);
@@ -273,7 +289,7 @@ fn health_list_and_describe() {
         .iter()
         .filter_map(|d| d["name"].as_str())
         .collect();
-    assert_eq!(names, ["crop", "half", "merc", "world"]);
+    assert_eq!(names, ["crop", "half", "merc", "srtm", "world"]);
 
     let d = s.get("/v1/datasets/crop", &[]).json();
     assert_eq!(d["scheme"], "local");
@@ -414,10 +430,19 @@ fn mesh_formats_agree_and_neighbours_share_their_edge() {
         assert!(e.max_abs <= t, "T = {t}: mesh max error {} m", e.max_abs);
     }
 
-    // A coarser threshold gives fewer triangles.
-    let coarse = s.get("/v1/datasets/crop/tiles/1/0/0.json?threshold=32", &[]);
-    let n: usize = coarse.header("x-triangles").unwrap().parse().unwrap();
-    assert!(n < triangles, "{n} ≥ {triangles}");
+    // Triangle counts fall as T rises.
+    let counts: Vec<usize> = [0.0, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0]
+        .iter()
+        .map(|t| {
+            let r = s.get(
+                &format!("/v1/datasets/crop/tiles/1/0/0.bin?threshold={t}"),
+                &[],
+            );
+            r.header("x-triangles").unwrap().parse().unwrap()
+        })
+        .collect();
+    assert!(counts.windows(2).all(|w| w[1] <= w[0]), "{counts:?}");
+    assert!(counts[0] > 20 * counts[8], "{counts:?}");
 }
 
 #[test]
@@ -801,4 +826,86 @@ fn sigterm_drains_and_exits_cleanly() {
         std::thread::sleep(std::time::Duration::from_millis(20));
     };
     assert!(status.success(), "{status:?}");
+}
+
+#[test]
+fn a_corrupt_tile_fails_alone() {
+    let dir = scratch("corrupt-tile");
+    let mut bytes = std::fs::read(data_dir().join("crop.ztd")).unwrap();
+    let c = Container::parse(&bytes, &Limits::default()).unwrap();
+    let e = c.entry(TileId { z: 1, x: 1, y: 1 }).unwrap();
+    bytes[e.offset as usize + 40] ^= 0x55; // inside the stream: the record's CRC fails
+    std::fs::write(dir.join("crop.ztd"), &bytes).unwrap();
+    let mut s = Server::start(&dir);
+    s.warnings_expected = true;
+    s.get("/v1/datasets/crop/tiles/1/1/1.png", &[])
+        .assert_error(500, "internal", "corrupt tile");
+    // Its neighbour still meshes (without the corrupt edge), other tiles are untouched.
+    assert_eq!(s.get("/v1/datasets/crop/tiles/1/0/1.json", &[]).status, 200);
+    assert_eq!(s.get("/v1/datasets/crop/tiles/1/0/0.png", &[]).status, 200);
+    drop(s);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// (u or v along the edge, height) of the vertices listed in `edge`, sorted.
+fn qm_edge(t: &qm::Tile, edge: usize, along_u: bool) -> Vec<(u16, f64)> {
+    let (lo, hi) = (f64::from(t.min_height), f64::from(t.max_height));
+    let mut v: Vec<(u16, f64)> = t.edges[edge]
+        .iter()
+        .map(|&i| {
+            let i = i as usize;
+            let h = lo + f64::from(t.h[i]) / 32767.0 * (hi - lo);
+            (if along_u { t.u[i] } else { t.v[i] }, h)
+        })
+        .collect();
+    v.sort_by_key(|p| p.0);
+    v
+}
+
+#[test]
+fn real_geodetic_tiles_match_their_neighbours_on_every_side() {
+    let s = Server::start(data_dir());
+    let layer = s.get("/v1/datasets/srtm/layer.json", &[]).json();
+    let z10 = &layer["available"][10][0];
+    let (x0, y0) = (
+        z10["startX"].as_u64().unwrap() as u32,
+        z10["startY"].as_u64().unwrap() as u32,
+    );
+    let tile = |x: u32, y: u32| {
+        let r = s.get(
+            &format!("/v1/datasets/srtm/tiles/10/{x}/{y}.terrain?threshold=4"),
+            &[],
+        );
+        assert_eq!(
+            r.status,
+            200,
+            "10/{x}/{y}: {}",
+            String::from_utf8_lossy(&r.body)
+        );
+        qm::read(&r.body).unwrap()
+    };
+    let close = |a: &[(u16, f64)], b: &[(u16, f64)], what: &str| {
+        assert!(a.len() >= 2, "{what}");
+        assert_eq!(a.len(), b.len(), "{what}: edge vertex counts differ");
+        for (p, q) in a.iter().zip(b) {
+            assert_eq!(p.0, q.0, "{what}");
+            assert!((p.1 - q.1).abs() < 0.1, "{what}: {p:?} vs {q:?}");
+        }
+    };
+    // Edge lists: 0 west, 1 south, 2 east, 3 north; geodetic y grows northwards.
+    let (a, east, north) = (
+        tile(x0 + 1, y0 + 1),
+        tile(x0 + 2, y0 + 1),
+        tile(x0 + 1, y0 + 2),
+    );
+    close(
+        &qm_edge(&a, 2, false),
+        &qm_edge(&east, 0, false),
+        "east edge",
+    );
+    close(
+        &qm_edge(&a, 3, true),
+        &qm_edge(&north, 1, true),
+        "north edge",
+    );
 }

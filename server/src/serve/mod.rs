@@ -40,6 +40,7 @@ use tower_http::compression::predicate::{DefaultPredicate, NotForContentType, Pr
 use tower_http::compression::CompressionLayer;
 use tower_http::cors::{Any, CorsLayer};
 use tower_http::timeout::TimeoutLayer;
+use tower_http::trace::TraceLayer;
 
 pub use catalog::Catalog;
 pub use state::{AppState, Config};
@@ -110,6 +111,8 @@ pub fn app(state: AppState) -> Router {
             REQUEST_TIMEOUT,
         ))
         .layer(axum::middleware::from_fn(error::json_errors))
+        // One span per request (method, URI, status, latency) at DEBUG: `RUST_LOG=debug`.
+        .layer(TraceLayer::new_for_http())
         .layer(cors)
         .with_state(state)
 }

@@ -106,7 +106,12 @@ pub fn stitched(
     let mut around: [Option<Arc<DecodedTile>>; 4] = Default::default();
     for (slot, n) in around.iter_mut().zip(neighbours(d, id)) {
         if let Some(n) = n {
-            *slot = Some(decoded(state, d, n, depth)?);
+            // A neighbour that cannot be read (a corrupt record) costs this tile its match
+            // on that edge, not the tile itself.
+            match decoded(state, d, n, depth) {
+                Ok(t) => *slot = Some(t),
+                Err(e) => tracing::warn!("meshing {id} of {} without neighbour {n}: {e:#}", d.name),
+            }
         }
     }
     let [north, south, west, east] = &around;

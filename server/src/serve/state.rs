@@ -1,9 +1,13 @@
 //! What every handler shares: the datasets, the decoded-tile cache, the counters, and the
 //! permits that bound CPU work.
 
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 
-use tokio::sync::Semaphore;
+use axum::http::StatusCode;
+use tokio::sync::{OwnedSemaphorePermit, Semaphore};
+
+use super::error::ApiError;
 
 use super::catalog::Catalog;
 use super::meshes::MeshCatalog;
@@ -20,6 +24,9 @@ pub struct Config {
     /// Tiles rendered at once (decode + mesh + encode on the blocking pool); requests past
     /// it wait, so a burst cannot start more CPU work than the machine has cores for.
     pub cpu_jobs: usize,
+    /// Renders allowed to wait for a permit; past it requests are shed with 503 at once
+    /// rather than queueing into the request timeout.
+    pub cpu_queue: usize,
     /// `Cache-Control: max-age` of tiles, seconds.
     pub tile_max_age: u32,
 }
@@ -31,6 +38,7 @@ impl Default for Config {
             cache_bytes: super::tile_cache::DEFAULT_CACHE_BYTES,
             response_cache_bytes: super::tile_cache::DEFAULT_RESPONSE_CACHE_BYTES,
             cpu_jobs: cores * 2,
+            cpu_queue: cores * 64,
             tile_max_age: 3600,
         }
     }
@@ -44,6 +52,8 @@ pub struct AppState {
     pub responses: Arc<ResponseCache>,
     pub metrics: Arc<Metrics>,
     pub cpu: Arc<Semaphore>,
+    /// Requests waiting for a CPU permit.
+    pub cpu_waiting: Arc<AtomicUsize>,
     pub config: Arc<Config>,
     /// Object meshes and their LODs.
     pub meshes: Arc<MeshCatalog>,
@@ -57,6 +67,7 @@ impl AppState {
             responses: Arc::new(new_response_cache(config.response_cache_bytes)),
             metrics: Arc::new(Metrics::default()),
             cpu: Arc::new(Semaphore::new(config.cpu_jobs.max(1))),
+            cpu_waiting: Arc::new(AtomicUsize::new(0)),
             meshes: Arc::new(MeshCatalog::empty(config.response_cache_bytes / 4)),
             config: Arc::new(config),
         }
@@ -67,5 +78,49 @@ impl AppState {
     pub fn with_meshes(mut self, meshes: MeshCatalog) -> Self {
         self.meshes = Arc::new(meshes);
         self
+    }
+}
+
+impl AppState {
+    /// A permit to run one render, waiting behind at most `cpu_queue` others; beyond that the
+    /// request is shed (503) so a burst cannot pile up work nobody will wait for.
+    pub async fn cpu_permit(&self) -> Result<OwnedSemaphorePermit, ApiError> {
+        if let Ok(p) = self.cpu.clone().try_acquire_owned() {
+            return Ok(p);
+        }
+        // Counted while waiting, uncounted on every exit (a timed-out request is dropped
+        // mid-wait).
+        let queued = Queued::join(&self.cpu_waiting);
+        if queued.ahead >= self.config.cpu_queue {
+            return Err(ApiError::new(
+                StatusCode::SERVICE_UNAVAILABLE,
+                "overloaded",
+                "too many tiles are being rendered; retry shortly",
+            ));
+        }
+        self.cpu
+            .clone()
+            .acquire_owned()
+            .await
+            .map_err(ApiError::internal)
+    }
+}
+
+/// A place in the render queue, given up on drop.
+struct Queued<'a> {
+    count: &'a AtomicUsize,
+    ahead: usize,
+}
+
+impl<'a> Queued<'a> {
+    fn join(count: &'a AtomicUsize) -> Self {
+        let ahead = count.fetch_add(1, Ordering::Relaxed);
+        Self { count, ahead }
+    }
+}
+
+impl Drop for Queued<'_> {
+    fn drop(&mut self) {
+        self.count.fetch_sub(1, Ordering::Relaxed);
     }
 }

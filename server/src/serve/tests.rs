@@ -12,9 +12,10 @@ use zerotile_codec::Grid;
 
 use super::{app, AppState, Catalog, Config};
 use crate::serve::dataset::Dataset;
+use crate::serve::pipeline;
 
-/// A smooth 257² hill as a one-tile local dataset.
-fn router(tag: &str) -> Router {
+/// A smooth 257² hill, as every tile of a dataset of `scheme` holding `tiles`.
+fn hill_dataset(tag: &str, scheme: &str, tiles: &[TileId]) -> Dataset {
     let dir = std::env::temp_dir().join(format!("zerotile-router-{}-{tag}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
@@ -37,14 +38,21 @@ fn router(tag: &str) -> Router {
         *g.get(256, 0),
         *g.get(256, 256),
     ];
-    w.add(TileId { z: 0, x: 0, y: 0 }, corners, &enc.bytes);
+    for &id in tiles {
+        w.add(id, corners, &enc.bytes);
+    }
+    let max_zoom = tiles.iter().map(|t| t.z).max().unwrap_or(0);
     let m = Metadata {
-        name: "hill".into(),
-        scheme: "local".into(),
+        name: tag.into(),
+        scheme: scheme.into(),
         tile_side: 257,
         min_zoom: 0,
-        max_zoom: 0,
-        bounds: [0.0, 256.0, 256.0, 0.0],
+        max_zoom,
+        bounds: if scheme == "local" {
+            [0.0, 256.0, 256.0, 0.0]
+        } else {
+            [-180.0, -85.0, 180.0, 85.0]
+        },
         source_size: [257, 257],
         wavelet: Wavelet::Cdf97,
         step: 0.01,
@@ -64,10 +72,17 @@ fn router(tag: &str) -> Router {
         stream_bytes: enc.bytes.len() as u64,
         created: "2026-01-01T00:00:00Z".into(),
     };
-    let path = dir.join("hill.ztd");
+    let path = dir.join(format!("{tag}.ztd"));
     std::fs::write(&path, w.finish(&m).unwrap()).unwrap();
+    Dataset::open(&path).unwrap()
+}
+
+/// The router over a one-tile local dataset named `hill`.
+fn router(tag: &str) -> Router {
+    let mut d = hill_dataset(tag, "local", &[TileId { z: 0, x: 0, y: 0 }]);
+    d.name = "hill".into();
     let mut catalog = Catalog::default();
-    catalog.insert(Dataset::open(&path).unwrap());
+    catalog.insert(d);
     app(AppState::new(catalog, Config::default()))
 }
 
@@ -233,4 +248,56 @@ async fn errors_made_by_layers_become_json_too() {
     assert_eq!(s, StatusCode::SERVICE_UNAVAILABLE);
     assert_eq!(h[header::CONTENT_TYPE], "application/json");
     assert_eq!(error_code(&body), "unavailable");
+}
+
+#[tokio::test]
+async fn renders_past_the_queue_are_shed_with_503() {
+    let state = AppState::new(
+        Catalog::default(),
+        Config {
+            cpu_jobs: 1,
+            cpu_queue: 0,
+            ..Config::default()
+        },
+    );
+    let held = state.cpu_permit().await.unwrap();
+    let shed = state.cpu_permit().await.unwrap_err();
+    assert_eq!(
+        (shed.status, shed.code),
+        (StatusCode::SERVICE_UNAVAILABLE, "overloaded")
+    );
+    drop(held);
+    assert!(state.cpu_permit().await.is_ok());
+    assert_eq!(
+        state.cpu_waiting.load(std::sync::atomic::Ordering::Relaxed),
+        0
+    );
+}
+
+#[test]
+fn neighbours_follow_each_scheme_row_direction() {
+    let id = |z, x, y| TileId { z, x, y };
+    // Geodetic zoom 1 is 4 × 2 tiles counted from the south: north of row 0 is row 1.
+    let all: Vec<TileId> = (0..4)
+        .flat_map(|x| (0..2).map(move |y| id(1, x, y)))
+        .collect();
+    let d = hill_dataset("geo-neighbours", "geodetic", &all);
+    assert_eq!(
+        pipeline::neighbours(&d, id(1, 1, 0)),
+        [
+            Some(id(1, 1, 1)),
+            None,
+            Some(id(1, 0, 0)),
+            Some(id(1, 2, 0))
+        ]
+    );
+    // Mercator zoom 1 is 2 × 2 tiles counted from the north: south of row 0 is row 1.
+    let all: Vec<TileId> = (0..2)
+        .flat_map(|x| (0..2).map(move |y| id(1, x, y)))
+        .collect();
+    let d = hill_dataset("merc-neighbours", "mercator", &all);
+    assert_eq!(
+        pipeline::neighbours(&d, id(1, 0, 0)),
+        [None, Some(id(1, 0, 1)), None, Some(id(1, 1, 0))]
+    );
 }

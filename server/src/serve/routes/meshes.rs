@@ -265,12 +265,7 @@ pub async fn lod(
     let answer = match state.meshes.answers.get(&key) {
         Some(hit) => hit,
         None => {
-            let permit = state
-                .cpu
-                .clone()
-                .acquire_owned()
-                .await
-                .map_err(ApiError::internal)?;
+            let permit = state.cpu_permit().await?;
             let job = e.clone();
             let fresh = tokio::task::spawn_blocking(move || -> ApiResult<MeshAnswer> {
                 let _permit = permit;

@@ -19,6 +19,7 @@ use axum::http::header::{
 };
 use axum::http::{HeaderMap, HeaderValue, StatusCode};
 use axum::response::Response;
+use bytes::Bytes;
 use flate2::write::GzEncoder;
 use zerotile_codec::container::TileId;
 use zerotile_codec::formats::quantized_mesh::{QmOptions, WaterMask};
@@ -141,23 +142,7 @@ pub async fn tile(
     // Conditional request.
     let etag_key = etag_hash(&d, id, t.t, format, variant);
     let etag = format!("W/\"{etag_key:016x}\"");
-    let mut base = HeaderMap::new();
-    base.insert(ETAG, header(&etag)?);
-    let cache = format!("public, max-age={}", state.config.tile_max_age);
-    base.insert(CACHE_CONTROL, header(&cache)?);
-    base.insert("x-threshold", header(&format!("{}", t.t))?);
-    match variant {
-        Variant::Terrain { .. } => {
-            base.insert(VARY, HeaderValue::from_static("Accept, Accept-Encoding"));
-        }
-        Variant::Mesh { .. } => {
-            base.insert(VARY, HeaderValue::from_static("Accept-Encoding"));
-        }
-        _ => {}
-    }
-    if format == TileFormat::Ezw {
-        base.insert(ACCEPT_RANGES, HeaderValue::from_static("bytes"));
-    }
+    let base = cache_headers(&state, &etag, t.t, format, variant)?;
     if negotiate::not_modified(&headers, &etag) {
         let mut res = Response::new(Body::empty());
         *res.status_mut() = StatusCode::NOT_MODIFIED;
@@ -173,12 +158,7 @@ pub async fn tile(
             hit
         }
         None => {
-            let permit = state
-                .cpu
-                .clone()
-                .acquire_owned()
-                .await
-                .map_err(ApiError::internal)?;
+            let permit = state.cpu_permit().await?;
             let job_state = state.clone();
             let job_d = d.clone();
             let fresh = tokio::task::spawn_blocking(move || {
@@ -209,21 +189,11 @@ pub async fn tile(
     if variant.gzip() {
         res_headers.insert(CONTENT_ENCODING, HeaderValue::from_static("gzip"));
     }
-    let mut status = StatusCode::OK;
-    let mut body = rendered.bytes.clone();
-    if format == TileFormat::Ezw {
-        let len = body.len() as u64;
-        match negotiate::range(&headers, len) {
-            RangeAsk::Full => {}
-            RangeAsk::Part { start, end } => {
-                status = StatusCode::PARTIAL_CONTENT;
-                res_headers.insert(
-                    CONTENT_RANGE,
-                    header(&format!("bytes {start}-{end}/{len}"))?,
-                );
-                body = body.slice(start as usize..=end as usize);
-            }
-            RangeAsk::Unsatisfiable => {
+    let (status, body) = if format == TileFormat::Ezw {
+        match ranged(&headers, &rendered.bytes, &mut res_headers)? {
+            Some(part) => part,
+            None => {
+                let len = rendered.bytes.len();
                 let mut e = axum::response::IntoResponse::into_response(ApiError::new(
                     StatusCode::RANGE_NOT_SATISFIABLE,
                     "range_not_satisfiable",
@@ -234,11 +204,66 @@ pub async fn tile(
                 return Ok(e);
             }
         }
-    }
+    } else {
+        (StatusCode::OK, rendered.bytes.clone())
+    };
     let mut res = Response::new(Body::from(body));
     *res.status_mut() = status;
     res.headers_mut().extend(res_headers);
     Ok(res)
+}
+
+/// The headers every answer for this tile carries, 304 included: validator, freshness,
+/// threshold, and what the body varies with.
+fn cache_headers(
+    state: &AppState,
+    etag: &str,
+    t: f64,
+    format: TileFormat,
+    variant: Variant,
+) -> ApiResult<HeaderMap> {
+    let mut h = HeaderMap::new();
+    h.insert(ETAG, header(etag)?);
+    let cache = format!("public, max-age={}", state.config.tile_max_age);
+    h.insert(CACHE_CONTROL, header(&cache)?);
+    h.insert("x-threshold", header(&t.to_string())?);
+    match variant {
+        Variant::Terrain { .. } => {
+            h.insert(VARY, HeaderValue::from_static("Accept, Accept-Encoding"));
+        }
+        Variant::Mesh { .. } => {
+            h.insert(VARY, HeaderValue::from_static("Accept-Encoding"));
+        }
+        Variant::Png { .. } | Variant::Plain => {}
+    }
+    if format == TileFormat::Ezw {
+        h.insert(ACCEPT_RANGES, HeaderValue::from_static("bytes"));
+    }
+    Ok(h)
+}
+
+/// The body or the byte range `Range` asks for (206 with `Content-Range`); `None` when the
+/// range lies past the end.
+fn ranged(
+    headers: &HeaderMap,
+    body: &Bytes,
+    res_headers: &mut HeaderMap,
+) -> ApiResult<Option<(StatusCode, Bytes)>> {
+    let len = body.len() as u64;
+    Ok(match negotiate::range(headers, len) {
+        RangeAsk::Full => Some((StatusCode::OK, body.clone())),
+        RangeAsk::Part { start, end } => {
+            res_headers.insert(
+                CONTENT_RANGE,
+                header(&format!("bytes {start}-{end}/{len}"))?,
+            );
+            Some((
+                StatusCode::PARTIAL_CONTENT,
+                body.slice(start as usize..=end as usize),
+            ))
+        }
+        RangeAsk::Unsatisfiable => None,
+    })
 }
 
 /// `z`, `x` and `y.ext` from the path, checked against the dataset's tiling.

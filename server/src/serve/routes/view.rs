@@ -55,12 +55,7 @@ pub async fn view(
     let (zoom, tiles) = tiles_in_view(&d, &plane)?;
 
     // Mesh off the async threads.
-    let permit = state
-        .cpu
-        .clone()
-        .acquire_owned()
-        .await
-        .map_err(ApiError::internal)?;
+    let permit = state.cpu_permit().await?;
     let job_state = state.clone();
     let job_d = d.clone();
     let job_plane = plane.clone();
