@@ -59,3 +59,14 @@ fn an_error_bound_or_a_missing_level_is_refused() {
     assert!(!eval(&["--error", "0.1"]).status.success());
     assert!(!eval(&["--level", "99", "--samples", "0"]).status.success());
 }
+
+#[test]
+fn a_budget_below_every_level_gets_the_coarsest_non_empty_level() {
+    let p = json(&eval(&["--faces", "100", "--samples", "0"]));
+    let levels = p["detail"]["levels"].as_array().expect("levels");
+    let coarsest = levels
+        .iter()
+        .find(|l| l["faces"].as_u64() > Some(0))
+        .expect("a non-empty level");
+    assert_eq!(p["faces"], coarsest["faces"], "{p}");
+}

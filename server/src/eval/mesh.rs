@@ -178,8 +178,9 @@ fn simplify(input: &TriMesh, method: Method, param: Param) -> Result<(TriMesh, s
 }
 
 /// Octree LOD: builds the hierarchy (timed with the level, as a server's first request would
-/// be) and cuts one level. `--faces N` takes the deepest level with at most N faces, so the
-/// result never exceeds the budget; levels are coarse steps, so it can fall well below it.
+/// be) and cuts one level. `--faces N` takes the deepest non-empty level with at most N faces
+/// (levels are coarse steps, so it can fall well below N), or the coarsest non-empty level
+/// when none fits.
 fn octree_level(input: &TriMesh, param: Param) -> Result<(TriMesh, serde_json::Value)> {
     let lod = OctreeLod::build(input, &OctreeOptions::default())?;
     let level = match param {

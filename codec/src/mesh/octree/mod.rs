@@ -202,14 +202,16 @@ impl OctreeLod {
         Ok(self.level_cut(k).mesh)
     }
 
-    /// The deepest level with at most `faces` faces (level 0 may be empty, so there is
-    /// always one).
+    /// The deepest non-empty level with at most `faces` faces; when even the coarsest
+    /// non-empty level has more (levels are coarse steps: fandisk goes 0 → 1,624 faces), that
+    /// coarsest non-empty level, the nearest above the budget. An empty mesh answers no budget.
     pub fn level_for_faces(&self, faces: usize) -> u32 {
-        self.levels
-            .iter()
+        let non_empty = || self.levels.iter().filter(|l| l.faces > 0);
+        non_empty()
             .rev()
             .find(|l| l.faces <= faces)
-            .map_or(0, |l| l.level)
+            .or_else(|| non_empty().next())
+            .map_or(self.max_level(), |l| l.level)
     }
 
     /// Full detail in the screen region `roi` of `view`, the `base` level elsewhere: base boxes

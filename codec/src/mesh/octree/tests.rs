@@ -198,6 +198,13 @@ fn level_face_counts_grow_with_the_level() {
         assert_eq!(lod.level_for_faces(usize::MAX), lod.max_level());
         let k = lod.level_for_faces(faces[faces.len() - 2]);
         assert!(lod.levels()[k as usize].faces <= faces[faces.len() - 2]);
+        // A budget below every non-empty level gets the coarsest non-empty one, not nothing.
+        let coarsest = lod
+            .levels()
+            .iter()
+            .find(|l| l.faces > 0)
+            .expect("a non-empty level");
+        assert_eq!(lod.level_for_faces(1), coarsest.level, "{name}");
     }
 }
 
