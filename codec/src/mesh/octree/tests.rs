@@ -389,3 +389,45 @@ fn pixel_regions_map_to_ndc_with_y_up() {
         }
     );
 }
+
+#[test]
+fn any_view_and_base_level_gives_a_closed_mixed_mesh() {
+    // Eyes around, above and inside the model; regions small, off-centre and whole-screen.
+    let mesh = shared("fandisk.obj");
+    let lod = build(&mesh);
+    let input_boundary = boundary_edges(&mesh.faces, None);
+    let b = mesh.bounding_box();
+    let centre = (b.min + b.max) * 0.5;
+    let d = b.diagonal();
+    let eyes = [
+        centre + DVec3::new(2.0, 1.0, 0.5) * d,
+        centre + DVec3::new(-1.5, 0.2, -2.0) * d,
+        centre + DVec3::Z * 3.0 * d,
+        centre + DVec3::new(0.01, 0.02, 0.03) * d,
+    ];
+    let rois = [
+        Roi::FULL,
+        Roi {
+            x0: 0.2,
+            y0: -0.7,
+            x1: 0.5,
+            y1: -0.1,
+        },
+        Roi::from_pixels(10.0, 10.0, 30.0, 25.0, 640.0, 480.0),
+    ];
+    for (e, &eye) in eyes.iter().enumerate() {
+        let view = View::looking_at(eye, centre, 50.0, 4.0 / 3.0);
+        for (r, roi) in rois.iter().enumerate() {
+            for base in 0..=lod.max_level() {
+                let browsed = lod.browse(base, &view, roi).expect("browses");
+                let cut = &browsed.cut;
+                assert_eq!(
+                    boundary_edges(&cut.mesh.faces, Some(&cut.source)),
+                    input_boundary,
+                    "eye {e} roi {r} base {base}"
+                );
+                assert!(browsed.bytes <= browsed.full_bytes);
+            }
+        }
+    }
+}
