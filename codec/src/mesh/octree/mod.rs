@@ -21,14 +21,15 @@
 //!     vec![[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]],
 //! );
 //! let sphere = (0..4).fold(octahedron, |m, _| loop_subdivide(&m));
-//! let lod = OctreeLod::build(&sphere, &OctreeOptions::default()).unwrap();
-//! let coarse = lod.level(3).unwrap();
+//! let lod = OctreeLod::build(&sphere, &OctreeOptions::default())?;
+//! let coarse = lod.level(3)?;
 //! assert!(coarse.face_count() < sphere.face_count());
 //! // Look at the sphere from +X and ask for full detail in the middle of the screen.
 //! let view = View::looking_at(DVec3::new(4.0, 0.0, 0.0), DVec3::ZERO, 45.0, 1.0);
 //! let roi = Roi { x0: -0.1, y0: -0.1, x1: 0.1, y1: 0.1 };
-//! let browsed = lod.browse(3, &view, &roi).unwrap();
+//! let browsed = lod.browse(3, &view, &roi)?;
 //! assert!(browsed.cut.mesh.face_count() < sphere.face_count());
+//! # Ok::<(), zerotile_codec::mesh::MeshError>(())
 //! ```
 
 mod browse;
