@@ -93,6 +93,32 @@ fn lods_come_in_every_format_with_their_counts() {
     let plain = s.get("/v1/meshes/uv-sphere-5002/silhouette?level=2", &[]);
     assert!(view.number("x-faces") > plain.number("x-faces"));
 
+    // Octree levels, and browsing: full detail inside a region, the base level elsewhere,
+    // so the browsed mesh sits between the base level and the input.
+    let base = s.get("/v1/meshes/fandisk/octree?level=2&format=obj", &[]);
+    assert_eq!(base.status, 200);
+    let bbox = &d["bbox"];
+    let c: Vec<f64> = (0..3)
+        .map(|k| (bbox[0][k].as_f64().unwrap() + bbox[1][k].as_f64().unwrap()) / 2.0)
+        .collect();
+    let far = 2.0 * d["diagonal"].as_f64().unwrap();
+    let browsed = s.get(
+        &format!(
+            "/v1/meshes/fandisk/octree?level=2&roi=-0.3,-0.3,0.3,0.3&eye={},{},{}&target={},{},{}&fov=40&format=obj",
+            c[0] + far, c[1], c[2], c[0], c[1], c[2]
+        ),
+        &[],
+    );
+    assert_eq!(
+        browsed.status,
+        200,
+        "{}",
+        String::from_utf8_lossy(&browsed.body)
+    );
+    let (b, f) = (base.number("x-faces"), browsed.number("x-faces"));
+    assert!(b < f && f < 12_946.0, "base {b}, browsed {f}");
+    assert_eq!(obj_counts(&browsed.body).1 as f64, f);
+
     // ETag: the same ask again is 304.
     let r = s.get("/v1/meshes/fandisk/qem?faces=978&format=ply", &[]);
     let etag = r.header("etag").unwrap().to_string();
@@ -145,6 +171,27 @@ fn bad_asks_get_specific_json_errors() {
             "bad_mesh_query",
         ),
         ("/v1/meshes/fandisk/original?format=stl", 400, "bad_format"),
+        ("/v1/meshes/fandisk/octree?level=1.5", 400, "out_of_range"),
+        (
+            "/v1/meshes/fandisk/octree?level=2&roi=0,0,1,1",
+            400,
+            "bad_query",
+        ),
+        (
+            "/v1/meshes/fandisk/octree?roi=0,0,1&eye=0,0,9&target=0,0,0",
+            400,
+            "bad_vector",
+        ),
+        (
+            "/v1/meshes/fandisk/octree?roi=0,0,2,1&eye=0,0,9&target=0,0,0",
+            400,
+            "out_of_range",
+        ),
+        (
+            "/v1/meshes/fandisk/octree?roi=0.5,0,0.1,1&eye=0,0,9&target=0,0,0",
+            400,
+            "bad_mesh_query",
+        ),
     ] {
         s.get(path, &[]).error(status, code);
     }

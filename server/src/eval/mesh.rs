@@ -12,7 +12,8 @@ use zerotile_codec::mesh::distance::DEFAULT_SAMPLES;
 use zerotile_codec::mesh::io::{self, MeshLimits};
 use zerotile_codec::mesh::silhouette::ViewSphere;
 use zerotile_codec::mesh::{
-    qem, repair, surface_distance, DistanceOptions, QemOptions, SurfaceDistance, TriMesh,
+    qem, repair, surface_distance, DistanceOptions, OctreeLod, OctreeOptions, QemOptions,
+    SurfaceDistance, TriMesh,
 };
 
 use super::median_ms;
@@ -215,13 +216,30 @@ fn simplify(input: &TriMesh, method: Method, param: Param) -> Result<(TriMesh, s
             };
             Ok((out, serde_json::json!({ "level": level })))
         }
-        Method::Octree => {
-            let name = method
-                .to_possible_value()
-                .map_or_else(|| format!("{method:?}"), |v| v.get_name().to_string());
-            bail!("method {name} is not implemented yet")
-        }
+        Method::Octree => octree_level(input, param),
     }
+}
+
+/// Octree LOD: builds the hierarchy (timed with the level, as a server's first request would
+/// be) and cuts one level. `--faces N` takes the deepest non-empty level with at most N faces
+/// (levels are coarse steps, so it can fall well below N), or the coarsest non-empty level
+/// when none fits.
+fn octree_level(input: &TriMesh, param: Param) -> Result<(TriMesh, serde_json::Value)> {
+    let lod = OctreeLod::build(input, &OctreeOptions::default())?;
+    let level = match param {
+        Param::Level(k) => k,
+        Param::Faces(n) => lod.level_for_faces(n),
+        Param::Error(_) => bail!("octree takes --level K or --faces N, not --error"),
+    };
+    let out = lod.level(level)?;
+    let (boxes, plain_boxes) = lod.box_totals();
+    let detail = serde_json::json!({
+        "level": level,
+        "boxes": boxes,
+        "plain_boxes": plain_boxes,
+        "levels": lod.levels(),
+    });
+    Ok((out, detail))
 }
 
 fn measure(input: &TriMesh, output: &TriMesh, samples: usize) -> Result<Option<SurfaceDistance>> {

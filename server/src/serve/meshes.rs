@@ -15,6 +15,7 @@ use quick_cache::Weighter;
 use zerotile_codec::mesh::io::{self, Format, MeshLimits};
 use zerotile_codec::mesh::silhouette::ViewSphere;
 use zerotile_codec::mesh::{repair, TriMesh};
+use zerotile_codec::mesh::{OctreeLod, OctreeOptions};
 
 /// Folder of meshes inside the data folder.
 pub const MESH_DIR: &str = "meshes";
@@ -33,6 +34,7 @@ pub struct MeshEntry {
     pub generation: u64,
     pub source: PathBuf,
     silhouette: OnceLock<Result<ViewSphere, String>>,
+    octree: OnceLock<Result<OctreeLod, String>>,
 }
 
 impl MeshEntry {
@@ -43,7 +45,18 @@ impl MeshEntry {
             generation,
             source,
             silhouette: OnceLock::new(),
+            octree: OnceLock::new(),
         }
+    }
+
+    /// The octree hierarchy, built once.
+    pub fn octree(&self) -> Result<&OctreeLod, String> {
+        self.octree
+            .get_or_init(|| {
+                OctreeLod::build(&self.mesh, &OctreeOptions::default()).map_err(|e| e.to_string())
+            })
+            .as_ref()
+            .map_err(Clone::clone)
     }
 
     /// The view sphere, built once.

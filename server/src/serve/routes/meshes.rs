@@ -3,7 +3,8 @@
 //! - `GET /v1/meshes`, `GET /v1/meshes/{name}`
 //! - `GET /v1/meshes/{name}/{method}` with `method` one of `original`, `curvature`
 //!   (`error=E` or `level=1..3`), `silhouette` (`level=K` and/or `eye=x,y,z&target=x,y,z`),
-//!   `qem` (`faces=N`, `ratio=R` or `error=E`), and `format=obj|ply|glb|json`; headers
+//!   `qem` (`faces=N`, `ratio=R` or `error=E`), `octree` (`level=K`, and for region-of-
+//!   interest browsing `roi=x0,y0,x1,y1` in NDC with `eye`, `target`, `fov`, `aspect`), and `format=obj|ply|glb|json`; headers
 //!   `X-Vertices`, `X-Faces`, `X-Error`.
 //! - `POST /v1/meshes/{name}`: an OBJ, PLY or STL body (≤ 64 MiB), validated, stored.
 
@@ -18,9 +19,11 @@ use axum::http::header::{CACHE_CONTROL, CONTENT_TYPE, ETAG};
 use axum::http::{HeaderMap, HeaderValue, StatusCode};
 use axum::response::Response;
 use axum::Json;
+use glam::DVec3;
 use serde_json::{json, Value};
 use zerotile_codec::mesh::curvature::{self, CurvatureOptions, PAPER_LEVELS};
 use zerotile_codec::mesh::io::{self, Format};
+use zerotile_codec::mesh::octree::{Roi, View as OctreeView};
 use zerotile_codec::mesh::silhouette::View;
 use zerotile_codec::mesh::{qem, QemOptions, TriMesh};
 
@@ -31,7 +34,7 @@ use crate::serve::state::AppState;
 use crate::serve::threshold::{number, vec3};
 
 /// The LOD methods, as path segments.
-pub const METHODS: [&str; 4] = ["original", "curvature", "silhouette", "qem"];
+pub const METHODS: [&str; 5] = ["original", "curvature", "silhouette", "qem", "octree"];
 
 pub async fn list(State(state): State<AppState>) -> Json<Value> {
     let meshes: Vec<Value> = state.meshes.list().iter().map(|e| summary(e)).collect();
@@ -51,6 +54,7 @@ pub async fn describe(
         "curvature": { "url": format!("{base}/curvature"), "params": "error=E | level=1..3 (ε 0.15, 0.20, 0.25)" },
         "silhouette": { "url": format!("{base}/silhouette"), "params": "level=0..7 and/or eye=x,y,z&target=x,y,z" },
         "qem": { "url": format!("{base}/qem"), "params": "faces=N | ratio=R | error=E (fraction of the diagonal)" },
+        "octree": { "url": format!("{base}/octree"), "params": "level=K [&roi=x0,y0,x1,y1 (NDC, -1..1) &eye=x,y,z&target=x,y,z[&fov=DEG][&aspect=W/H]]" },
     });
     v["formats"] = json!(["obj", "ply", "glb", "json"]);
     Ok(Json(v))
@@ -77,6 +81,9 @@ fn entry(state: &AppState, name: &str) -> ApiResult<Arc<MeshEntry>> {
     })
 }
 
+/// A browsing camera: eye, target, vertical fov (degrees), aspect, and the NDC rectangle.
+type Browse = ([f64; 3], [f64; 3], f64, f64, [f64; 4]);
+
 /// What to compute, checked and canonical (so equal asks share a cache entry).
 #[derive(Clone, Debug, PartialEq)]
 enum Ask {
@@ -88,6 +95,10 @@ enum Ask {
     },
     QemFaces(usize),
     QemError(f64),
+    Octree {
+        level: u32,
+        roi: Option<Browse>,
+    },
 }
 
 fn parse_ask(method: &str, q: &HashMap<String, String>, mesh: &TriMesh) -> ApiResult<Ask> {
@@ -174,6 +185,51 @@ fn parse_ask(method: &str, q: &HashMap<String, String>, mesh: &TriMesh) -> ApiRe
                 )),
             }
         }
+        "octree" => {
+            only(&["level", "roi", "eye", "target", "fov", "aspect"])?;
+            let level = number("level", get("level").unwrap_or("2"), 0.0, 32.0)?;
+            if level.fract() != 0.0 {
+                return Err(ApiError::bad_request(
+                    "out_of_range",
+                    "level must be an integer",
+                ));
+            }
+            let roi = match (get("roi"), get("eye"), get("target")) {
+                (None, None, None) => None,
+                (Some(r), Some(e), Some(t)) => {
+                    let parts: Vec<&str> = r.split(',').collect();
+                    if parts.len() != 4 {
+                        return Err(ApiError::bad_request(
+                            "bad_vector",
+                            format!("roi must be x0,y0,x1,y1 in [-1, 1], got {r:?}"),
+                        ));
+                    }
+                    let mut rect = [0.0; 4];
+                    for (slot, p) in rect.iter_mut().zip(&parts) {
+                        *slot = number("roi", p, -1.0, 1.0)?;
+                    }
+                    let fov = number("fov", get("fov").unwrap_or("45"), 1.0, 170.0)?;
+                    let aspect = number("aspect", get("aspect").unwrap_or("1"), 0.05, 20.0)?;
+                    Some((
+                        vec3("eye", e)?.to_array(),
+                        vec3("target", t)?.to_array(),
+                        fov,
+                        aspect,
+                        rect,
+                    ))
+                }
+                _ => {
+                    return Err(ApiError::bad_request(
+                        "bad_query",
+                        "browsing needs roi, eye and target together",
+                    ))
+                }
+            };
+            Ok(Ask::Octree {
+                level: level as u32,
+                roi,
+            })
+        }
         other => Err(ApiError::not_found(
             "unknown_method",
             format!("no LOD method {other:?}; use one of {METHODS:?}"),
@@ -224,6 +280,31 @@ fn compute(e: &MeshEntry, ask: &Ask) -> Result<(TriMesh, f64), ApiError> {
             let (m, r) = qem::simplify(&e.mesh, &QemOptions::to_faces(*n))
                 .map_err(|x| bad(x.to_string()))?;
             Ok((m, r.max_error))
+        }
+        Ask::Octree { level, roi } => {
+            let lod = e.octree().map_err(bad)?;
+            let m = match roi {
+                None => lod.level(*level).map_err(|x| bad(x.to_string()))?,
+                Some((eye, target, fov, aspect, r)) => {
+                    let view = OctreeView::looking_at(
+                        DVec3::from_array(*eye),
+                        DVec3::from_array(*target),
+                        *fov,
+                        *aspect,
+                    );
+                    let roi = Roi {
+                        x0: r[0],
+                        y0: r[1],
+                        x1: r[2],
+                        y1: r[3],
+                    };
+                    lod.browse(*level, &view, &roi)
+                        .map_err(|x| bad(x.to_string()))?
+                        .cut
+                        .mesh
+                }
+            };
+            Ok((m, f64::from(*level)))
         }
         Ask::QemError(err) => {
             let (m, r) = qem::simplify(&e.mesh, &QemOptions::to_error(*err))
