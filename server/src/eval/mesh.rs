@@ -10,7 +10,7 @@ use serde::Serialize;
 use zerotile_codec::mesh::curvature::{self, CurvatureOptions};
 use zerotile_codec::mesh::distance::DEFAULT_SAMPLES;
 use zerotile_codec::mesh::io::{self, MeshLimits};
-use zerotile_codec::mesh::silhouette::ViewSphere;
+use zerotile_codec::mesh::silhouette::{View, ViewSphere};
 use zerotile_codec::mesh::{
     qem, repair, surface_distance, DistanceOptions, OctreeLod, OctreeOptions, QemOptions,
     SurfaceDistance, TriMesh,
@@ -68,6 +68,13 @@ pub struct MeshArgs {
     /// Merge bit-identical vertex positions first (unwelded exports such as the teapot).
     #[arg(long)]
     pub weld: bool,
+    /// Silhouette: view from this point (x,y,z) towards `--target`; facing cells are drawn
+    /// one level coarser and silhouette cells one finer.
+    #[arg(long, value_name = "X,Y,Z", requires = "target")]
+    pub eye: Option<String>,
+    /// Silhouette: the point looked at (x,y,z).
+    #[arg(long, value_name = "X,Y,Z", requires = "eye")]
+    pub target: Option<String>,
 }
 
 /// What was asked for, as the report names it.
@@ -106,7 +113,19 @@ pub fn run(args: &MeshArgs) -> Result<()> {
     let input = load(&args.input, args.weld)?;
     // Simplify, timed over a few runs.
     let repeat = args.repeat.clamp(1, 100);
-    let (ms, result) = median_ms(repeat, || simplify(&input, args.method, param));
+    let view = match (&args.eye, &args.target) {
+        (Some(e), Some(t)) => {
+            if args.method != Method::Silhouette {
+                bail!("--eye/--target apply to --method silhouette");
+            }
+            Some(View {
+                eye: point("--eye", e)?,
+                target: point("--target", t)?,
+            })
+        }
+        _ => None,
+    };
+    let (ms, result) = median_ms(repeat, || simplify(&input, args.method, param, view));
     let (output, detail) = result?;
     // Measure against the input the way Metro does.
     let distance = measure(&input, &output, args.samples)?;
@@ -158,7 +177,25 @@ fn load(path: &Path, weld: bool) -> Result<TriMesh> {
 }
 
 /// One simplification run: the output mesh and the method's report as JSON.
-fn simplify(input: &TriMesh, method: Method, param: Param) -> Result<(TriMesh, serde_json::Value)> {
+/// `x,y,z` as a finite point.
+fn point(flag: &str, s: &str) -> Result<glam::DVec3> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| anyhow::anyhow!("{flag} must be x,y,z numbers, got {s:?}"))?;
+    match v.as_slice() {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(glam::DVec3::new(*x, *y, *z)),
+        _ => bail!("{flag} must be three finite numbers x,y,z, got {s:?}"),
+    }
+}
+
+fn simplify(
+    input: &TriMesh,
+    method: Method,
+    param: Param,
+    view: Option<View>,
+) -> Result<(TriMesh, serde_json::Value)> {
     match method {
         Method::Qem => {
             let options = match param {
@@ -197,7 +234,13 @@ fn simplify(input: &TriMesh, method: Method, param: Param) -> Result<(TriMesh, s
             let (out, level) = match param {
                 Param::Level(k) => {
                     let k = u8::try_from(k).unwrap_or(u8::MAX);
-                    (vs.level(k)?, k)
+                    match &view {
+                        Some(v) => {
+                            let (m, drawn) = vs.view(v, Some(k))?;
+                            return Ok((m, serde_json::to_value(drawn)?));
+                        }
+                        None => (vs.level(k)?, k),
+                    }
                 }
                 // The finest level that meets the target: levels only coarsen downwards.
                 Param::Faces(n) => {

@@ -10,7 +10,7 @@
 //! fig. 9 traversal.
 //!
 //! Built once per mesh ([`ViewSphere::new`]: each face's finest cell); every query groups
-//! and flattens in O(faces).
+//! and flattens in O(faces). Choices and figures: `silhouette.md` beside this file.
 
 pub mod simplify;
 pub mod sphere;
