@@ -65,9 +65,10 @@ pub struct PassInfo {
     pub threshold: f64,
     /// Byte offset in the stream just after this pass.
     pub end: usize,
-    /// Cleanup passes (plane ends): an upper bound of max |decoded − original| (height units)
-    /// for a decode that stops right after this pass, as the stream records it.
-    pub max_error: Option<f64>,
+    /// An upper bound of max |decoded − original| (height units) for a decode that stops
+    /// right after this pass, as the stream records it: measured by the encoder, rounded up
+    /// by at most 4.4 %, so a server can promise a mesh error without measuring.
+    pub max_error: f64,
 }
 
 /// An encoded stream and its pass table.
@@ -109,7 +110,7 @@ pub struct Decoded {
     /// An upper bound of max |heights − original| (height units) that holds for this
     /// decode: the residual bound E when `bounded` (up to the last bit of the final
     /// (units + offset) · step product), the stream's recorded bound when the decode stopped
-    /// exactly at a plane end, else `None` (a plane decoded in part).
+    /// exactly at a pass end, else `None` (a pass decoded in part, or none at all).
     pub max_error: Option<f64>,
 }
 
@@ -183,7 +184,7 @@ pub fn encode(heights: &Grid<f64>, params: &EncodeParams) -> Result<Encoded, Par
         qexp,
         top_plane: None,
         segments: Vec::new(),
-        plane_errors: Vec::new(),
+        pass_errors: Vec::new(),
         residual: None,
     };
 
@@ -205,26 +206,32 @@ pub fn encode(heights: &Grid<f64>, params: &EncodeParams) -> Result<Encoded, Par
     let mut found_after = Vec::new();
     if let Some(top) = top_plane {
         for k in (0..=top).rev() {
+            // After every pass the encoder decodes itself (its state is the decoder's) and
+            // records the error bound of a decode that stops there.
+            let t_k = header.plane_threshold(k);
+            let bound_now = |state: &State| {
+                let found = state.found.iter().copied();
+                let decoded = dq.heights(dq.coefficients(&plan, &layout, found), &layout);
+                bound::quantise_up(
+                    max_height_error(&decoded, heights, offset, params.step),
+                    t_k,
+                )
+            };
             let io = EncodeIo(arith::Encoder::new());
             let (io, _) = passes::propagation(io, &plan, &mut state, Some(&truth), k);
             segments.push(io.0.finish());
+            header.pass_errors.push(bound_now(&state));
             let after_propagation = state.found.len();
             let io = EncodeIo(arith::Encoder::new());
             let (io, _) = passes::refinement(io, &plan, &mut state, Some(&truth), k);
             segments.push(io.0.finish());
+            header.pass_errors.push(bound_now(&state));
             truth.prepare(&plan, &state, k);
             let io = EncodeIo(arith::Encoder::new());
             let (io, _) = passes::cleanup(io, &plan, &mut state, Some(&truth), k);
             segments.push(io.0.finish());
+            header.pass_errors.push(bound_now(&state));
             found_after.push((after_propagation, state.found.len()));
-            let decoded = dq.heights(
-                dq.coefficients(&plan, &layout, state.found.iter().copied()),
-                &layout,
-            );
-            let err = max_height_error(&decoded, heights, offset, params.step);
-            header
-                .plane_errors
-                .push(bound::quantise_up(err, header.plane_threshold(k)));
         }
     }
     header.segments = segments.iter().map(Vec::len).collect();
@@ -253,7 +260,7 @@ pub fn encode(heights: &Grid<f64>, params: &EncodeParams) -> Result<Encoded, Par
     if let Some(cut) = &residual {
         header.segments.truncate(cut.segments);
         segments.truncate(cut.segments);
-        header.plane_errors.truncate(cut.segments / 3);
+        header.pass_errors.truncate(cut.segments);
         header.residual = Some((cut.bound, cut.bytes.len()));
     }
 
@@ -270,9 +277,8 @@ pub fn encode(heights: &Grid<f64>, params: &EncodeParams) -> Result<Encoded, Par
             kind,
             threshold: header.plane_threshold(plane),
             end: bytes.len(),
-            max_error: (kind == PassKind::Cleanup)
-                .then(|| header.plane_error(s / 3))
-                .flatten(),
+            // Always recorded for an encoded pass; infinity would only say "no bound".
+            max_error: header.pass_error(s).unwrap_or(f64::INFINITY),
         });
     }
     if let Some(cut) = residual {
@@ -341,8 +347,8 @@ fn decode_centered(
     let mut pos = header_len;
     let mut last_plane = header.top_plane.map(u32::from);
     let mut stopped = false;
-    // Planes decoded whole, while nothing of the next plane has been decoded.
-    let mut at_plane_end = Some(0);
+    // Segments decoded whole, while nothing of the next one has been decoded.
+    let mut at_pass_end = 0;
     for (s, &len) in header.segments.iter().enumerate() {
         let (plane, kind) = header.segment_plane(s);
         if let DecodeLimit::Threshold(t) = limit {
@@ -363,7 +369,7 @@ fn decode_centered(
         } else {
             decode_pass(DecodeIo::<true> { dec }, kind, &plan, &mut state, plane)
         };
-        at_plane_end = (complete && kind == PassKind::Cleanup).then_some(s / 3 + 1);
+        at_pass_end = if complete { s + 1 } else { 0 };
         last_plane = Some(plane);
         pos = end.min(prefix.len());
         if done.is_none() || !complete {
@@ -376,9 +382,9 @@ fn decode_centered(
     let dq = Dequantiser::new(header.wavelet, &layout, header.qexp);
     let coefficients = dq.coefficients(&plan, &layout, state.found.iter().copied());
     let mut heights = dq.heights(coefficients.clone(), &layout);
-    let mut max_error = at_plane_end
-        .filter(|&p| p > 0)
-        .and_then(|p| header.plane_error(p - 1));
+    let mut max_error = at_pass_end
+        .checked_sub(1)
+        .and_then(|s| header.pass_error(s));
     let mut bounded = false;
     if let (DecodeLimit::All, Some((bound, len)), false) = (limit, header.residual, stopped) {
         let seg_end: usize = header_len + header.segments.iter().sum::<usize>();

@@ -1,6 +1,6 @@
 //! The stream header. Everything the decoder needs to rebuild the scan comes first, including
 //! the length of every pass segment, so that any prefix long enough to hold the header says
-//! which passes it holds whole, and the error bound of every plane end.
+//! which passes it holds whole, and the error bound after every pass.
 //!
 //! ```text
 //! "ZTW2" | wavelet u8 | flags u8 | rows varint | cols varint | levels u8
@@ -8,7 +8,7 @@
 //!        | qexp i8 | top plane u8 (255: empty) | segments varint
 //!        | bit-packed, MSB first, padded to a byte:
 //!        |     segment lengths (Exp-Golomb bit-length deltas per pass kind + mantissas)
-//!        |     one error bound per complete plane (Exp-Golomb deltas of log codes)
+//!        |     one error bound per segment (Exp-Golomb deltas of log codes)
 //!        | [residual: bound f64 | length varint]                 (flags bit 0)
 //! segment bytes … | residual bytes
 //! ```
@@ -64,9 +64,9 @@ pub struct Header {
     /// Highest bit plane, `None` when every coefficient is zero.
     pub top_plane: Option<u8>,
     pub segments: Vec<usize>,
-    /// Per complete plane (top first): the code of the bound on max |decoded − original|
-    /// at its end (see [`bound`]).
-    pub plane_errors: Vec<i32>,
+    /// Per segment: the code of the bound on max |decoded − original| for a decode that
+    /// stops right after it (see [`bound`]).
+    pub pass_errors: Vec<i32>,
     /// Max-error residual section: (bound in coder units, byte length).
     pub residual: Option<(f64, usize)>,
 }
@@ -112,15 +112,16 @@ impl Header {
                 bits.put(len as u64, b - 1);
             }
         }
-        let mut prev = 0;
-        for &q in &self.plane_errors {
-            // 0 for an exact decode, else 1 + the change of the code (they stay within a few
-            // steps of one another: errors halve with the threshold).
+        let mut prev = [0i32; 3];
+        for (s, &q) in self.pass_errors.iter().enumerate() {
+            // 0 for an exact decode, else 1 + the change of the code from the same pass one
+            // plane up (codes are relative to the plane's threshold, and errors roughly halve
+            // with it: the changes are small).
             if q == bound::ZERO {
                 bits.unsigned(0);
             } else {
-                bits.unsigned(1 + zigzag(i64::from(q) - i64::from(prev)));
-                prev = q;
+                bits.unsigned(1 + zigzag(i64::from(q) - i64::from(prev[s % 3])));
+                prev[s % 3] = q;
             }
         }
         out.extend_from_slice(&bits.finish());
@@ -220,21 +221,21 @@ impl Header {
             };
             segments.push(len as usize);
         }
-        let mut plane_errors = Vec::with_capacity(segments.len() / 3);
-        let mut prev = 0i64;
-        for p in 0..segments.len() / 3 {
+        let mut pass_errors = Vec::with_capacity(segments.len());
+        let mut prev = [0i64; 3];
+        for s in 0..segments.len() {
             let code = bits.unsigned()?;
             if code == 0 {
-                plane_errors.push(bound::ZERO);
+                pass_errors.push(bound::ZERO);
                 continue;
             }
             let q = code
                 .checked_sub(1)
-                .map(|z| prev + unzigzag(z))
+                .and_then(|z| prev[s % 3].checked_add(unzigzag(z)))
                 .filter(|q| q.abs() <= i64::from(bound::Q_LIMIT))
-                .ok_or_else(|| DecodeError::Malformed(format!("plane {p} error bound")))?;
-            plane_errors.push(q as i32);
-            prev = q;
+                .ok_or_else(|| DecodeError::Malformed(format!("segment {s} error bound")))?;
+            pass_errors.push(q as i32);
+            prev[s % 3] = q;
         }
         r.pos += bits.pos.div_ceil(8);
         let residual = if flags & FLAG_RESIDUAL != 0 {
@@ -256,7 +257,7 @@ impl Header {
             qexp,
             top_plane,
             segments,
-            plane_errors,
+            pass_errors,
             residual,
         };
         Ok((header, r.pos))
@@ -278,10 +279,11 @@ impl Header {
         (2f64).powi(k as i32 + i32::from(self.qexp)) * self.step
     }
 
-    /// The error bound (height units) recorded for the end of the `p`-th plane from the top.
-    pub fn plane_error(&self, p: usize) -> Option<f64> {
-        let q = *self.plane_errors.get(p)?;
-        let k = u32::from(self.top_plane?).checked_sub(p as u32)?;
+    /// The error bound (height units) recorded for a decode that stops right after segment
+    /// `s`.
+    pub fn pass_error(&self, s: usize) -> Option<f64> {
+        let q = *self.pass_errors.get(s)?;
+        let k = u32::from(self.top_plane?).checked_sub((s / 3) as u32)?;
         Some(bound::value(q, self.plane_threshold(k)))
     }
 }
@@ -460,7 +462,7 @@ mod tests {
             qexp: -4,
             top_plane: Some(20),
             segments: vec![3, 0, 200, 1000, 70000, 1, 12, 13, 0],
-            plane_errors: vec![40, 37, bound::ZERO],
+            pass_errors: vec![40, 37, 41, 38, 36, 12, 20, 5, bound::ZERO],
             residual: Some((1.0, 77)),
         }
     }
