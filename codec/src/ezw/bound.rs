@@ -14,6 +14,8 @@ const STEPS: i32 = 16;
 pub const Q_LIMIT: i32 = 1 << 14;
 /// The code of an exact decode.
 pub const ZERO: i32 = i32::MIN;
+/// No bound recorded (a stream cut before its trailer).
+pub const UNKNOWN: i32 = i32::MAX;
 
 /// 2^(i/16), i = 0..16, as f64 literals (any increasing table in [1, 2) would do: the encoder
 /// checks its choice with this same table).

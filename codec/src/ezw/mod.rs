@@ -110,7 +110,8 @@ pub struct Decoded {
     /// An upper bound of max |heights − original| (height units) that holds for this
     /// decode: the residual bound E when `bounded` (up to the last bit of the final
     /// (units + offset) · step product), the stream's recorded bound when the decode stopped
-    /// exactly at a pass end, else `None` (a pass decoded in part, or none at all).
+    /// exactly at a pass end (always at a plane end; after the other passes when the input
+    /// still holds the trailer), else `None` (a pass decoded in part, or none at all).
     pub max_error: Option<f64>,
 }
 
@@ -284,6 +285,7 @@ pub fn encode(heights: &Grid<f64>, params: &EncodeParams) -> Result<Encoded, Par
     if let Some(cut) = residual {
         bytes.extend_from_slice(&cut.bytes);
     }
+    header.write_trailer(&mut bytes);
     Ok(Encoded {
         bytes,
         header_len,
@@ -329,7 +331,20 @@ fn decode_centered(
         DecodeLimit::Bytes(n) => &bytes[..n.min(bytes.len())],
         _ => bytes,
     };
-    let (header, header_len) = Header::read(prefix, max_samples)?;
+    let (mut header, header_len) = Header::read(prefix, max_samples)?;
+    // The trailer (bounds after the propagation and refinement passes) follows the residual
+    // section. It is read from the whole input, not the prefix: it says nothing about the
+    // heights, only how far they can be off. A stream cut before it just lacks those bounds.
+    let trailer_start = header
+        .segments
+        .iter()
+        .chain(header.residual.as_ref().map(|(_, len)| len))
+        .try_fold(header_len, |end, &len| end.checked_add(len));
+    // Unreadable means cut short (or damaged): no bounds, the decode stands.
+    let trailer_end = trailer_start.and_then(|start| {
+        let len = header.read_trailer(bytes.get(start..)?).ok()?;
+        Some(start + len)
+    });
     let layout = Layout::new(header.rows, header.cols, header.levels);
     if layout.levels() != header.levels {
         return Err(DecodeError::Malformed(format!(
@@ -398,6 +413,10 @@ fn decode_centered(
         bounded = true;
         max_error = Some(bound * header.step);
         pos = seg_end + len;
+    }
+    if let (DecodeLimit::All, false, Some(end)) = (limit, stopped, trailer_end) {
+        // A whole stream was read, trailer included.
+        pos = end;
     }
     let mut significant = Grid::new(
         header.rows,

@@ -1,6 +1,7 @@
 //! The stream header. Everything the decoder needs to rebuild the scan comes first, including
 //! the length of every pass segment, so that any prefix long enough to hold the header says
-//! which passes it holds whole, and the error bound after every pass.
+//! which passes it holds whole, and the error bound at every plane end. The bounds after
+//! the other passes follow the stream in a trailer: a prefix does not pay for them.
 //!
 //! ```text
 //! "ZTW2" | wavelet u8 | flags u8 | rows varint | cols varint | levels u8
@@ -8,9 +9,10 @@
 //!        | qexp i8 | top plane u8 (255: empty) | segments varint
 //!        | bit-packed, MSB first, padded to a byte:
 //!        |     segment lengths (Exp-Golomb bit-length deltas per pass kind + mantissas)
-//!        |     one error bound per segment (Exp-Golomb deltas of log codes)
+//!        |     one error bound per complete plane (Exp-Golomb deltas of log codes)
 //!        | [residual: bound f64 | length varint]                 (flags bit 0)
 //! segment bytes … | residual bytes
+//! | trailer: bit-packed error bounds after each propagation and refinement segment
 //! ```
 //! Each bit plane, from the top down, has three segments: propagation, refinement, cleanup
 //! (see [`PassKind`]); all numbers little-endian. The header is paid for by every prefix,
@@ -65,7 +67,8 @@ pub struct Header {
     pub top_plane: Option<u8>,
     pub segments: Vec<usize>,
     /// Per segment: the code of the bound on max |decoded − original| for a decode that
-    /// stops right after it (see [`bound`]).
+    /// stops right after it (see [`bound`]); [`bound::UNKNOWN`] until read (the header holds
+    /// the cleanup passes' codes, the trailer the others').
     pub pass_errors: Vec<i32>,
     /// Max-error residual section: (bound in coder units, byte length).
     pub residual: Option<(f64, usize)>,
@@ -112,18 +115,8 @@ impl Header {
                 bits.put(len as u64, b - 1);
             }
         }
-        let mut prev = [0i32; 3];
-        for (s, &q) in self.pass_errors.iter().enumerate() {
-            // 0 for an exact decode, else 1 + the change of the code from the same pass one
-            // plane up (codes are relative to the plane's threshold, and errors roughly halve
-            // with it: the changes are small).
-            if q == bound::ZERO {
-                bits.unsigned(0);
-            } else {
-                bits.unsigned(1 + zigzag(i64::from(q) - i64::from(prev[s % 3])));
-                prev[s % 3] = q;
-            }
-        }
+        // Plane ends only: every prefix pays for the header.
+        put_errors(&mut bits, &self.pass_errors, |s| s % 3 == 2);
         out.extend_from_slice(&bits.finish());
         if let Some((e, len)) = self.residual {
             out.extend_from_slice(&e.to_le_bytes());
@@ -221,22 +214,8 @@ impl Header {
             };
             segments.push(len as usize);
         }
-        let mut pass_errors = Vec::with_capacity(segments.len());
-        let mut prev = [0i64; 3];
-        for s in 0..segments.len() {
-            let code = bits.unsigned()?;
-            if code == 0 {
-                pass_errors.push(bound::ZERO);
-                continue;
-            }
-            let q = code
-                .checked_sub(1)
-                .and_then(|z| prev[s % 3].checked_add(unzigzag(z)))
-                .filter(|q| q.abs() <= i64::from(bound::Q_LIMIT))
-                .ok_or_else(|| DecodeError::Malformed(format!("segment {s} error bound")))?;
-            pass_errors.push(q as i32);
-            prev[s % 3] = q;
-        }
+        let mut pass_errors = vec![bound::UNKNOWN; segments.len()];
+        get_errors(&mut bits, &mut pass_errors, |s| s % 3 == 2)?;
         r.pos += bits.pos.div_ceil(8);
         let residual = if flags & FLAG_RESIDUAL != 0 {
             let e = r.f64()?;
@@ -279,10 +258,31 @@ impl Header {
         (2f64).powi(k as i32 + i32::from(self.qexp)) * self.step
     }
 
+    /// Writes the trailer: the bounds after the propagation and refinement segments.
+    pub fn write_trailer(&self, out: &mut Vec<u8>) {
+        let mut bits = BitWriter::default();
+        put_errors(&mut bits, &self.pass_errors, |s| s % 3 != 2);
+        out.extend_from_slice(&bits.finish());
+    }
+
+    /// Reads the trailer (the bytes after the residual section) and returns its length. A
+    /// stream cut before or inside it is still a valid prefix: those bounds then stay
+    /// unknown (the `Err`).
+    pub fn read_trailer(&mut self, bytes: &[u8]) -> Result<usize, DecodeError> {
+        let mut bits = BitReader { bytes, pos: 0 };
+        let mut errors = self.pass_errors.clone();
+        get_errors(&mut bits, &mut errors, |s| s % 3 != 2)?;
+        self.pass_errors = errors;
+        Ok(bits.pos.div_ceil(8))
+    }
+
     /// The error bound (height units) recorded for a decode that stops right after segment
-    /// `s`.
+    /// `s`, if the stream holds it.
     pub fn pass_error(&self, s: usize) -> Option<f64> {
         let q = *self.pass_errors.get(s)?;
+        if q == bound::UNKNOWN {
+            return None;
+        }
         let k = u32::from(self.top_plane?).checked_sub((s / 3) as u32)?;
         Some(bound::value(q, self.plane_threshold(k)))
     }
@@ -298,6 +298,45 @@ fn step_code(step: f64) -> u8 {
         return STEP_POW2 + (e as i32 + 32) as u8;
     }
     STEP_F64
+}
+
+/// Codes the error bounds of the segments `pick` selects: 0 for an exact decode, else 1 + the
+/// change of the code from the same pass kind one plane up (codes are relative to the plane's
+/// threshold, and errors roughly halve with it: the changes are small).
+fn put_errors(bits: &mut BitWriter, codes: &[i32], pick: impl Fn(usize) -> bool) {
+    let mut prev = [0i32; 3];
+    for (s, &q) in codes.iter().enumerate().filter(|&(s, _)| pick(s)) {
+        if q == bound::ZERO {
+            bits.unsigned(0);
+        } else {
+            bits.unsigned(1 + zigzag(i64::from(q) - i64::from(prev[s % 3])));
+            prev[s % 3] = q;
+        }
+    }
+}
+
+/// Reads what [`put_errors`] wrote into the selected entries of `codes`.
+fn get_errors(
+    bits: &mut BitReader,
+    codes: &mut [i32],
+    pick: impl Fn(usize) -> bool,
+) -> Result<(), DecodeError> {
+    let mut prev = [0i64; 3];
+    for (s, q) in codes.iter_mut().enumerate().filter(|(s, _)| pick(*s)) {
+        let code = bits.unsigned()?;
+        if code == 0 {
+            *q = bound::ZERO;
+            continue;
+        }
+        let v = code
+            .checked_sub(1)
+            .and_then(|z| prev[s % 3].checked_add(unzigzag(z)))
+            .filter(|v| v.abs() <= i64::from(bound::Q_LIMIT))
+            .ok_or_else(|| DecodeError::Malformed(format!("segment {s} error bound")))?;
+        *q = v as i32;
+        prev[s % 3] = v;
+    }
+    Ok(())
 }
 
 fn zigzag(v: i64) -> u64 {
@@ -480,9 +519,17 @@ mod tests {
             h.offset = offset;
             let mut out = Vec::new();
             h.write(&mut out);
-            let (back, len) = Header::read(&out, 1 << 20).unwrap();
-            assert_eq!(back, h);
+            let (mut back, len) = Header::read(&out, 1 << 20).unwrap();
             assert_eq!(len, out.len());
+            // The header alone knows the plane ends' bounds; the trailer adds the rest.
+            assert_eq!(back.pass_error(5), h.pass_error(5));
+            assert_eq!(back.pass_error(3), None);
+            let mut trailer = Vec::new();
+            h.write_trailer(&mut trailer);
+            assert!(back.read_trailer(&trailer[..trailer.len() - 1]).is_err());
+            assert_eq!(back.pass_error(3), None);
+            back.read_trailer(&trailer).unwrap();
+            assert_eq!(back, h);
         }
     }
 

@@ -174,6 +174,25 @@ fn a_pass_decoded_in_part_has_no_bound() {
     )
     .unwrap();
     assert_eq!(nothing.max_error, None);
+    // A stream physically cut at a pass end has lost the trailer: plane ends (header) keep
+    // their bound, the other passes have none.
+    let mut planes_seen = 0;
+    for p in enc
+        .passes
+        .iter()
+        .filter(|p| p.end < enc.passes[cleanup].end)
+    {
+        let cut = decode(&enc.bytes[..p.end], DecodeLimit::All, DEFAULT_MAX_SAMPLES).unwrap();
+        // The decode also runs through the empty passes after p: it stops after the last.
+        let last = enc.passes.iter().rfind(|q| q.end == p.end).unwrap();
+        if last.kind == PassKind::Cleanup {
+            assert_eq!(cut.max_error, Some(last.max_error), "plane {}", p.plane);
+            planes_seen += 1;
+        } else {
+            assert_eq!(cut.max_error, None, "{:?} of plane {}", p.kind, p.plane);
+        }
+    }
+    assert!(planes_seen > 3);
 }
 
 #[test]
