@@ -23,13 +23,17 @@ impl Elapsed {
     }
 }
 
-fn tile() -> (usize, Vec<f64>) {
+fn dem() -> Vec<f64> {
     let bytes = std::fs::read(std::env::var("DEM").unwrap()).unwrap();
-    let dem: Vec<f64> = bytes
+    bytes
         .chunks_exact(2)
         .map(|b| f64::from(i16::from_be_bytes([b[0], b[1]])))
-        .collect();
-    let side = 257;
+        .collect()
+}
+
+/// Rows 300.., cols 500.. of the 1201² SRTM tile, `side`² samples.
+fn tile(side: usize) -> (usize, Vec<f64>) {
+    let dem = dem();
     let mut out = Vec::with_capacity(side * side);
     for r in 300..300 + side {
         out.extend_from_slice(&dem[r * 1201 + 500..r * 1201 + 500 + side]);
@@ -43,7 +47,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 fn main() {
-    let (side, data) = tile();
+    let (side, data) = tile(257);
     let go = new::Grid::new(side, side, data.clone()).unwrap();
     let gn = go.clone();
     let og = old::Grid::new(side, side, data).unwrap();
@@ -141,6 +145,56 @@ fn main() {
                 mo / mn
             );
         }
+    }
+    // Encoding: plain on the 257² tile, and max-error mode (residual cut search) on a 512²
+    // crop, fewer rounds (they are slow).
+    println!();
+    println!("| encode | old median ms | new median ms | old / new |");
+    println!("|---|---|---|---|");
+    let (side512, data512) = tile(512);
+    let o512 = old::Grid::new(side512, side512, data512.clone()).unwrap();
+    let n512 = new::Grid::new(side512, side512, data512).unwrap();
+    let cases: [(&str, bool, Option<f64>); 5] = [
+        ("257² cdf97", true, None),
+        ("257² legall53", false, None),
+        ("512² cdf97 max-error 1", true, Some(1.0)),
+        ("512² cdf97 max-error 4", true, Some(4.0)),
+        ("512² legall53 max-error 1", false, Some(1.0)),
+    ];
+    for (name, cdf, e) in cases {
+        let (wo, wn) = if cdf {
+            (old::wavelet::Wavelet::Cdf97, new::wavelet::Wavelet::Cdf97)
+        } else {
+            (
+                old::wavelet::Wavelet::LeGall53,
+                new::wavelet::Wavelet::LeGall53,
+            )
+        };
+        let (og_e, ng_e) = if e.is_some() {
+            (&o512, &n512)
+        } else {
+            (&og, &gn)
+        };
+        let po = old::ezw::EncodeParams {
+            max_error: e,
+            ..old::ezw::EncodeParams::new(wo, 1.0)
+        };
+        let pn = new::ezw::EncodeParams {
+            max_error: e,
+            ..new::ezw::EncodeParams::new(wn, 1.0)
+        };
+        let n = if e.is_some() { 5 } else { 3 * rounds };
+        let (mut to, mut tn) = (Vec::new(), Vec::new());
+        for _ in 0..n {
+            let s = Instant::now();
+            std::hint::black_box(old::ezw::encode(og_e, &po).unwrap());
+            to.push(s.elapsed().as_secs_f64() * 1e3);
+            let s = Instant::now();
+            std::hint::black_box(new::ezw::encode(ng_e, &pn).unwrap());
+            tn.push(s.elapsed().as_secs_f64() * 1e3);
+        }
+        let (mo, mn) = (median(to), median(tn));
+        println!("| {name} | {mo:.1} | {mn:.1} | {:.2}× |", mo / mn);
     }
     let _ = go;
 }
