@@ -18,6 +18,9 @@ fuzz_target!(|data: &[u8]| {
     };
     if let Ok(d) = decode(rest, limit, MAX_SAMPLES) {
         assert_eq!(d.heights.len(), d.significant.len());
+        assert_eq!(d.heights.len(), d.coefficients.len());
         assert!(d.bytes_used <= rest.len());
+        // A recorded bound is a length: finite or infinite, never negative or NaN.
+        assert!(d.max_error.is_none_or(|e| e >= 0.0));
     }
 });

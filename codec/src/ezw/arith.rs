@@ -31,6 +31,10 @@ pub struct Encoder {
     /// The first cached byte of a segment is always zero and is never written.
     started: bool,
     out: Vec<u8>,
+    /// `out` up to its last non-zero byte: bytes in `out` are final (a carry only reaches
+    /// the cached ones) and termination trims only trailing zeros, so the finished segment
+    /// is at least this long.
+    committed: usize,
 }
 
 impl Default for Encoder {
@@ -48,7 +52,13 @@ impl Encoder {
             pending: 1,
             started: false,
             out: Vec::new(),
+            committed: 0,
         }
+    }
+
+    /// A lower bound on the length [`Self::finish`] will return.
+    pub fn committed(&self) -> usize {
+        self.committed
     }
 
     /// Codes `bit` with the adaptive probability `p` and updates it.
@@ -69,11 +79,19 @@ impl Encoder {
         }
     }
 
-    /// Codes `bit` at fixed even odds (signs, raw bits).
+    /// Codes `bit` at fixed even odds without a probability (LZMA's direct bits, CABAC's
+    /// bypass bins): for bits that are coin tosses, cheaper than a context and no less
+    /// compact.
     #[inline]
-    pub fn encode_even(&mut self, bit: bool) {
-        let mut p = PROB_INIT;
-        self.encode(&mut p, bit);
+    pub fn encode_bypass(&mut self, bit: bool) {
+        self.range >>= 1;
+        if bit {
+            self.low += u64::from(self.range);
+        }
+        while self.range < TOP {
+            self.range <<= 8;
+            self.shift_low();
+        }
     }
 
     fn shift_low(&mut self) {
@@ -82,7 +100,11 @@ impl Encoder {
             let mut byte = self.cache;
             loop {
                 if self.started {
-                    self.out.push(byte.wrapping_add(carry));
+                    let b = byte.wrapping_add(carry);
+                    self.out.push(b);
+                    if b != 0 {
+                        self.committed = self.out.len();
+                    }
                 }
                 self.started = true;
                 byte = 0xFF;
@@ -127,39 +149,24 @@ impl Encoder {
 /// Range decoder over one segment (or a truncated prefix of one).
 pub struct Decoder<'a> {
     bytes: &'a [u8],
+    /// Bytes taken into the window so far, padding included: past `bytes.len()` once a
+    /// padding byte entered the window.
     pos: usize,
     range: u32,
     code: u32,
-    /// Set once a padding byte entered the window.
-    overrun: bool,
 }
 
 impl<'a> Decoder<'a> {
     pub fn new(bytes: &'a [u8]) -> Self {
-        let mut d = Self {
-            bytes,
-            pos: 0,
-            range: u32::MAX,
-            code: 0,
-            overrun: false,
-        };
-        for _ in 0..4 {
-            d.code = (d.code << 8) | u32::from(d.next_byte());
+        let mut code = 0;
+        for i in 0..4 {
+            code = (code << 8) | u32::from(bytes.get(i).copied().unwrap_or(0));
         }
-        d
-    }
-
-    #[inline]
-    fn next_byte(&mut self) -> u8 {
-        match self.bytes.get(self.pos) {
-            Some(&b) => {
-                self.pos += 1;
-                b
-            }
-            None => {
-                self.overrun = true;
-                0
-            }
+        Self {
+            bytes,
+            pos: 4,
+            range: u32::MAX,
+            code,
         }
     }
 
@@ -167,33 +174,50 @@ impl<'a> Decoder<'a> {
     /// even if the segment was cut short.
     #[inline]
     pub fn reliable(&self) -> bool {
-        !self.overrun
+        self.pos <= self.bytes.len()
     }
 
+    /// Decodes one decision. Branch-free in the decoded bit: refinement and sign bits are
+    /// coin tosses, and a mispredicted branch costs more than computing both outcomes.
     #[inline]
     pub fn decode(&mut self, p: &mut Prob) -> bool {
-        let bound = (self.range >> PROB_BITS) * u32::from(*p);
-        let bit = if self.code < bound {
-            self.range = bound;
-            *p += ((PROB_ONE - u32::from(*p)) >> MOVE_BITS) as Prob;
-            false
-        } else {
-            self.code -= bound;
-            self.range -= bound;
-            *p -= *p >> MOVE_BITS;
-            true
-        };
-        while self.range < TOP {
-            self.range <<= 8;
-            self.code = (self.code << 8) | u32::from(self.next_byte());
-        }
+        let pv = u32::from(*p);
+        let bound = (self.range >> PROB_BITS) * pv;
+        let bit = self.code >= bound;
+        let mask = 0u32.wrapping_sub(u32::from(bit));
+        self.code -= bound & mask;
+        self.range = (bound & !mask) | (self.range.wrapping_sub(bound) & mask);
+        let up = pv + ((PROB_ONE - pv) >> MOVE_BITS);
+        let down = pv - (pv >> MOVE_BITS);
+        *p = ((up & !mask) | (down & mask)) as Prob;
+        self.normalize();
         bit
     }
 
+    /// Shifts in the next byte when the range has fallen below 2^24. One byte always
+    /// restores it: p stays within [31, 2017] of 2048, so a decision shrinks a range ≥ 2^24
+    /// to no less than 2^17. Branch-free: whether a byte is due follows the coded bits and
+    /// is as hard to predict.
     #[inline]
-    pub fn decode_even(&mut self) -> bool {
-        let mut p = PROB_INIT;
-        self.decode(&mut p)
+    fn normalize(&mut self) {
+        let need = self.range < TOP;
+        let shift = u32::from(need) * 8;
+        let byte = self.bytes.get(self.pos).copied().unwrap_or(0);
+        self.range <<= shift;
+        let fresh = u32::from(byte) & 0u32.wrapping_sub(u32::from(need));
+        self.code = (self.code << shift) | fresh;
+        self.pos += usize::from(need);
+        debug_assert!(self.range >= TOP);
+    }
+
+    /// Decodes a bit coded by [`Encoder::encode_bypass`].
+    #[inline]
+    pub fn decode_bypass(&mut self) -> bool {
+        self.range >>= 1;
+        let bit = self.code >= self.range;
+        self.code -= self.range & 0u32.wrapping_sub(u32::from(bit));
+        self.normalize();
+        bit
     }
 }
 

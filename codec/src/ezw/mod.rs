@@ -8,9 +8,14 @@
 //! symbol its bytes determine. Decoding "to threshold T" reads the passes with T_k ≥ T.
 
 mod arith;
+mod bitmap;
+mod bound;
+mod context;
 mod passes;
 mod quantize;
+mod reconstruct;
 mod residual;
+mod state;
 mod stream;
 mod tree;
 
@@ -19,15 +24,11 @@ use crate::grid::Grid;
 use crate::wavelet::{self, Layout, Wavelet};
 pub use stream::{Header, PassKind};
 
-use passes::{DecodeIo, EncodeIo, Plan, State, Truth};
+use passes::{DecodeIo, EncodeIo, Truth};
+use reconstruct::{Dequantiser, INT53_LIMIT};
+use state::{Plan, State};
 use tree::Tree;
 
-/// Quantisation step of the real-valued path, as a power of two of coder units: fine enough
-/// that the last planes reach well below one height step.
-const REAL_QEXP: i8 = -4;
-/// Integer 5/3 coefficients are kept below this so the inverse lifting cannot overflow i32;
-/// a height range under half of it keeps every real coefficient inside.
-const INT53_LIMIT: f64 = (1u32 << 20) as f64;
 /// Default bound on decoded grid size (samples); a header asking for more is refused.
 pub const DEFAULT_MAX_SAMPLES: usize = 1 << 26;
 
@@ -64,6 +65,10 @@ pub struct PassInfo {
     pub threshold: f64,
     /// Byte offset in the stream just after this pass.
     pub end: usize,
+    /// An upper bound of max |decoded − original| (height units) for a decode that stops
+    /// right after this pass, as the stream records it: measured by the encoder, rounded up
+    /// by at most 4.4 %, so a server can promise a mesh error without measuring.
+    pub max_error: f64,
 }
 
 /// An encoded stream and its pass table.
@@ -102,6 +107,12 @@ pub struct Decoded {
     pub bytes_used: usize,
     /// The residual pass was applied: the max-error bound holds.
     pub bounded: bool,
+    /// An upper bound of max |heights − original| (height units) that holds for this
+    /// decode: the residual bound E when `bounded` (up to the last bit of the final
+    /// (units + offset) · step product), the stream's recorded bound when the decode stopped
+    /// exactly at a pass end (always at a plane end; after the other passes when the input
+    /// still holds the trailer), else `None` (a pass decoded in part, or none at all).
+    pub max_error: Option<f64>,
 }
 
 /// Encodes `heights` (finite values, height units).
@@ -112,6 +123,13 @@ pub fn encode(heights: &Grid<f64>, params: &EncodeParams) -> Result<Encoded, Par
     }
     if heights.is_empty() {
         return Err(out_of_range("grid size", "at least 1 sample", 0.0));
+    }
+    if heights.len() > u32::MAX as usize {
+        return Err(out_of_range(
+            "grid size",
+            "below 2^32 samples",
+            heights.len() as f64,
+        ));
     }
     if let Some(bad) = heights.data().iter().find(|h| !h.is_finite()) {
         return Err(out_of_range("height", "finite (fill no-data first)", *bad));
@@ -151,36 +169,12 @@ pub fn encode(heights: &Grid<f64>, params: &EncodeParams) -> Result<Encoded, Par
             hi - lo,
         ));
     }
-    let tree = Tree::new(&layout);
-    let (mags, negs, shifts, qexp) = forward_magnitudes(&centered, params.wavelet, &layout, &tree);
-    let plan = Plan::new(tree, shifts);
-
-    // Bit planes from the top down, two flushed segments each.
-    let max = mags.iter().copied().max().unwrap_or(0);
-    let top_plane = (max > 0).then(|| 63 - max.leading_zeros());
-    let mut segments: Vec<Vec<u8>> = Vec::new();
-    let mut state = State::new(mags.len(), cols);
-    let mut truth = Truth {
-        mag: &mags,
-        neg: &negs,
-        sub_new: Vec::new(),
-    };
-    if let Some(top) = top_plane {
-        for k in (0..=top).rev() {
-            let stamp = (top - k + 1) as u16;
-            let mut io = EncodeIo(arith::Encoder::new());
-            passes::propagation(&mut io, &plan, &mut state, Some(&truth), k, stamp);
-            segments.push(io.0.finish());
-            let mut io = EncodeIo(arith::Encoder::new());
-            passes::subordinate(&mut io, &plan, &mut state, Some(&truth), k);
-            segments.push(io.0.finish());
-            truth.prepare(&plan, &state, k);
-            let mut io = EncodeIo(arith::Encoder::new());
-            passes::dominant(&mut io, &plan, &mut state, Some(&truth), k, stamp);
-            segments.push(io.0.finish());
-        }
-    }
-
+    let (mags, negs, qexp) = quantize::forward(&centered, params.wavelet, &layout);
+    let plan = Plan::new(
+        Tree::new(&layout),
+        Plan::shifts_for(params.wavelet, &layout),
+    );
+    let dq = Dequantiser::new(params.wavelet, &layout, qexp);
     let mut header = Header {
         wavelet: params.wavelet,
         rows,
@@ -189,21 +183,89 @@ pub fn encode(heights: &Grid<f64>, params: &EncodeParams) -> Result<Encoded, Par
         step: params.step,
         offset,
         qexp,
-        top_plane: top_plane.map(|t| t as u8),
-        segments: segments.iter().map(Vec::len).collect(),
+        top_plane: None,
+        segments: Vec::new(),
+        pass_errors: Vec::new(),
         residual: None,
     };
 
+    // Bit planes from the top down, three flushed segments each. At every plane end the
+    // encoder decodes itself (its state is the decoder's) and records the error bound.
+    let max = mags.iter().copied().max().unwrap_or(0);
+    let top_plane = (max > 0).then(|| 63 - max.leading_zeros());
+    header.top_plane = top_plane.map(|t| t as u8);
+    let mut segments: Vec<Vec<u8>> = Vec::new();
+    let mut state = State::new(&plan);
+    let mut truth = Truth {
+        mag: &mags,
+        neg: &negs,
+        parent: plan.tree.parents(),
+        sub_new: Vec::new(),
+    };
+    // Found-list lengths after each plane's propagation and cleanup passes (top first):
+    // the max-error search rebuilds any plane boundary's state from them.
+    let mut found_after = Vec::new();
+    if let Some(top) = top_plane {
+        for k in (0..=top).rev() {
+            // After every pass the encoder decodes itself (its state is the decoder's) and
+            // records the error bound of a decode that stops there.
+            let t_k = header.plane_threshold(k);
+            let bound_now = |state: &State| {
+                let found = state.found.iter().copied();
+                let decoded = dq.heights(dq.coefficients(&plan, &layout, found), &layout);
+                bound::quantise_up(
+                    max_height_error(&decoded, heights, offset, params.step),
+                    t_k,
+                )
+            };
+            let io = EncodeIo(arith::Encoder::new());
+            let (io, _) = passes::propagation(io, &plan, &mut state, Some(&truth), k);
+            segments.push(io.0.finish());
+            header.pass_errors.push(bound_now(&state));
+            let after_propagation = state.found.len();
+            let io = EncodeIo(arith::Encoder::new());
+            let (io, _) = passes::refinement(io, &plan, &mut state, Some(&truth), k);
+            segments.push(io.0.finish());
+            header.pass_errors.push(bound_now(&state));
+            truth.prepare(&plan, &state, k);
+            let io = EncodeIo(arith::Encoder::new());
+            let (io, _) = passes::cleanup(io, &plan, &mut state, Some(&truth), k);
+            segments.push(io.0.finish());
+            header.pass_errors.push(bound_now(&state));
+            found_after.push((after_propagation, state.found.len()));
+        }
+    }
+    header.segments = segments.iter().map(Vec::len).collect();
+
     // Max-error mode: keep the cheapest wavelet prefix + residual pass.
-    let residual = params
-        .max_error
-        .map(|e| residual::choose_cut(&header, &segments, &centered, e / params.step));
+    let residual = params.max_error.map(|e| {
+        // The state a decoder holds after `cut` segments, from the final state: every
+        // coefficient found by then is known exactly down to that plane.
+        let at_cut = |cut: usize| {
+            let p = cut.saturating_sub(1) / 3;
+            let k = top_plane.map_or(0, |t| t.saturating_sub(p as u32));
+            let found = match (cut, found_after.get(p)) {
+                (0, _) | (_, None) => 0,
+                (c, Some(&(prop, _))) if c % 3 == 2 => prop,
+                (_, Some(&(_, clean))) => clean,
+            };
+            let entries = state.found[..found].iter().map(|e| state::Known {
+                mag: e.mag >> k << k,
+                known: k as u8,
+                ..*e
+            });
+            dq.heights(dq.coefficients(&plan, &layout, entries), &layout)
+        };
+        residual::choose_cut(at_cut, &header.segments, &centered, e / params.step)
+    });
     if let Some(cut) = &residual {
         header.segments.truncate(cut.segments);
         segments.truncate(cut.segments);
+        header.pass_errors.truncate(cut.segments);
         header.residual = Some((cut.bound, cut.bytes.len()));
     }
 
+    // Assemble: header, segments, residual; the pass table says where each pass ends.
     let mut bytes = Vec::new();
     header.write(&mut bytes);
     let header_len = bytes.len();
@@ -214,18 +276,32 @@ pub fn encode(heights: &Grid<f64>, params: &EncodeParams) -> Result<Encoded, Par
         passes.push(PassInfo {
             plane,
             kind,
-            threshold: plane_threshold(&header, plane),
+            threshold: header.plane_threshold(plane),
             end: bytes.len(),
+            // Always recorded for an encoded pass; infinity would only say "no bound".
+            max_error: header.pass_error(s).unwrap_or(f64::INFINITY),
         });
     }
     if let Some(cut) = residual {
         bytes.extend_from_slice(&cut.bytes);
     }
+    header.write_trailer(&mut bytes);
     Ok(Encoded {
         bytes,
         header_len,
         passes,
     })
+}
+
+/// max |(decoded + offset) · step − original|: the error a decoder's output will have (the
+/// same arithmetic as [`decode`]).
+fn max_height_error(decoded: &Grid<f64>, original: &Grid<f64>, offset: f64, step: f64) -> f64 {
+    decoded
+        .data()
+        .iter()
+        .zip(original.data())
+        .map(|(&d, &h)| ((d + offset) * step - h).abs())
+        .fold(0.0, f64::max)
 }
 
 /// Decodes a stream prefix. Never panics on malformed input; sizes are bounded by
@@ -255,7 +331,20 @@ fn decode_centered(
         DecodeLimit::Bytes(n) => &bytes[..n.min(bytes.len())],
         _ => bytes,
     };
-    let (header, header_len) = Header::read(prefix, max_samples)?;
+    let (mut header, header_len) = Header::read(prefix, max_samples)?;
+    // The trailer (bounds after the propagation and refinement passes) follows the residual
+    // section. It is read from the whole input, not the prefix: it says nothing about the
+    // heights, only how far they can be off. A stream cut before it just lacks those bounds.
+    let trailer_start = header
+        .segments
+        .iter()
+        .chain(header.residual.as_ref().map(|(_, len)| len))
+        .try_fold(header_len, |end, &len| end.checked_add(len));
+    // Unreadable means cut short (or damaged): no bounds, the decode stands.
+    let trailer_end = trailer_start.and_then(|start| {
+        let len = header.read_trailer(bytes.get(start..)?).ok()?;
+        Some(start + len)
+    });
     let layout = Layout::new(header.rows, header.cols, header.levels);
     if layout.levels() != header.levels {
         return Err(DecodeError::Malformed(format!(
@@ -263,22 +352,22 @@ fn decode_centered(
             header.levels, header.rows, header.cols
         )));
     }
-    let tree = Tree::new(&layout);
-    let shifts = match header.wavelet {
-        Wavelet::LeGall53 => quantize::integer_shifts(&layout),
-        Wavelet::Cdf97 => vec![0; tree.bands.len()],
-    };
-    let plan = Plan::new(tree, shifts);
-    let mut state = State::new(header.rows * header.cols, header.cols);
+    let plan = Plan::new(
+        Tree::new(&layout),
+        Plan::shifts_for(header.wavelet, &layout),
+    );
+    let mut state = State::new(&plan);
 
     // Replay the passes the prefix holds.
     let mut pos = header_len;
     let mut last_plane = header.top_plane.map(u32::from);
     let mut stopped = false;
+    // Segments decoded whole, while nothing of the next one has been decoded.
+    let mut at_pass_end = 0;
     for (s, &len) in header.segments.iter().enumerate() {
         let (plane, kind) = header.segment_plane(s);
         if let DecodeLimit::Threshold(t) = limit {
-            if plane_threshold(&header, plane) < t {
+            if header.plane_threshold(plane) < t {
                 break;
             }
         }
@@ -289,18 +378,13 @@ fn decode_centered(
             break;
         }
         let seg = &prefix[pos..end.min(prefix.len())];
-        let mut io = DecodeIo {
-            dec: arith::Decoder::new(seg),
-            complete,
+        let dec = arith::Decoder::new(seg);
+        let done = if complete {
+            decode_pass(DecodeIo::<false> { dec }, kind, &plan, &mut state, plane)
+        } else {
+            decode_pass(DecodeIo::<true> { dec }, kind, &plan, &mut state, plane)
         };
-        let stamp = (s / 3 + 1) as u16;
-        let done = match kind {
-            PassKind::Propagation => {
-                passes::propagation(&mut io, &plan, &mut state, None, plane, stamp)
-            }
-            PassKind::Refinement => passes::subordinate(&mut io, &plan, &mut state, None, plane),
-            PassKind::Cleanup => passes::dominant(&mut io, &plan, &mut state, None, plane, stamp),
-        };
+        at_pass_end = if complete { s + 1 } else { 0 };
         last_plane = Some(plane);
         pos = end.min(prefix.len());
         if done.is_none() || !complete {
@@ -310,7 +394,12 @@ fn decode_centered(
     }
 
     // Coefficients back to heights.
-    let (mut heights, coefficients) = inverse_magnitudes(&header, &layout, &plan, &state);
+    let dq = Dequantiser::new(header.wavelet, &layout, header.qexp);
+    let coefficients = dq.coefficients(&plan, &layout, state.found.iter().copied());
+    let mut heights = dq.heights(coefficients.clone(), &layout);
+    let mut max_error = at_pass_end
+        .checked_sub(1)
+        .and_then(|s| header.pass_error(s));
     let mut bounded = false;
     if let (DecodeLimit::All, Some((bound, len)), false) = (limit, header.residual, stopped) {
         let seg_end: usize = header_len + header.segments.iter().sum::<usize>();
@@ -322,11 +411,23 @@ fn decode_centered(
         }
         residual::apply(&mut heights, &res[..len], bound)?;
         bounded = true;
+        max_error = Some(bound * header.step);
         pos = seg_end + len;
     }
-    let significant = Grid::new(header.rows, header.cols, state.sig)
-        .map_err(|e| DecodeError::Malformed(e.to_string()))?;
-    let threshold = last_plane.map_or(f64::INFINITY, |p| plane_threshold(&header, p));
+    if let (DecodeLimit::All, false, Some(end)) = (limit, stopped, trailer_end) {
+        // A whole stream was read, trailer included.
+        pos = end;
+    }
+    let mut significant = Grid::new(
+        header.rows,
+        header.cols,
+        vec![false; header.rows * header.cols],
+    )
+    .map_err(|e| DecodeError::Malformed(e.to_string()))?;
+    for e in &state.found {
+        significant.data_mut()[e.idx as usize] = true;
+    }
+    let threshold = last_plane.map_or(f64::INFINITY, |p| header.plane_threshold(p));
     Ok((
         Decoded {
             heights,
@@ -336,14 +437,26 @@ fn decode_centered(
             threshold,
             bytes_used: pos,
             bounded,
+            max_error,
         },
         header,
     ))
 }
 
-/// Threshold of bit plane `k` in height units.
-fn plane_threshold(header: &Header, k: u32) -> f64 {
-    (2f64).powi(k as i32 + i32::from(header.qexp)) * header.step
+/// Runs one pass of the decoder.
+fn decode_pass<I: passes::BitIo>(
+    io: I,
+    kind: PassKind,
+    plan: &Plan,
+    state: &mut State,
+    plane: u32,
+) -> Option<()> {
+    let (_, done) = match kind {
+        PassKind::Propagation => passes::propagation(io, plan, state, None, plane),
+        PassKind::Refinement => passes::refinement(io, plan, state, None, plane),
+        PassKind::Cleanup => passes::cleanup(io, plan, state, None, plane),
+    };
+    done
 }
 
 fn out_of_range(name: &'static str, expected: &'static str, got: f64) -> ParamError {
@@ -351,95 +464,6 @@ fn out_of_range(name: &'static str, expected: &'static str, got: f64) -> ParamEr
         name,
         expected,
         got: got.to_string(),
-    }
-}
-
-/// Forward transform and quantisation to weighted integer magnitudes.
-fn forward_magnitudes(
-    centered: &Grid<f64>,
-    wavelet: Wavelet,
-    layout: &Layout,
-    tree: &Tree,
-) -> (Vec<u64>, Vec<bool>, Vec<u8>, i8) {
-    let n = centered.len();
-    let mut mags = vec![0u64; n];
-    let mut negs = vec![false; n];
-    match wavelet {
-        Wavelet::LeGall53 => {
-            let mut g = centered.map(|&u| u.round() as i32);
-            wavelet::forward_int53(&mut g, layout);
-            let shifts = quantize::integer_shifts(layout);
-            for (idx, &c) in g.data().iter().enumerate() {
-                mags[idx] = u64::from(c.unsigned_abs()) << shifts[tree.band_of[idx] as usize];
-                negs[idx] = c < 0;
-            }
-            (mags, negs, shifts, 0)
-        }
-        Wavelet::Cdf97 => {
-            let mut g = centered.clone();
-            wavelet::forward(&mut g, Wavelet::Cdf97, layout);
-            let weights = quantize::real_weights(Wavelet::Cdf97, layout);
-            // Keep magnitudes below 2^40 whatever the data's range.
-            let peak = g
-                .data()
-                .iter()
-                .enumerate()
-                .map(|(i, c)| c.abs() * weights[tree.band_of[i] as usize])
-                .fold(0.0, f64::max);
-            let mut qexp = REAL_QEXP;
-            while peak / (2f64).powi(i32::from(qexp)) >= (1u64 << 40) as f64 && qexp < 30 {
-                qexp += 1;
-            }
-            let q = (2f64).powi(i32::from(qexp));
-            for (idx, &c) in g.data().iter().enumerate() {
-                mags[idx] = (c.abs() * weights[tree.band_of[idx] as usize] / q) as u64;
-                negs[idx] = c < 0.0;
-            }
-            (mags, negs, vec![0; tree.bands.len()], qexp)
-        }
-    }
-}
-
-/// Dequantisation and inverse transform: heights and unweighted coefficients, both in coder
-/// units with the offset not yet added back.
-fn inverse_magnitudes(
-    header: &Header,
-    layout: &Layout,
-    plan: &Plan,
-    state: &State,
-) -> (Grid<f64>, Grid<f64>) {
-    let (rows, cols) = (header.rows, header.cols);
-    let signed = |idx: usize, v: f64| if state.neg[idx] { -v } else { v };
-    match header.wavelet {
-        Wavelet::LeGall53 => {
-            let mut g = Grid::<i32>::zeros(rows, cols);
-            for (idx, c) in g.data_mut().iter_mut().enumerate() {
-                if state.sig[idx] {
-                    let s = plan.shifts[plan.tree.band_of[idx] as usize];
-                    let v = quantize::reconstruct(state.mag[idx], state.known[idx], Some(s))
-                        / (1u64 << s) as f64;
-                    *c = signed(idx, v.round()).clamp(-INT53_LIMIT, INT53_LIMIT) as i32;
-                }
-            }
-            let coefficients = g.map(|&v| f64::from(v));
-            wavelet::inverse_int53(&mut g, layout);
-            (g.map(|&v| f64::from(v)), coefficients)
-        }
-        Wavelet::Cdf97 => {
-            let weights = quantize::real_weights(Wavelet::Cdf97, layout);
-            let q = (2f64).powi(i32::from(header.qexp));
-            let mut g = Grid::<f64>::zeros(rows, cols);
-            for (idx, c) in g.data_mut().iter_mut().enumerate() {
-                if state.sig[idx] {
-                    let v = quantize::reconstruct(state.mag[idx], state.known[idx], None) * q
-                        / weights[plan.tree.band_of[idx] as usize];
-                    *c = signed(idx, v);
-                }
-            }
-            let coefficients = g.clone();
-            wavelet::inverse(&mut g, Wavelet::Cdf97, layout);
-            (g, coefficients)
-        }
     }
 }
 

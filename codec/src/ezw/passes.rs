@@ -1,28 +1,36 @@
-//! Shapiro's two passes per threshold T = 2^k, written once for both directions: the
-//! encoder supplies each bit from the true magnitudes, the decoder reads it, and both keep
-//! the same [`State`] so their contexts can never drift apart.
+//! The three passes of a bit plane T = 2^k, written once for both directions: the encoder
+//! supplies each bit from the true magnitudes, the decoder reads it, and both keep the same
+//! [`State`] so their contexts can never drift apart.
 //!
-//! - **Dominant pass**: coarse → fine bands, raster order inside a band. Every coefficient
-//!   not yet significant and not inside a zerotree coded earlier in this pass gets a symbol:
-//!   POS / NEG (significant, with its sign), ZTR (zerotree root: it and every descendant not
-//!   yet significant stay below T; its descendants get no symbol this pass) or IZ (isolated
-//!   zero). Coefficients without children only code significance.
-//! - **Subordinate pass**: one refinement bit (bit k) for every coefficient that became
+//! - **Propagation** (JPEG 2000's significance propagation, Taubman 2000): coefficients with
+//!   a significant neighbour or parent code their significance first, the likeliest bits.
+//! - **Refinement** (Shapiro's subordinate pass): bit k of every coefficient that became
 //!   significant at an earlier threshold, in the order they were found.
+//! - **Cleanup** (Shapiro's dominant pass): coarse → fine bands, raster order inside a band.
+//!   Every coefficient not yet significant, not coded by the propagation pass and not inside
+//!   a zerotree coded earlier in this pass gets POS / NEG (significant, with its sign), ZTR
+//!   (zerotree root: it and every descendant not yet significant stay below T, and its
+//!   descendants get no symbol this pass) or IZ (isolated zero). Coefficients without
+//!   children only code significance.
 //!
-//! Symbols are binarised (significant?, sign, zerotree?) and coded with context-adaptive
-//! probabilities: the context is the band's class, how many of the 8 neighbours are already
-//! significant, and whether the parent is (the statistics EBCOT and SPIHT exploit).
+//! Symbols are binarised (significant?, sign, zerotree?) and coded with the contexts of
+//! [`context`]. The passes find their coefficients with the word bitmaps of [`State`]: a
+//! zerotree's cover reaches its children as one bit per 64 in the parent band's bitmap, and
+//! runs of coefficients with nothing to code cost one word operation.
 
-use super::arith::{Decoder, Encoder, Prob, PROB_INIT};
-use super::tree::{Tree, NO_PARENT};
-use crate::wavelet::Orientation;
+use super::arith::{Decoder, Encoder, Prob};
+use super::bitmap;
+use super::context;
+use super::state::{Plan, State};
+use super::tree::NO_PARENT;
 
 /// Direction-agnostic bit channel.
 pub trait BitIo {
     /// Encoder: codes `bit()` and returns it. Decoder: returns the decoded bit, or `None`
     /// once a truncated segment can no longer be decoded exactly.
     fn bit(&mut self, p: &mut Prob, bit: impl FnOnce() -> bool) -> Option<bool>;
+    /// The same at fixed even odds, without a context.
+    fn bypass(&mut self, bit: impl FnOnce() -> bool) -> Option<bool>;
 }
 
 pub struct EncodeIo(pub Encoder);
@@ -34,141 +42,67 @@ impl BitIo for EncodeIo {
         self.0.encode(p, b);
         Some(b)
     }
+
+    #[inline]
+    fn bypass(&mut self, bit: impl FnOnce() -> bool) -> Option<bool> {
+        let b = bit();
+        self.0.encode_bypass(b);
+        Some(b)
+    }
 }
 
-pub struct DecodeIo<'a> {
+/// The decoder's channel. `CUT`: the segment is a truncated prefix, so every decision first
+/// checks that no padding byte has entered the coder's window (a whole segment's
+/// termination makes zero padding valid to the end, and skips the check).
+pub struct DecodeIo<'a, const CUT: bool> {
     pub dec: Decoder<'a>,
-    /// The segment is whole: its termination makes zero padding valid to the end.
-    pub complete: bool,
 }
 
-impl BitIo for DecodeIo<'_> {
+impl<const CUT: bool> BitIo for DecodeIo<'_, CUT> {
     #[inline]
     fn bit(&mut self, p: &mut Prob, _bit: impl FnOnce() -> bool) -> Option<bool> {
-        if !self.complete && !self.dec.reliable() {
+        if CUT && !self.dec.reliable() {
             return None;
         }
         Some(self.dec.decode(p))
     }
-}
 
-const SIG_CTX: usize = 4 * 9 * 2;
-const ZTR_CTX: usize = 4 * 3 * 2;
-const SIGN_CTX: usize = 4 * 3;
-const REF_CTX: usize = 2 * 2 * 2;
-
-/// Adaptive probabilities; they persist across passes.
-#[derive(Clone)]
-pub struct Contexts {
-    sig: [Prob; SIG_CTX],
-    ztr: [Prob; ZTR_CTX],
-    sign: [Prob; SIGN_CTX],
-    refine: [Prob; REF_CTX],
-}
-
-impl Default for Contexts {
-    fn default() -> Self {
-        Self {
-            sig: [PROB_INIT; SIG_CTX],
-            ztr: [PROB_INIT; ZTR_CTX],
-            sign: [PROB_INIT; SIGN_CTX],
-            refine: [PROB_INIT; REF_CTX],
-        }
-    }
-}
-
-/// What both sides know about every coefficient.
-pub struct State {
-    pub sig: Vec<bool>,
-    pub neg: Vec<bool>,
-    /// Magnitude bits known so far (in quantisation steps).
-    pub mag: Vec<u64>,
-    /// Lowest bit plane known, valid where `sig`.
-    pub known: Vec<u8>,
-    /// Significant coefficients in the order they were found.
-    pub found: Vec<u32>,
-    /// Pass stamp of the zerotree that covers a coefficient.
-    covered: Vec<u16>,
-    /// Pass stamp of the propagation pass that already coded a coefficient's significance.
-    visited: Vec<u16>,
-    pub ctx: Contexts,
-    cols: usize,
-}
-
-impl State {
-    pub fn new(n: usize, cols: usize) -> Self {
-        Self {
-            cols,
-            sig: vec![false; n],
-            neg: vec![false; n],
-            mag: vec![0; n],
-            known: vec![0; n],
-            found: Vec::new(),
-            covered: vec![0; n],
-            visited: vec![0; n],
-            ctx: Contexts::default(),
-        }
-    }
-}
-
-/// Per-layout facts both sides derive from the header.
-pub struct Plan {
-    pub tree: Tree,
-    /// Per band: bit planes below this are known to be zero (integer 5/3 bands weighted by a
-    /// shift); 0 for real-valued bands.
-    pub shifts: Vec<u8>,
-    /// Per coefficient: it has at least one child.
-    pub has_children: Vec<bool>,
-}
-
-impl Plan {
-    pub fn new(tree: Tree, shifts: Vec<u8>) -> Self {
-        let has_children = (0..tree.parent.len())
-            .map(|idx| !tree.children(idx).is_empty())
-            .collect();
-        Self {
-            tree,
-            shifts,
-            has_children,
-        }
-    }
-
-    /// Context class of a band: LL, coarse details, level 2, level 1.
     #[inline]
-    fn class(&self, bi: usize) -> usize {
-        let b = &self.tree.bands[bi];
-        match (b.orientation, b.level) {
-            (None, _) => 0,
-            (_, 1) => 3,
-            (_, 2) => 2,
-            _ => 1,
+    fn bypass(&mut self, _bit: impl FnOnce() -> bool) -> Option<bool> {
+        if CUT && !self.dec.reliable() {
+            return None;
         }
+        Some(self.dec.decode_bypass())
     }
 }
 
-/// The encoder's knowledge: true magnitudes and signs.
+/// The encoder's knowledge: true magnitudes and signs (flat Mallat index).
 pub struct Truth<'a> {
     pub mag: &'a [u64],
     pub neg: &'a [bool],
-    /// Per coefficient, for the current pass: it or a descendant becomes significant now.
+    pub parent: Vec<u32>,
+    /// Per coefficient, for the current cleanup pass: it or a descendant becomes significant.
     pub sub_new: Vec<bool>,
 }
 
 impl Truth<'_> {
-    /// Prepares `sub_new` for bit plane `k` from the state at the start of the pass.
+    /// Prepares `sub_new` for the cleanup pass of plane `k` from the state before it.
     pub fn prepare(&mut self, plan: &Plan, state: &State, k: u32) {
         self.sub_new.clear();
         self.sub_new.resize(self.mag.len(), false);
         let t = &plan.tree;
+        // Finer bands first, so every descendant has reported before its ancestor is read.
         for b in t.bands.iter().rev() {
             for i in 0..b.rows {
                 let row = (b.row0 + i) * t.cols + b.col0;
-                for idx in row..row + b.cols {
-                    if !state.sig[idx] && self.mag[idx] >> k != 0 {
+                for j in 0..b.cols {
+                    let idx = row + j;
+                    if self.mag[idx] >> k != 0 && !state.is_significant(b, i, j) {
                         self.sub_new[idx] = true;
                     }
-                    if self.sub_new[idx] && t.parent[idx] != NO_PARENT {
-                        self.sub_new[t.parent[idx] as usize] = true;
+                    let p = self.parent[idx];
+                    if self.sub_new[idx] && p != NO_PARENT {
+                        self.sub_new[p as usize] = true;
                     }
                 }
             }
@@ -176,276 +110,269 @@ impl Truth<'_> {
     }
 }
 
-/// Significant neighbours inside the band: (horizontal 0..2, vertical 0..2, diagonal 0..4).
-#[inline]
-fn neighbours(
-    state: &State,
-    cols: usize,
-    b_rows: usize,
-    b_cols: usize,
+/// Significance (and sign, if significant) of coefficient `idx` with flags `f` (parent bit
+/// included). Returns the sign if it became significant.
+#[allow(clippy::too_many_arguments)] // the hot loop's locals, passed as they are
+#[inline(always)]
+fn significance<I: BitIo>(
+    io: &mut I,
+    state: &mut State,
+    truth: Option<&Truth>,
+    class: usize,
+    table: &[u8; 512],
+    f: u32,
     idx: usize,
-    i: usize,
-    j: usize,
-) -> (usize, usize, usize) {
-    let s = &state.sig;
-    let up = i > 0;
-    let down = i + 1 < b_rows;
-    let left = j > 0;
-    let right = j + 1 < b_cols;
-    let h = usize::from(left && s[idx - 1]) + usize::from(right && s[idx + 1]);
-    let mut v = 0;
-    let mut d = 0;
-    if up {
-        let u = idx - cols;
-        v += usize::from(s[u]);
-        d += usize::from(left && s[u - 1]) + usize::from(right && s[u + 1]);
+    k: u32,
+) -> Option<Option<bool>> {
+    let c = table[(f & 0x1FF) as usize];
+    let significant = io.bit(state.ctx.sig(class, c), || {
+        truth.is_some_and(|t| t.mag[idx] >> k != 0)
+    })?;
+    if !significant {
+        return Some(None);
     }
-    if down {
-        let w = idx + cols;
-        v += usize::from(s[w]);
-        d += usize::from(left && s[w - 1]) + usize::from(right && s[w + 1]);
-    }
-    (h, v, d)
+    let negative = io.bit(state.ctx.sign(class, context::sign(f)), || {
+        truth.is_some_and(|t| t.neg[idx])
+    })?;
+    Some(Some(negative))
 }
 
-/// JPEG 2000's significance context (ISO 15444-1 Table D.1): which neighbours matter depends
-/// on the band's orientation. Returns 0..=8.
-#[inline]
-fn significance_context(
-    orientation: Option<Orientation>,
-    (h, v, d): (usize, usize, usize),
-) -> usize {
-    let primary = |a: usize, b: usize| match (a, b, d) {
-        (2, _, _) => 8,
-        (1, 1.., _) => 7,
-        (1, 0, 1..) => 6,
-        (1, 0, 0) => 5,
-        (0, 2, _) => 4,
-        (0, 1, _) => 3,
-        (0, 0, 2..) => 2,
-        (0, 0, 1) => 1,
-        _ => 0,
-    };
-    match orientation {
-        Some(Orientation::HL) => primary(v, h),
-        Some(Orientation::HH) => match (d, h + v) {
-            (3.., _) => 8,
-            (2, 1..) => 7,
-            (2, 0) => 6,
-            (1, 2..) => 5,
-            (1, 1) => 4,
-            (1, 0) => 3,
-            (0, 2..) => 2,
-            (0, 1) => 1,
-            _ => 0,
-        },
-        _ => primary(h, v),
-    }
-}
-
-/// Significance-propagation pass at bit plane `k` (JPEG 2000's fractional bit planes): the
-/// coefficients most likely to become significant, those with a significant neighbour or
-/// parent, code their significance first, so a stream cut part-way through a plane has
-/// spent its bytes where they buy the most.
+/// Significance-propagation pass at bit plane `k`: the coefficients most likely to become
+/// significant, those with a significant neighbour or parent, code their significance
+/// first, so a stream cut part-way through a plane has spent its bytes where they buy the
+/// most. Returns `None` if the input ran out part-way.
+#[inline(never)] // a pass is a loop of its own: keep its registers for the coder
 pub fn propagation<I: BitIo>(
+    mut io: I,
+    plan: &Plan,
+    state: &mut State,
+    truth: Option<&Truth>,
+    k: u32,
+) -> (I, Option<()>) {
+    // The coder lives in this frame (not behind a reference) so it can stay in registers.
+    let done = propagation_with(&mut io, plan, state, truth, k);
+    (io, done)
+}
+
+#[inline(always)]
+fn propagation_with<I: BitIo>(
     io: &mut I,
     plan: &Plan,
     state: &mut State,
     truth: Option<&Truth>,
     k: u32,
-    stamp: u16,
 ) -> Option<()> {
     let t = &plan.tree;
-    let cols = t.cols;
+    state.refine_count = state.found.len();
+    state.visited.fill(0);
+    state.start_pass();
     for (bi, b) in t.bands.iter().enumerate() {
-        if k < u32::from(plan.shifts[bi]) {
+        let parent_sig = b.parent.map_or(0, |p| state.band_sig[p]);
+        if b.is_empty() || k < u32::from(plan.shifts[bi]) || state.band_sig[bi] + parent_sig == 0 {
+            // Nothing significant in or above the band: no candidates.
             continue;
         }
-        let class = plan.class(bi);
+        let (class, table) = (plan.class[bi], &context::SIG[plan.table[bi]]);
         for i in 0..b.rows {
-            for j in 0..b.cols {
-                let idx = (b.row0 + i) * cols + b.col0 + j;
-                if state.sig[idx] {
-                    continue;
-                }
-                let parent_sig = t.parent[idx] != NO_PARENT && state.sig[t.parent[idx] as usize];
-                let hvd = neighbours(state, cols, b.rows, b.cols, idx, i, j);
-                if hvd == (0, 0, 0) && !parent_sig {
-                    continue;
-                }
-                state.visited[idx] = stamp;
-                code_significance(
-                    io,
-                    state,
-                    truth,
-                    idx,
-                    k,
-                    class,
-                    b.orientation,
-                    hvd,
-                    parent_sig,
-                    i,
-                    j,
-                )?;
+            // A row without a significant neighbour row or parent row has no candidates
+            // (and gains none: news only spreads from coded candidates).
+            let rows =
+                &state.row_sig[b.row_id0 + i.saturating_sub(1)..b.row_id0 + (i + 2).min(b.rows)];
+            let parents = t.parent_row_id(bi, i).map_or(0, |r| state.row_sig[r]);
+            if parents == 0 && rows.iter().all(|&n| n == 0) {
+                continue;
             }
+            state.load_parents(t, bi, i, false);
+            let row = b.word0 + i * b.words;
+            let base = (b.row0 + i) * t.cols + b.col0;
+            let mut events = 0;
+            for w in 0..b.words {
+                // Candidates: a significant neighbour (in the current state: this row's
+                // earlier words already hold this pass's news) or a significant parent.
+                let up = if i > 0 { row - b.words } else { row };
+                let down = if i + 1 < b.rows { row + b.words } else { row };
+                let cand = bitmap::dilate(
+                    &state.sig[up..up + b.words],
+                    &state.sig[row..row + b.words],
+                    &state.sig[down..down + b.words],
+                    w,
+                ) | state.parent_sig[w];
+                let mut todo = cand & !state.sig[row + w] & bitmap::valid(b.cols, w);
+                // Everything the loop touches besides the coder is re-read from memory (L1):
+                // the coder's state is what must stay in registers.
+                state.visited[row + w] = todo;
+                let word = base + w * 64;
+                while todo != 0 {
+                    let bit = todo.trailing_zeros() as usize;
+                    todo &= todo - 1;
+                    let idx = word + bit;
+                    let parent = (state.parent_sig[w] >> bit & 1) as u32;
+                    let f = u32::from(state.flags[idx]) | parent << context::PARENT_SHIFT;
+                    if let Some(neg) = significance(io, state, truth, class, table, f, idx, k)? {
+                        let j = w * 64 + bit;
+                        state.become_significant(bi, b, (row + w, bit), (i, j), idx, k, neg);
+                        events += 1;
+                        // The east neighbour now has a significant neighbour too.
+                        let east = (2u64 << bit) & !state.sig[row + w] & bitmap::valid(b.cols, w);
+                        todo |= east;
+                        state.visited[row + w] |= east;
+                    }
+                }
+            }
+            state.count(bi, b, i, events);
         }
     }
     Some(())
 }
 
-/// Significance bit and, if significant, sign; updates the state. Returns whether significant.
-#[allow(clippy::too_many_arguments)] // the context inputs, computed once by the caller
-#[inline]
-fn code_significance<I: BitIo>(
-    io: &mut I,
+/// Refinement (subordinate) pass at bit plane `k`: bit k of every coefficient found at a
+/// higher plane. Returns `None` if the input ran out part-way.
+#[inline(never)] // a pass is a loop of its own: keep its registers for the coder
+pub fn refinement<I: BitIo>(
+    mut io: I,
+    plan: &Plan,
     state: &mut State,
     truth: Option<&Truth>,
-    idx: usize,
     k: u32,
-    class: usize,
-    orientation: Option<Orientation>,
-    hvd: (usize, usize, usize),
-    parent_sig: bool,
-    i: usize,
-    j: usize,
-) -> Option<bool> {
-    let c = (class * 9 + significance_context(orientation, hvd)) * 2 + usize::from(parent_sig);
-    let significant = io.bit(&mut state.ctx.sig[c], || {
-        truth.is_some_and(|t| t.mag[idx] >> k != 0)
-    })?;
-    if significant {
-        let cols = state.cols;
-        let sc = class * 3 + sign_context(state, cols, idx, j, i);
-        let negative = io.bit(&mut state.ctx.sign[sc], || {
-            truth.is_some_and(|t| t.neg[idx])
-        })?;
-        state.sig[idx] = true;
-        state.neg[idx] = negative;
-        state.mag[idx] = 1 << k;
-        state.known[idx] = k as u8;
-        state.found.push(idx as u32);
-    }
-    Some(significant)
+) -> (I, Option<()>) {
+    let done = refinement_with(&mut io, plan, state, truth, k);
+    (io, done)
 }
 
-/// Dominant (cleanup) pass at bit plane `k`: every coefficient the propagation pass did not
-/// reach, with zerotrees. Returns `None` if the input ran out part-way.
-pub fn dominant<I: BitIo>(
+#[inline(always)]
+fn refinement_with<I: BitIo>(
     io: &mut I,
     plan: &Plan,
     state: &mut State,
     truth: Option<&Truth>,
     k: u32,
-    stamp: u16,
+) -> Option<()> {
+    let State {
+        flags, found, ctx, ..
+    } = state;
+    for e in &mut found[..state.refine_count] {
+        let idx = e.idx as usize;
+        let band = usize::from(e.band);
+        if k < u32::from(plan.shifts[band]) {
+            // Below the band's integer resolution the bit is known to be zero.
+            e.known = k as u8;
+            continue;
+        }
+        // Every coefficient here is known down to plane k + 1. Its first two refinement
+        // bits lean towards 0 (magnitudes fall off within each interval); later ones are coin
+        // tosses and bypass the contexts, which would only add adaptation noise.
+        let above = e.mag >> (k + 1);
+        let truth_bit = || truth.is_some_and(|t| t.mag[idx] >> k & 1 == 1);
+        let bit = if above < 4 {
+            let c = context::refine(above == 1, plan.class[band], u32::from(flags[idx]));
+            io.bit(ctx.refine(c), truth_bit)?
+        } else {
+            io.bypass(truth_bit)?
+        };
+        e.mag |= u64::from(bit) << k;
+        e.known = k as u8;
+    }
+    Some(())
+}
+
+/// Cleanup (dominant) pass at bit plane `k`: every coefficient the propagation pass did not
+/// reach, with zerotrees. Returns `None` if the input ran out part-way.
+#[inline(never)] // a pass is a loop of its own: keep its registers for the coder
+pub fn cleanup<I: BitIo>(
+    mut io: I,
+    plan: &Plan,
+    state: &mut State,
+    truth: Option<&Truth>,
+    k: u32,
+) -> (I, Option<()>) {
+    // The coder lives in this frame (not behind a reference) so it can stay in registers.
+    let done = cleanup_with(&mut io, plan, state, truth, k);
+    (io, done)
+}
+
+#[inline(always)]
+fn cleanup_with<I: BitIo>(
+    io: &mut I,
+    plan: &Plan,
+    state: &mut State,
+    truth: Option<&Truth>,
+    k: u32,
 ) -> Option<()> {
     let t = &plan.tree;
-    let cols = t.cols;
+    state.start_pass();
     for (bi, b) in t.bands.iter().enumerate() {
-        let class = plan.class(bi);
+        if b.is_empty() {
+            continue;
+        }
+        // Under a band-wide zerotree cover nothing is coded (early planes: most bands).
+        if b.parent.is_some_and(|p| state.band_covered[p]) {
+            state.band_covered[bi] = true;
+            continue;
+        }
+        let (class, table) = (plan.class[bi], &context::SIG[plan.table[bi]]);
         let may_be_significant = k >= u32::from(plan.shifts[bi]);
+        let mut band_covered = true;
         for i in 0..b.rows {
-            for j in 0..b.cols {
-                let idx = (b.row0 + i) * cols + b.col0 + j;
-                if state.covered[idx] == stamp {
-                    for &c in t.children(idx) {
-                        state.covered[c as usize] = stamp;
+            let row_id = b.row_id0 + i;
+            if t.parent_row_id(bi, i).is_some_and(|r| state.row_covered[r]) {
+                state.row_covered[row_id] = true;
+                continue;
+            }
+            state.load_parents(t, bi, i, true);
+            let mut row_covered = true;
+            let mut events = 0;
+            let row = b.word0 + i * b.words;
+            let base = (b.row0 + i) * t.cols + b.col0;
+            for w in 0..b.words {
+                let covered = state.parent_cover[w];
+                let valid = bitmap::valid(b.cols, w);
+                let visited = state.visited[row + w];
+                // A coefficient the propagation pass coded, or one below its band's integer
+                // resolution, has only a zerotree decision left, and none without children.
+                let parents = state.parents[row + w];
+                let open = if may_be_significant {
+                    !visited | parents
+                } else {
+                    parents
+                };
+                let mut todo = !covered & !state.sig[row + w] & valid & open;
+                let parent_sig = state.parent_sig[w];
+                let mut roots = 0u64;
+                while todo != 0 {
+                    let bit = todo.trailing_zeros() as usize;
+                    todo &= todo - 1;
+                    let j = w * 64 + bit;
+                    let idx = base + j;
+                    let parent = (parent_sig >> bit & 1) as u32;
+                    let f = u32::from(state.flags[idx]) | parent << context::PARENT_SHIFT;
+                    if may_be_significant && visited >> bit & 1 == 0 {
+                        if let Some(neg) = significance(io, state, truth, class, table, f, idx, k)?
+                        {
+                            state.become_significant(bi, b, (row + w, bit), (i, j), idx, k, neg);
+                            events += 1;
+                            continue;
+                        }
                     }
-                    continue;
-                }
-                if state.sig[idx] {
-                    continue;
-                }
-                let parent_sig = t.parent[idx] != NO_PARENT && state.sig[t.parent[idx] as usize];
-                let hvd = neighbours(state, cols, b.rows, b.cols, idx, i, j);
-                let nbr = (hvd.0 + hvd.1 + hvd.2).min(2);
-                if may_be_significant
-                    && state.visited[idx] != stamp
-                    && code_significance(
-                        io,
-                        state,
-                        truth,
-                        idx,
-                        k,
-                        class,
-                        b.orientation,
-                        hvd,
-                        parent_sig,
-                        i,
-                        j,
-                    )?
-                {
-                    continue;
-                }
-                if plan.has_children[idx] {
-                    let c = (class * 3 + nbr) * 2 + usize::from(parent_sig);
-                    let zerotree = io.bit(&mut state.ctx.ztr[c], || {
-                        truth.is_some_and(|t| !t.sub_new[idx])
-                    })?;
-                    if zerotree {
-                        for &c in t.children(idx) {
-                            state.covered[c as usize] = stamp;
+                    if parents >> bit & 1 == 1 {
+                        let c = context::ZTR[(f & 0x1FF) as usize];
+                        let zerotree = io.bit(state.ctx.ztr(class, c), || {
+                            truth.is_some_and(|t| !t.sub_new[idx])
+                        })?;
+                        if zerotree {
+                            roots |= 1 << bit;
                         }
                     }
                 }
+                // The children's cover: under a zerotree already, or a root coded now.
+                let cover = (covered | roots) & valid;
+                state.cover[row + w] = cover;
+                row_covered &= cover == valid;
             }
+            state.count(bi, b, i, events);
+            state.row_covered[row_id] = row_covered;
+            band_covered &= row_covered;
         }
-    }
-    Some(())
-}
-
-/// Sign context: the sign of the already significant left or upper neighbour, if any.
-#[inline]
-fn sign_context(state: &State, cols: usize, idx: usize, j: usize, i: usize) -> usize {
-    let look = |n: usize| {
-        if state.sig[n] {
-            1 + usize::from(state.neg[n])
-        } else {
-            0
-        }
-    };
-    if j > 0 && state.sig[idx - 1] {
-        look(idx - 1)
-    } else if i > 0 {
-        look(idx - cols)
-    } else {
-        0
-    }
-}
-
-/// Subordinate pass at bit plane `k`: bit k of every coefficient found at a higher plane.
-pub fn subordinate<I: BitIo>(
-    io: &mut I,
-    plan: &Plan,
-    state: &mut State,
-    truth: Option<&Truth>,
-    k: u32,
-) -> Option<()> {
-    let t = &plan.tree;
-    for n in 0..state.found.len() {
-        let idx = state.found[n] as usize;
-        if u32::from(state.known[idx]) <= k {
-            continue;
-        }
-        let bi = t.band_of[idx] as usize;
-        if k < u32::from(plan.shifts[bi]) {
-            // Below the band's integer resolution the bit is known to be zero.
-            state.known[idx] = k as u8;
-            continue;
-        }
-        let first = u32::from(state.known[idx]) == k + 1 && state.mag[idx] >> (k + 1) == 1;
-        let fine = plan.class(bi) >= 2;
-        let b = &t.bands[bi];
-        let (i, j) = ((idx / t.cols) - b.row0, (idx % t.cols) - b.col0);
-        let (h, v, d) = neighbours(state, t.cols, b.rows, b.cols, idx, i, j);
-        let nbr = h + v + d >= 2;
-        let c = (usize::from(first) * 2 + usize::from(fine)) * 2 + usize::from(nbr);
-        let bit = io.bit(&mut state.ctx.refine[c], || {
-            truth.is_some_and(|t| t.mag[idx] >> k & 1 == 1)
-        })?;
-        if bit {
-            state.mag[idx] |= 1 << k;
-        }
-        state.known[idx] = k as u8;
+        state.band_covered[bi] = band_covered;
     }
     Some(())
 }

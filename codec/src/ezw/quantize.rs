@@ -6,7 +6,12 @@
 //! smallest): then the threshold order is the order of squared-error reduction.
 //! The integer 5/3 path weights by a power-of-two shift instead, which keeps it reversible.
 
-use crate::wavelet::{band_norms, Layout, Wavelet};
+use crate::grid::Grid;
+use crate::wavelet::{self, band_norms, Layout, Wavelet};
+
+/// Quantisation step of the real-valued path, as a power of two of coder units: fine enough
+/// that the last planes reach well below one height step.
+const REAL_QEXP: i8 = -4;
 
 /// Per-band weights (scan order) for the real-valued path: synthesis L2 norm over the smallest.
 pub fn real_weights(wavelet: Wavelet, layout: &Layout) -> Vec<f64> {
@@ -36,14 +41,81 @@ pub fn integer_shifts(layout: &Layout) -> Vec<u8> {
         .collect()
 }
 
-/// Reconstruction point inside the known interval [mag, mag + 2^known): its midpoint, except
-/// on integer bands (`shift` ≥ 0) where bits below the shift are known zeros.
+/// Reconstruction point inside the known interval [mag, mag + 2^known): its midpoint.
+/// Magnitudes stay below 2^63 (the top plane is at most 62), so the signed conversions,
+/// one instruction each, are exact wherever the unsigned ones would be.
 #[inline]
-pub fn reconstruct(mag: u64, known: u8, shift: Option<u8>) -> f64 {
-    let width = (1u64 << known) as f64;
-    match shift {
-        Some(s) if known <= s => mag as f64,
-        Some(s) => mag as f64 + (width - (1u64 << s) as f64) / 2.0,
-        None => mag as f64 + width / 2.0,
+pub fn reconstruct(mag: u64, known: u8) -> f64 {
+    (mag as i64) as f64 + ((1i64 << known) as f64) * 0.5
+}
+
+/// The integer 5/3 coefficient of a band weighted by `shift`: the bits below the shift are
+/// known zeros, so the midpoint of the rest, unweighted and rounded to an integer.
+#[inline]
+pub fn reconstruct_integer(mag: u64, known: u8, shift: u8) -> f64 {
+    let point = if known <= shift {
+        (mag as i64) as f64
+    } else {
+        (mag as i64) as f64 + ((1i64 << known) - (1i64 << shift)) as f64 * 0.5
+    };
+    (point / (1i64 << shift) as f64).round()
+}
+
+/// Forward transform and quantisation to weighted integer magnitudes (flat Mallat index),
+/// signs and the quantiser exponent.
+pub fn forward(
+    centered: &Grid<f64>,
+    wavelet: Wavelet,
+    layout: &Layout,
+) -> (Vec<u64>, Vec<bool>, i8) {
+    let n = centered.len();
+    let mut mags = vec![0u64; n];
+    let mut negs = vec![false; n];
+    let band_of = band_index(layout);
+    match wavelet {
+        Wavelet::LeGall53 => {
+            let mut g = centered.map(|&u| u.round() as i32);
+            wavelet::forward_int53(&mut g, layout);
+            let shifts = integer_shifts(layout);
+            for (idx, &c) in g.data().iter().enumerate() {
+                mags[idx] = u64::from(c.unsigned_abs()) << shifts[band_of[idx] as usize];
+                negs[idx] = c < 0;
+            }
+            (mags, negs, 0)
+        }
+        Wavelet::Cdf97 => {
+            let mut g = centered.clone();
+            wavelet::forward(&mut g, Wavelet::Cdf97, layout);
+            let weights = real_weights(Wavelet::Cdf97, layout);
+            // Keep magnitudes below 2^40 whatever the data's range.
+            let peak = g
+                .data()
+                .iter()
+                .enumerate()
+                .map(|(i, c)| c.abs() * weights[band_of[i] as usize])
+                .fold(0.0, f64::max);
+            let mut qexp = REAL_QEXP;
+            while peak / (2f64).powi(i32::from(qexp)) >= (1u64 << 40) as f64 && qexp < 30 {
+                qexp += 1;
+            }
+            let q = (2f64).powi(i32::from(qexp));
+            for (idx, &c) in g.data().iter().enumerate() {
+                mags[idx] = (c.abs() * weights[band_of[idx] as usize] / q) as u64;
+                negs[idx] = c < 0.0;
+            }
+            (mags, negs, qexp)
+        }
     }
+}
+
+/// Scan-order band index of every coefficient (flat Mallat index).
+fn band_index(layout: &Layout) -> Vec<u8> {
+    let mut band_of = vec![0u8; layout.rows() * layout.cols()];
+    for (bi, b) in layout.bands_coarse_to_fine().iter().enumerate() {
+        for i in 0..b.rows {
+            let row = (b.row0 + i) * layout.cols() + b.col0;
+            band_of[row..row + b.cols].fill(bi as u8);
+        }
+    }
+    band_of
 }

@@ -5,12 +5,13 @@
 //! every sample. The bin indices are mostly zero and are coded with neighbour contexts
 //! (SPERR codes its outliers after the wavelet pass the same way in spirit).
 //!
-//! The encoder tries every plane boundary as the cut between wavelet prefix and residual
-//! and keeps the cheapest total.
+//! The encoder tries the plane boundaries as the cut between wavelet prefix and residual
+//! and keeps the cheapest total. It does not decode to try a cut: the state a decoder holds
+//! at a plane boundary follows from the encoder's final state (every coefficient found by
+//! then is known exactly down to that plane), so a candidate costs one inverse transform
+//! and one residual coding, which stops early once it cannot beat the best so far.
 
 use super::arith::{Decoder, Encoder, Prob, PROB_INIT};
-use super::stream::Header;
-use super::{decode_centered, DecodeLimit};
 use crate::error::DecodeError;
 use crate::grid::Grid;
 
@@ -20,6 +21,8 @@ const MODE_INTEGER: u8 = 1;
 const UNARY: usize = 14;
 /// Escape bits cap: magnitudes beyond 2^40 bins are not a heightmap.
 const MAX_ESCAPE_BITS: u32 = 40;
+/// Samples between two looks at the budget while coding a candidate.
+const CHECK_EVERY: usize = 4096;
 
 /// The chosen split between wavelet prefix and residual pass.
 pub struct Cut {
@@ -29,33 +32,35 @@ pub struct Cut {
     pub bytes: Vec<u8>,
 }
 
-/// Tries each plane boundary and returns the cheapest (prefix + residual) split.
-pub fn choose_cut(header: &Header, segments: &[Vec<u8>], units: &Grid<f64>, bound: f64) -> Cut {
+/// Tries the cuts between wavelet prefix and residual pass (every plane boundary, and the
+/// point after a plane's propagation and refinement passes) from the finest back while the
+/// totals keep falling, and returns the cheapest. `heights_at(cut)` gives the centred
+/// heights a decoder holds after the first `cut` segments (`segments` are their lengths).
+pub fn choose_cut(
+    heights_at: impl Fn(usize) -> Grid<f64>,
+    segments: &[usize],
+    units: &Grid<f64>,
+    bound: f64,
+) -> Cut {
     // `units` are centred coder units, the same the decoder reconstructs before the residual.
     let integer = units.data().iter().all(|u| u.fract() == 0.0) && bound >= 1.0;
     let bound = if integer { bound.floor() } else { bound };
     let mut best: Option<(usize, Cut)> = None;
-    // Cut at each plane boundary (and after the propagation/refinement part of a plane).
-    let cuts: Vec<usize> = (0..=segments.len()).filter(|s| s % 3 != 1).collect();
     let mut worse_in_a_row = 0;
-    for &cut in cuts.iter().rev() {
-        let prefix_len: usize = segments[..cut].iter().map(Vec::len).sum();
-        let decoded = decoded_units(header, segments, cut);
-        let Some(decoded) = decoded else { continue };
-        let bytes = encode_residual(units, &decoded, bound, integer);
-        let total = prefix_len + bytes.len();
-        match &best {
-            Some((t, _)) if *t <= total => {
-                worse_in_a_row += 1;
-                // Totals are near-convex in the cut: stop after a clear turn.
-                if worse_in_a_row >= 3 {
-                    break;
-                }
-            }
-            _ => {
+    for cut in (0..=segments.len()).rev().filter(|s| s % 3 != 1) {
+        let prefix_len: usize = segments[..cut].iter().sum();
+        // A candidate only counts while its total stays below the best: the residual
+        // coder stops as soon as its output says it cannot.
+        let budget = best.as_ref().map(|(t, _)| t.saturating_sub(prefix_len));
+        let bytes = match budget {
+            Some(b) if b <= 1 => None,
+            _ => encode_residual(units, &heights_at(cut), bound, integer, budget),
+        };
+        match bytes {
+            Some(bytes) => {
                 worse_in_a_row = 0;
                 best = Some((
-                    total,
+                    prefix_len + bytes.len(),
                     Cut {
                         segments: cut,
                         bound,
@@ -63,28 +68,24 @@ pub fn choose_cut(header: &Header, segments: &[Vec<u8>], units: &Grid<f64>, boun
                     },
                 ));
             }
+            None => {
+                worse_in_a_row += 1;
+                // Totals are near-convex in the cut: stop after a clear turn.
+                if worse_in_a_row >= 3 {
+                    break;
+                }
+            }
         }
     }
-    best.map(|(_, c)| c).unwrap_or(Cut {
-        segments: 0,
-        bound,
-        bytes: Vec::new(),
-    })
-}
-
-/// Decodes the first `cut` segments, in centred coder units.
-fn decoded_units(header: &Header, segments: &[Vec<u8>], cut: usize) -> Option<Grid<f64>> {
-    let mut h = header.clone();
-    h.segments = segments[..cut].iter().map(Vec::len).collect();
-    h.residual = None;
-    let mut bytes = Vec::new();
-    h.write(&mut bytes);
-    for s in &segments[..cut] {
-        bytes.extend_from_slice(s);
-    }
-    decode_centered(&bytes, DecodeLimit::All, usize::MAX)
-        .ok()
-        .map(|(d, _)| d.heights)
+    let mode = if integer { MODE_INTEGER } else { MODE_REAL };
+    best.map_or(
+        Cut {
+            segments: 0,
+            bound,
+            bytes: vec![mode],
+        },
+        |(_, c)| c,
+    )
 }
 
 struct Model {
@@ -130,7 +131,15 @@ fn context(q: &[i64], cols: usize, idx: usize) -> (usize, usize, usize) {
     (nz, big, sign)
 }
 
-fn encode_residual(units: &Grid<f64>, decoded: &Grid<f64>, bound: f64, integer: bool) -> Vec<u8> {
+/// Codes the residual bins of `units` over `decoded`. With a `budget`, gives up (`None`) as
+/// soon as the section is sure to take `budget` bytes or more.
+fn encode_residual(
+    units: &Grid<f64>,
+    decoded: &Grid<f64>,
+    bound: f64,
+    integer: bool,
+    budget: Option<usize>,
+) -> Option<Vec<u8>> {
     let bin = if integer {
         2.0 * bound + 1.0
     } else {
@@ -147,12 +156,16 @@ fn encode_residual(units: &Grid<f64>, decoded: &Grid<f64>, bound: f64, integer: 
         }
         q[idx] = k as i64;
     }
+    let mode = if integer { MODE_INTEGER } else { MODE_REAL };
     if q.iter().all(|&v| v == 0) {
-        return vec![if integer { MODE_INTEGER } else { MODE_REAL }];
+        return Some(vec![mode]);
     }
     let mut m = Model::new();
     let mut enc = Encoder::new();
     for idx in 0..q.len() {
+        if idx % CHECK_EVERY == 0 && budget.is_some_and(|b| 1 + enc.committed() >= b) {
+            return None;
+        }
         let (nz, big, sc) = context(&q, cols, idx);
         let v = q[idx];
         enc.encode(&mut m.nonzero[nz], v != 0);
@@ -177,14 +190,14 @@ fn encode_residual(units: &Grid<f64>, decoded: &Grid<f64>, bound: f64, integer: 
                 enc.encode(&mut m.escape[b as usize], b + 1 < bits);
             }
             for b in (0..bits.saturating_sub(1)).rev() {
-                enc.encode_even((rest + 1) >> b & 1 == 1);
+                enc.encode_bypass((rest + 1) >> b & 1 == 1);
             }
         }
         enc.encode(&mut m.sign[sc], v < 0);
     }
-    let mut out = vec![if integer { MODE_INTEGER } else { MODE_REAL }];
+    let mut out = vec![mode];
     out.extend(enc.finish());
-    out
+    budget.is_none_or(|b| out.len() < b).then_some(out)
 }
 
 /// Applies a residual section to heights in coder units (offset not yet added back).
@@ -230,7 +243,7 @@ pub fn apply(units: &mut Grid<f64>, bytes: &[u8], bound: f64) -> Result<(), Deco
             }
             let mut rest = 1u64;
             for _ in 0..bits - 1 {
-                rest = rest << 1 | u64::from(dec.decode_even());
+                rest = rest << 1 | u64::from(dec.decode_bypass());
             }
             mag += rest - 1;
         }

@@ -1,5 +1,5 @@
 use super::*;
-use crate::fixtures::n44w072_crop;
+use crate::fixtures::{n44w072, n44w072_crop};
 use proptest::prelude::*;
 
 fn max_abs_diff(a: &Grid<f64>, b: &Grid<f64>) -> f64 {
@@ -94,6 +94,108 @@ fn every_byte_prefix_decodes_and_significance_only_grows() {
 }
 
 #[test]
+fn recorded_bounds_hold_after_every_pass() {
+    for (g, name) in [
+        (n44w072_crop(300, 500, 257), "257² tile"),
+        (n44w072_crop(700, 100, 129), "129² tile"),
+        (
+            n44w072_crop(100, 100, 64).map(|h| h * 0.1 + 0.05),
+            "0.1 m steps",
+        ),
+    ] {
+        let step = if name == "0.1 m steps" { 0.1 } else { 1.0 };
+        for wavelet in [Wavelet::Cdf97, Wavelet::LeGall53] {
+            if wavelet == Wavelet::LeGall53 && step != 1.0 {
+                continue;
+            }
+            let enc = encode(&g, &EncodeParams::new(wavelet, step)).unwrap();
+            for (s, p) in enc.passes.iter().enumerate() {
+                let at = format!(
+                    "{name} {wavelet:?}: pass {s} ({:?} of plane {})",
+                    p.kind, p.plane
+                );
+                // A byte limit at the pass end also decodes the empty passes right after it
+                // (they need no bytes): the decode stops after the last of them.
+                let last = s + enc.passes[s + 1..]
+                    .iter()
+                    .take_while(|q| q.end == p.end)
+                    .count();
+                let bound = enc.passes[last].max_error;
+                let d = decode(&enc.bytes, DecodeLimit::Bytes(p.end), DEFAULT_MAX_SAMPLES).unwrap();
+                assert_eq!(d.max_error, Some(bound), "{at}");
+                let actual = max_abs_diff(&d.heights, &g);
+                assert!(
+                    actual <= bound && bound <= actual * 1.045,
+                    "{at}: bound {bound} for a max error of {actual}"
+                );
+                if p.kind == PassKind::Cleanup {
+                    // Decoding to the plane's threshold stops at the same point.
+                    let by_t = decode(
+                        &enc.bytes,
+                        DecodeLimit::Threshold(p.threshold),
+                        DEFAULT_MAX_SAMPLES,
+                    )
+                    .unwrap();
+                    assert_eq!(by_t.max_error, Some(p.max_error), "{at}");
+                    assert!(max_abs_diff(&by_t.heights, &g) <= p.max_error, "{at}");
+                }
+            }
+            // The bounds fall as passes are added, to the last plane's few hundredths.
+            let first = enc.passes.first().unwrap().max_error;
+            let final_bound = enc.passes.last().unwrap().max_error;
+            assert!(
+                final_bound < first / 100.0,
+                "{name} {wavelet:?}: {first} → {final_bound}"
+            );
+        }
+    }
+}
+
+#[test]
+fn a_pass_decoded_in_part_has_no_bound() {
+    let g = n44w072_crop(300, 500, 65);
+    let enc = encode(&g, &EncodeParams::new(Wavelet::Cdf97, 1.0)).unwrap();
+    let cleanup = enc
+        .passes
+        .iter()
+        .rposition(|p| p.kind == PassKind::Cleanup && p.end > enc.passes[0].end + 10)
+        .unwrap();
+    let d = decode(
+        &enc.bytes,
+        DecodeLimit::Bytes(enc.passes[cleanup].end - 1),
+        DEFAULT_MAX_SAMPLES,
+    )
+    .unwrap();
+    assert_eq!(d.max_error, None);
+    let nothing = decode(
+        &enc.bytes,
+        DecodeLimit::Threshold(1e30),
+        DEFAULT_MAX_SAMPLES,
+    )
+    .unwrap();
+    assert_eq!(nothing.max_error, None);
+    // A stream physically cut at a pass end has lost the trailer: plane ends (header) keep
+    // their bound, the other passes have none.
+    let mut planes_seen = 0;
+    for p in enc
+        .passes
+        .iter()
+        .filter(|p| p.end < enc.passes[cleanup].end)
+    {
+        let cut = decode(&enc.bytes[..p.end], DecodeLimit::All, DEFAULT_MAX_SAMPLES).unwrap();
+        // The decode also runs through the empty passes after p: it stops after the last.
+        let last = enc.passes.iter().rfind(|q| q.end == p.end).unwrap();
+        if last.kind == PassKind::Cleanup {
+            assert_eq!(cut.max_error, Some(last.max_error), "plane {}", p.plane);
+            planes_seen += 1;
+        } else {
+            assert_eq!(cut.max_error, None, "{:?} of plane {}", p.kind, p.plane);
+        }
+    }
+    assert!(planes_seen > 3);
+}
+
+#[test]
 fn max_error_mode_bounds_every_sample() {
     let g = n44w072_crop(300, 500, 129);
     for wavelet in [Wavelet::Cdf97, Wavelet::LeGall53] {
@@ -108,6 +210,11 @@ fn max_error_mode_bounds_every_sample() {
             assert!(d.bounded);
             let err = max_abs_diff(&d.heights, &g);
             assert!(err <= e + 1e-9, "{wavelet:?} E={e}: max error {err}");
+            let reported = d.max_error.unwrap();
+            assert!(
+                err <= reported + 1e-9 && reported <= e,
+                "{wavelet:?} E={e}: {reported}"
+            );
             assert!(
                 enc.bytes.len() <= last_len,
                 "{wavelet:?}: looser bound cost more bytes"
@@ -183,4 +290,70 @@ proptest! {
         let cut = cut.index(bytes.len() + 1);
         let _ = decode(&bytes[..cut], DecodeLimit::All, 1 << 20);
     }
+}
+
+/// Seeds the decoder fuzzer (`codec/fuzz`, target `ezw_decode`) with real streams: both
+/// wavelets, max-error mode, 0.1 m steps, odd shapes, each under every decode limit the
+/// target's first byte selects. Run with `cargo test -p zerotile-codec --lib
+/// write_fuzz_seeds -- --ignored`; the corpus directory is gitignored.
+#[test]
+#[ignore]
+fn write_fuzz_seeds() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/corpus/ezw_decode");
+    std::fs::create_dir_all(&dir).unwrap();
+    let dem = n44w072();
+    let grids = [
+        (dem.crop(300, 500, 33, 33).unwrap(), 1.0),
+        (dem.crop(600, 600, 17, 17).unwrap(), 1.0),
+        (dem.crop(10, 20, 9, 40).unwrap(), 1.0),
+        (dem.crop(10, 20, 40, 3).unwrap(), 1.0),
+        (dem.crop(0, 0, 1, 7).unwrap(), 1.0),
+        (
+            dem.crop(100, 100, 24, 24).unwrap().map(|h| h * 0.1 + 0.05),
+            0.1,
+        ),
+        (Grid::new(5, 5, vec![42.0; 25]).unwrap(), 1.0),
+    ];
+    let mut n = 0;
+    for (g, step) in &grids {
+        for wavelet in [Wavelet::Cdf97, Wavelet::LeGall53] {
+            for max_error in [None, Some(2.0)] {
+                let params = EncodeParams {
+                    max_error,
+                    ..EncodeParams::new(wavelet, *step)
+                };
+                let Ok(enc) = encode(g, &params) else {
+                    continue;
+                };
+                // A seed must be a valid stream, or the fuzzer starts from noise.
+                decode(&enc.bytes, DecodeLimit::All, DEFAULT_MAX_SAMPLES).unwrap();
+                // Mode bytes: All, Threshold(mode / 16), Bytes(len · mode / 255).
+                for mode in [0u8, 3, 1, 16, 64, 2, 128, 254] {
+                    let mut seed = vec![mode];
+                    seed.extend_from_slice(&enc.bytes);
+                    std::fs::write(dir.join(format!("seed-{n:03}")), seed).unwrap();
+                    n += 1;
+                }
+            }
+        }
+    }
+    assert!(
+        n >= 8 * grids.len(),
+        "only {n} seeds written to {}",
+        dir.display()
+    );
+}
+
+#[test]
+fn a_version_1_stream_is_refused_by_name() {
+    let g = n44w072_crop(300, 500, 17);
+    let mut bytes = encode(&g, &EncodeParams::new(Wavelet::Cdf97, 1.0))
+        .unwrap()
+        .bytes;
+    bytes[..4].copy_from_slice(b"ZTW1");
+    let err = decode(&bytes, DecodeLimit::All, DEFAULT_MAX_SAMPLES).unwrap_err();
+    assert!(
+        matches!(&err, DecodeError::Unsupported(m) if m.contains("version 1")),
+        "{err}"
+    );
 }
