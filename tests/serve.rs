@@ -6,9 +6,9 @@
     reason = "end-to-end test: any failure should stop the test loudly"
 )]
 
-use std::io::{BufRead, BufReader, Read, Write};
+use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::Command;
 use std::sync::OnceLock;
 
 use serde_json::Value;
@@ -21,6 +21,7 @@ use zerotile_codec::raster::Encoding;
 use zerotile_codec::wavelet::Wavelet;
 use zerotile_codec::zerotree::{mesh_error, TerrainMesh};
 use zerotile_codec::Grid;
+use zerotile_tests::server::Server;
 use zerotile_tests::{qm, shared_data, zerotile_bin};
 
 /// Top-left sample of the crop in N44W072 and its side: 2 × 2 tiles of 257 samples.
@@ -151,128 +152,6 @@ fn write_world(path: &Path, scheme: &str, xs: &[u32]) {
         created: "2026-01-01T00:00:00Z".into(),
     };
     std::fs::write(path, w.finish(&m).unwrap()).unwrap();
-}
-
-/// A running `zerotile serve`, stopped on drop. Its log must hold no WARN or ERROR line
-/// unless the test expects some.
-struct Server {
-    child: Child,
-    base: String,
-    agent: ureq::Agent,
-    log: PathBuf,
-    warnings_expected: bool,
-}
-
-impl Server {
-    fn start(data: &Path) -> Self {
-        static STARTED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-        let n = STARTED.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        let log =
-            std::env::temp_dir().join(format!("zerotile-serve-{}-{n}.log", std::process::id()));
-        let mut child = Command::new(zerotile_bin())
-            .args(["serve", "--addr", "127.0.0.1:0", "--data"])
-            .arg(data)
-            .stdout(Stdio::piped())
-            .stderr(std::fs::File::create(&log).unwrap())
-            .spawn()
-            .unwrap();
-        // The first line names the URL (port 0 picks a free port).
-        let mut line = String::new();
-        BufReader::new(child.stdout.take().unwrap())
-            .read_line(&mut line)
-            .unwrap();
-        let at = line.find("http://").expect("the server prints its URL");
-        let base = line[at..].trim().trim_end_matches('/').to_string();
-        let agent = ureq::Agent::config_builder()
-            .http_status_as_error(false)
-            .build()
-            .into();
-        Self {
-            child,
-            base,
-            agent,
-            log,
-            warnings_expected: false,
-        }
-    }
-
-    fn get(&self, path: &str, headers: &[(&str, &str)]) -> Reply {
-        let mut req = self.agent.get(format!("{}{path}", self.base));
-        for (k, v) in headers {
-            req = req.header(*k, *v);
-        }
-        let mut res = req.call().unwrap();
-        let status = res.status().as_u16();
-        let headers = res
-            .headers()
-            .iter()
-            .map(|(k, v)| (k.as_str().to_string(), v.to_str().unwrap_or("").to_string()))
-            .collect();
-        let body = res
-            .body_mut()
-            .with_config()
-            .limit(64 << 20)
-            .read_to_vec()
-            .unwrap();
-        Reply {
-            status,
-            headers,
-            body,
-        }
-    }
-}
-
-impl Drop for Server {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-        let log = std::fs::read_to_string(&self.log).unwrap_or_default();
-        let _ = std::fs::remove_file(&self.log);
-        let bad: Vec<&str> = log
-            .lines()
-            .filter(|l| l.contains(" WARN ") || l.contains(" ERROR "))
-            .collect();
-        if !self.warnings_expected && !bad.is_empty() && !std::thread::panicking() {
-            panic!("unexpected server log lines:\n{}", bad.join("\n"));
-        }
-    }
-}
-
-struct Reply {
-    status: u16,
-    headers: Vec<(String, String)>,
-    body: Vec<u8>,
-}
-
-impl Reply {
-    fn header(&self, name: &str) -> Option<&str> {
-        self.headers
-            .iter()
-            .find(|(k, _)| k.eq_ignore_ascii_case(name))
-            .map(|(_, v)| v.as_str())
-    }
-
-    fn json(&self) -> Value {
-        serde_json::from_slice(&self.body).unwrap_or_else(|e| {
-            panic!("{e}: {}", String::from_utf8_lossy(&self.body));
-        })
-    }
-
-    /// A 4xx with the JSON error shape and the given code.
-    fn assert_error(&self, status: u16, code: &str, what: &str) {
-        assert_eq!(
-            self.status,
-            status,
-            "{what}: {}",
-            String::from_utf8_lossy(&self.body)
-        );
-        let v = self.json();
-        assert_eq!(v["error"], code, "{what}: {v}");
-        assert!(
-            v["message"].as_str().is_some_and(|m| !m.is_empty()),
-            "{what}"
-        );
-    }
 }
 
 #[test]

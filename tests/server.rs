@@ -6,18 +6,89 @@
 )]
 
 use std::io::{BufRead, BufReader};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 
 use serde_json::Value;
 
 use crate::zerotile_bin;
 
-/// A `zerotile serve` on a free port, killed on drop.
+/// A running `zerotile serve`, stopped on drop. Its log must hold no WARN or ERROR line
+/// unless the test expects some.
 pub struct Server {
-    child: Child,
-    base: String,
-    agent: ureq::Agent,
+    pub child: Child,
+    pub base: String,
+    pub agent: ureq::Agent,
+    log: PathBuf,
+    /// Set when a test provokes WARN/ERROR lines on purpose.
+    pub warnings_expected: bool,
+}
+
+impl Server {
+    pub fn start(data: &Path) -> Self {
+        static STARTED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+        let n = STARTED.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let log =
+            std::env::temp_dir().join(format!("zerotile-serve-{}-{n}.log", std::process::id()));
+        let mut child = Command::new(zerotile_bin())
+            .args(["serve", "--addr", "127.0.0.1:0", "--data"])
+            .arg(data)
+            .stdout(Stdio::piped())
+            .stderr(std::fs::File::create(&log).unwrap())
+            .spawn()
+            .unwrap();
+        // The first line names the URL (port 0 picks a free port).
+        let mut line = String::new();
+        BufReader::new(child.stdout.take().unwrap())
+            .read_line(&mut line)
+            .unwrap();
+        let at = line.find("http://").expect("the server prints its URL");
+        let base = line[at..].trim().trim_end_matches('/').to_string();
+        let agent = ureq::Agent::config_builder()
+            .http_status_as_error(false)
+            .build()
+            .into();
+        Self {
+            child,
+            base,
+            agent,
+            log,
+            warnings_expected: false,
+        }
+    }
+
+    /// POSTs `body` with a content type.
+    pub fn post(&self, path: &str, content_type: &str, body: &[u8]) -> Reply {
+        let req = self
+            .agent
+            .post(format!("{}{path}", self.base))
+            .header("content-type", content_type);
+        reply(req.send(body).unwrap())
+    }
+
+    pub fn get(&self, path: &str, headers: &[(&str, &str)]) -> Reply {
+        let mut req = self.agent.get(format!("{}{path}", self.base));
+        for (k, v) in headers {
+            req = req.header(*k, *v);
+        }
+        reply(req.call().unwrap())
+    }
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+        let log = std::fs::read_to_string(&self.log).unwrap_or_default();
+        let _ = std::fs::remove_file(&self.log);
+        let bad: Vec<&str> = log
+            .lines()
+            .filter(|l| l.contains(" WARN ") || l.contains(" ERROR "))
+            .collect();
+        if !self.warnings_expected && !bad.is_empty() && !std::thread::panicking() {
+            panic!("unexpected server log lines:\n{}", bad.join("\n"));
+        }
+    }
 }
 
 pub struct Reply {
@@ -34,90 +105,55 @@ impl Reply {
             .map(|(_, v)| v.as_str())
     }
 
+    pub fn json(&self) -> Value {
+        serde_json::from_slice(&self.body).unwrap_or_else(|e| {
+            panic!("{e}: {}", String::from_utf8_lossy(&self.body));
+        })
+    }
+
+    /// A 4xx with the JSON error shape and the given code.
+    /// A header parsed as a number.
     pub fn number(&self, name: &str) -> f64 {
         self.header(name).unwrap().parse().unwrap()
     }
 
-    pub fn json(&self) -> Value {
-        serde_json::from_slice(&self.body).unwrap()
+    /// A 4xx/5xx with the JSON error shape and the given code.
+    pub fn error(&self, status: u16, code: &str) {
+        self.assert_error(status, code, code);
     }
 
-    pub fn error(&self, status: u16, code: &str) {
+    pub fn assert_error(&self, status: u16, code: &str, what: &str) {
         assert_eq!(
             self.status,
             status,
-            "{}",
+            "{what}: {}",
             String::from_utf8_lossy(&self.body)
         );
-        assert_eq!(self.json()["error"], code);
+        let v = self.json();
+        assert_eq!(v["error"], code, "{what}: {v}");
+        assert!(
+            v["message"].as_str().is_some_and(|m| !m.is_empty()),
+            "{what}"
+        );
     }
 }
 
-impl Server {
-    pub fn start(data: &Path) -> Self {
-        let mut child = Command::new(zerotile_bin())
-            .args(["serve", "--addr", "127.0.0.1:0", "--data"])
-            .arg(data)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap();
-        let mut line = String::new();
-        BufReader::new(child.stdout.take().unwrap())
-            .read_line(&mut line)
-            .unwrap();
-        let at = line.find("http://").expect("the server prints its URL");
-        let agent = ureq::Agent::config_builder()
-            .http_status_as_error(false)
-            .build()
-            .into();
-        Self {
-            child,
-            base: line[at..].trim().trim_end_matches('/').to_string(),
-            agent,
-        }
-    }
-
-    fn reply(mut res: ureq::http::Response<ureq::Body>) -> Reply {
-        let status = res.status().as_u16();
-        let headers = res
-            .headers()
-            .iter()
-            .map(|(k, v)| (k.as_str().to_string(), v.to_str().unwrap_or("").to_string()))
-            .collect();
-        let body = res
-            .body_mut()
-            .with_config()
-            .limit(64 << 20)
-            .read_to_vec()
-            .unwrap();
-        Reply {
-            status,
-            headers,
-            body,
-        }
-    }
-
-    pub fn get(&self, path: &str, headers: &[(&str, &str)]) -> Reply {
-        let mut req = self.agent.get(format!("{}{path}", self.base));
-        for (k, v) in headers {
-            req = req.header(*k, *v);
-        }
-        Self::reply(req.call().unwrap())
-    }
-
-    pub fn post(&self, path: &str, content_type: &str, body: &[u8]) -> Reply {
-        let req = self
-            .agent
-            .post(format!("{}{path}", self.base))
-            .header("content-type", content_type);
-        Self::reply(req.send(body).unwrap())
-    }
-}
-
-impl Drop for Server {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
+fn reply(mut res: ureq::http::Response<ureq::Body>) -> Reply {
+    let status = res.status().as_u16();
+    let headers = res
+        .headers()
+        .iter()
+        .map(|(k, v)| (k.as_str().to_string(), v.to_str().unwrap_or("").to_string()))
+        .collect();
+    let body = res
+        .body_mut()
+        .with_config()
+        .limit(64 << 20)
+        .read_to_vec()
+        .unwrap();
+    Reply {
+        status,
+        headers,
+        body,
     }
 }

@@ -101,7 +101,6 @@ pub fn torus(around: usize, tube: usize, big: f64, small: f64) -> TriMesh {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use zerotile_codec::mesh::topology::Edges;
 
     #[test]
     fn sphere_has_the_papers_count_and_outward_faces() {
@@ -115,16 +114,13 @@ mod tests {
         }
     }
 
-    /// Boundary edges, and whether every directed edge occurs once (consistent winding).
+    /// Boundary edges, and whether every edge is manifold and consistently wound.
     fn boundary_and_winding(m: &TriMesh) -> (usize, bool) {
-        let e = Edges::new(&m.faces, m.positions.len());
-        let boundary = (0..e.len() as u32).filter(|&k| e.is_boundary(k)).count();
-        let mut directed = std::collections::HashSet::new();
-        let consistent = m
-            .faces
-            .iter()
-            .all(|&[a, b, c]| [(a, b), (b, c), (c, a)].iter().all(|&d| directed.insert(d)));
-        (boundary, consistent)
+        let r = zerotile_codec::mesh::inspect(m);
+        (
+            r.boundary_edges,
+            r.inconsistent_orientation_edges + r.non_manifold_edges == 0,
+        )
     }
 
     #[test]

@@ -130,14 +130,14 @@ pub struct ServeOptions {
 pub fn run(opts: ServeOptions) -> Result<()> {
     init_tracing();
     let catalog = Catalog::open_dir(&opts.data)?;
-    if catalog.is_empty() {
+    let n = catalog.len();
+    let meshes = meshes::MeshCatalog::open(&opts.data, opts.config.response_cache_bytes);
+    if catalog.is_empty() && meshes.list().is_empty() {
         tracing::warn!(
-            "no datasets in {} (build one with `zerotile ingest`)",
+            "no datasets or meshes in {} (build a dataset with `zerotile ingest`)",
             opts.data.display()
         );
     }
-    let n = catalog.len();
-    let meshes = meshes::MeshCatalog::open(&opts.data, opts.config.response_cache_bytes);
     let state = AppState::new(catalog, opts.config).with_meshes(meshes);
     let rt = tokio::runtime::Builder::new_multi_thread()
         .enable_all()

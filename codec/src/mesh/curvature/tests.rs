@@ -2,7 +2,6 @@ use glam::DVec3;
 
 use super::measure::{measure, Weights};
 use super::*;
-use crate::mesh::topology::Edges;
 
 /// A UV sphere of radius `r`: `rings` latitudes between the poles, `segments` around.
 fn uv_sphere(rings: usize, segments: usize, r: f64) -> TriMesh {
@@ -109,16 +108,13 @@ fn concave_bends_negative_and_flat_is_zero() {
     assert!(m.mean.abs() < 1e-12 && m.gaussian.abs() < 1e-12 && m.bending < 1e-6);
 }
 
-/// Boundary edges and whether every directed edge occurs once.
+/// Boundary edges, and whether every edge is manifold and consistently wound.
 fn boundary_and_winding(m: &TriMesh) -> (usize, bool) {
-    let e = Edges::new(&m.faces, m.positions.len());
-    let boundary = (0..e.len() as u32).filter(|&k| e.is_boundary(k)).count();
-    let mut seen = std::collections::HashSet::new();
-    let ok = m
-        .faces
-        .iter()
-        .all(|&[a, b, c]| [(a, b), (b, c), (c, a)].iter().all(|&d| seen.insert(d)));
-    (boundary, ok)
+    let r = crate::mesh::inspect(m);
+    (
+        r.boundary_edges,
+        r.inconsistent_orientation_edges + r.non_manifold_edges == 0,
+    )
 }
 
 #[test]
@@ -136,11 +132,7 @@ fn levels_nest_stay_closed_and_shrink_as_epsilon_grows() {
         last = l.mesh.faces.len();
         assert_eq!(boundary_and_winding(&l.mesh), (0, true), "ε {}", l.error);
         // Euler characteristic of a sphere.
-        let e = Edges::new(&l.mesh.faces, l.mesh.positions.len()).len() as i64;
-        assert_eq!(
-            l.mesh.positions.len() as i64 - e + l.mesh.faces.len() as i64,
-            2
-        );
+        assert_eq!(crate::mesh::inspect(&l.mesh).euler_characteristic, 2);
     }
 }
 

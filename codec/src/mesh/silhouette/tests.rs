@@ -2,7 +2,6 @@ use glam::DVec3;
 
 use super::*;
 use crate::mesh::io::{read_path, MeshLimits};
-use crate::mesh::topology::Edges;
 
 fn read(name: &str) -> TriMesh {
     read_path(
@@ -12,15 +11,13 @@ fn read(name: &str) -> TriMesh {
     .unwrap()
 }
 
+/// Boundary edges, and whether every edge is manifold and consistently wound.
 fn boundary_and_winding(m: &TriMesh) -> (usize, bool) {
-    let e = Edges::new(&m.faces, m.positions.len());
-    let boundary = (0..e.len() as u32).filter(|&k| e.is_boundary(k)).count();
-    let mut seen = std::collections::HashSet::new();
-    let ok = m
-        .faces
-        .iter()
-        .all(|&[a, b, c]| [(a, b), (b, c), (c, a)].iter().all(|&d| seen.insert(d)));
-    (boundary, ok)
+    let r = crate::mesh::inspect(m);
+    (
+        r.boundary_edges,
+        r.inconsistent_orientation_edges + r.non_manifold_edges == 0,
+    )
 }
 
 #[test]
