@@ -415,6 +415,11 @@ fn quantized_mesh_root_tiles_decode_and_share_their_edge() {
     assert_eq!(layer["format"], "quantized-mesh-1.0");
     assert_eq!(layer["scheme"], "tms");
     assert_eq!(layer["available"][0][0]["endX"], 1);
+    // Listing `metadata` would make CesiumJS require `metadataAvailability`.
+    assert_eq!(
+        layer["extensions"],
+        serde_json::json!(["octvertexnormals", "watermask"])
+    );
     let template = layer["tiles"][0].as_str().unwrap();
     assert!(
         template.starts_with("tiles/{z}/{x}/{y}.terrain"),

@@ -145,11 +145,10 @@ pub(crate) fn layer(d: &Dataset) -> anyhow::Result<LayerJson> {
     let mut layer = LayerJson::for_tiling(&d.tiling, bounds, 0, m.max_zoom)?;
     layer.name = d.name.clone();
     layer.version = format!("{:016x}", d.version);
-    layer.extensions = vec![
-        Extension::OctVertexNormals,
-        Extension::WaterMask,
-        Extension::Metadata,
-    ];
+    // Not `metadata`: CesiumJS takes that as a promise of `metadataAvailability` (tile-held
+    // availability every N levels) and fails every tile without it. The full availability is
+    // published here instead; tiles still carry the extension when a client asks for it.
+    layer.extensions = vec![Extension::OctVertexNormals, Extension::WaterMask];
     // Relative to the manifest's own URL, which sits beside the `tiles/` folder.
     layer.tiles = vec![format!("tiles/{DEFAULT_TILES_TEMPLATE}")];
     layer.description = format!("zerotile EZW terrain from {}", m.source);
