@@ -78,6 +78,11 @@ impl Server {
         }
     }
 
+    /// `http://127.0.0.1:PORT`, without a trailing slash: for clients outside this process.
+    pub fn base(&self) -> &str {
+        &self.base
+    }
+
     fn reply(mut res: ureq::http::Response<ureq::Body>) -> Reply {
         let status = res.status().as_u16();
         let headers = res
