@@ -254,8 +254,10 @@ async function pickDataset() {
     if (n === 0 || n > MAX_TILES) continue;
     zoom.add(new Option(`${z} (${n} tile${n > 1 ? "s" : ""})`, String(z)));
   }
-  // The deepest zoom that fits shows the most detail.
-  zoom.selectedIndex = zoom.options.length - 1;
+  // Start at the deepest zoom of at most 4 tiles: detailed, yet a first load of a few MB.
+  const counts = [...zoom.options].map((o) => tileList(dataset, Number(o.value)).length);
+  const start = counts.findLastIndex((n) => n <= 4);
+  zoom.selectedIndex = start >= 0 ? start : 0;
   shownKey = null;
   await loadTerrain();
 }
