@@ -57,6 +57,11 @@ impl Server {
         }
     }
 
+    /// `http://127.0.0.1:PORT`, without a trailing slash: for clients outside this process.
+    pub fn base(&self) -> &str {
+        &self.base
+    }
+
     /// POSTs `body` with a content type.
     pub fn post(&self, path: &str, content_type: &str, body: &[u8]) -> Reply {
         let req = self

@@ -8,6 +8,7 @@
 //! | [`render`] | quantized-mesh, PNG, ZTM1, OBJ/GLB/JSON bytes |
 //! | [`negotiate`] | Accept, Accept-Encoding, If-None-Match, Range |
 //! | [`routes`] | handlers; [`error`] the one JSON error edge; [`metrics`] Prometheus |
+//! | [`routes::site`] | the viewer page at `/`, its embedded assets, `/openapi.json` |
 //!
 //! The routes are listed in docs/api.md.
 
@@ -25,6 +26,8 @@ pub mod threshold;
 pub mod tile_cache;
 pub mod view_plane;
 
+#[cfg(test)]
+mod site_tests;
 #[cfg(test)]
 mod tests;
 
@@ -52,6 +55,9 @@ pub const REQUEST_TIMEOUT: Duration = Duration::from_secs(30);
 /// The service: every route, with CORS, compression, timeouts and metrics.
 pub fn app(state: AppState) -> Router {
     let routes = Router::new()
+        .route("/", get(routes::site::index))
+        .route("/assets/{*file}", get(routes::site::asset))
+        .route("/openapi.json", get(routes::site::openapi))
         .route("/healthz", get(routes::meta::healthz))
         .route("/metrics", get(routes::meta::metrics))
         .route("/v1/datasets", get(routes::meta::list))

@@ -2,5 +2,6 @@
 
 pub mod meshes;
 pub mod meta;
+pub mod site;
 pub mod tiles;
 pub mod view;

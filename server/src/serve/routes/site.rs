@@ -1,0 +1,99 @@
+//! The viewer page at `/`, its assets and the OpenAPI description: static bytes compiled into
+//! the binary, so `zerotile serve` needs no files beside it and the page works offline.
+//!
+//! The vendored libraries under `server/assets/vendor/` are copied from npm packages pinned in
+//! `web/package-lock.json` by `web/vendor.mjs` (see `web/README.md`); a fresh `cargo build`
+//! reads them from the repository and never runs npm.
+
+use axum::extract::rejection::PathRejection;
+use axum::extract::Path;
+use axum::http::header::{CACHE_CONTROL, CONTENT_TYPE};
+use axum::response::{IntoResponse, Response};
+
+use crate::serve::error::{ApiError, ApiResult};
+
+/// One embedded file: its name under `/assets/`, media type and bytes.
+struct Asset {
+    name: &'static str,
+    media: &'static str,
+    bytes: &'static [u8],
+}
+
+const JS: &str = "text/javascript; charset=utf-8";
+
+/// Every file under `/assets/`. The vendor files are what `web/vendor.mjs` copies.
+const ASSETS: &[Asset] = &[
+    Asset {
+        name: "viewer.js",
+        media: JS,
+        bytes: include_bytes!("../../../assets/viewer.js"),
+    },
+    Asset {
+        name: "viewer.css",
+        media: "text/css; charset=utf-8",
+        bytes: include_bytes!("../../../assets/viewer.css"),
+    },
+    Asset {
+        name: "vendor/three.module.min.js",
+        media: JS,
+        bytes: include_bytes!("../../../assets/vendor/three.module.min.js"),
+    },
+    Asset {
+        name: "vendor/OrbitControls.js",
+        media: JS,
+        bytes: include_bytes!("../../../assets/vendor/OrbitControls.js"),
+    },
+    Asset {
+        name: "vendor/LICENSE-three.txt",
+        media: "text/plain; charset=utf-8",
+        bytes: include_bytes!("../../../assets/vendor/LICENSE-three.txt"),
+    },
+];
+
+const INDEX_HTML: &str = include_str!("../../../assets/index.html");
+
+/// The OpenAPI 3 description of every route; `serve::tests` fails when the router registers
+/// a path this document does not describe (or the reverse).
+pub const OPENAPI_JSON: &str = include_str!("../../../assets/openapi.json");
+
+/// The page is small and changes with the binary: revalidate it every time.
+pub async fn index() -> Response {
+    (
+        [
+            (CONTENT_TYPE, "text/html; charset=utf-8"),
+            (CACHE_CONTROL, "no-cache"),
+        ],
+        INDEX_HTML,
+    )
+        .into_response()
+}
+
+pub async fn openapi() -> Response {
+    (
+        [
+            (CONTENT_TYPE, "application/json"),
+            (CACHE_CONTROL, "no-cache"),
+        ],
+        OPENAPI_JSON,
+    )
+        .into_response()
+}
+
+/// `/assets/{*file}`: only the embedded names; anything else (`..`, unknown files) is 404.
+pub async fn asset(path: Result<Path<String>, PathRejection>) -> ApiResult<Response> {
+    let Path(file) = path?;
+    let a = ASSETS.iter().find(|a| a.name == file).ok_or_else(|| {
+        ApiError::not_found(
+            "not_found",
+            format!("no asset {file:?} (GET / for the viewer)"),
+        )
+    })?;
+    Ok((
+        [
+            (CONTENT_TYPE, a.media),
+            (CACHE_CONTROL, "public, max-age=3600"),
+        ],
+        a.bytes,
+    )
+        .into_response())
+}

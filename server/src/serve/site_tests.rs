@@ -1,0 +1,121 @@
+//! The viewer page, its assets and `/openapi.json`, in-process; and the check that the
+//! OpenAPI document describes exactly the paths `app()` registers.
+
+use std::collections::BTreeSet;
+
+use axum::body::{to_bytes, Body};
+use axum::http::{header, Request, StatusCode};
+use tower::ServiceExt;
+
+use super::{app, AppState, Catalog, Config};
+
+async fn get(uri: &str) -> (StatusCode, String, Vec<u8>) {
+    let res = app(AppState::new(Catalog::default(), Config::default()))
+        .oneshot(Request::get(uri).body(Body::empty()).unwrap())
+        .await
+        .unwrap();
+    let status = res.status();
+    let media = res
+        .headers()
+        .get(header::CONTENT_TYPE)
+        .map(|v| v.to_str().unwrap().to_string())
+        .unwrap_or_default();
+    let body = to_bytes(res.into_body(), 8 << 20).await.unwrap().to_vec();
+    (status, media, body)
+}
+
+/// The paths registered in `app()`: every `.route("…"` literal of mod.rs, with axum's
+/// catch-all `{*file}` written as OpenAPI's `{file}`. Reading the source keeps one list (the
+/// router) instead of a second one that could drift from it.
+fn registered_paths() -> BTreeSet<String> {
+    let src = include_str!("mod.rs");
+    let mut out = BTreeSet::new();
+    for piece in src.split(".route(").skip(1) {
+        let lit = piece
+            .trim_start()
+            .strip_prefix('"')
+            .and_then(|s| s.split('"').next())
+            .expect("every .route( in app() takes a string literal path");
+        out.insert(lit.replace("{*", "{"));
+    }
+    out
+}
+
+#[test]
+fn openapi_describes_every_registered_route_and_no_other() {
+    let registered = registered_paths();
+    // Guards the scan itself: single-line and multi-line `.route(` calls are both found.
+    for known in [
+        "/",
+        "/healthz",
+        "/v1/datasets/{name}/layer.json",
+        "/v1/meshes/{name}",
+    ] {
+        assert!(
+            registered.contains(known),
+            "scan missed {known}: {registered:?}"
+        );
+    }
+    let doc: serde_json::Value = serde_json::from_str(super::routes::site::OPENAPI_JSON).unwrap();
+    assert!(doc["openapi"].as_str().unwrap().starts_with("3."));
+    let documented: BTreeSet<String> = doc["paths"].as_object().unwrap().keys().cloned().collect();
+    let missing: Vec<_> = registered.difference(&documented).collect();
+    assert!(
+        missing.is_empty(),
+        "routes missing from assets/openapi.json: {missing:?}"
+    );
+    let stale: Vec<_> = documented.difference(&registered).collect();
+    assert!(
+        stale.is_empty(),
+        "assets/openapi.json describes routes app() does not register: {stale:?}"
+    );
+}
+
+#[tokio::test]
+async fn the_viewer_page_and_its_assets_are_served() {
+    let (status, media, body) = get("/").await;
+    assert_eq!(status, StatusCode::OK);
+    assert!(media.starts_with("text/html"), "{media}");
+    let html = String::from_utf8(body).unwrap();
+    // Every asset the page names must be served, or the page loads half-broken.
+    for asset in [
+        "/assets/viewer.js",
+        "/assets/viewer.css",
+        "/assets/vendor/three.module.min.js",
+    ] {
+        assert!(html.contains(asset), "index.html names {asset}");
+        let (status, media, body) = get(asset).await;
+        assert_eq!(status, StatusCode::OK, "{asset}");
+        assert!(media.starts_with("text/"), "{asset}: {media}");
+        assert!(body.len() > 500, "{asset} is {} bytes", body.len());
+    }
+    let (status, media, _) = get("/assets/vendor/OrbitControls.js").await;
+    assert_eq!(
+        (status, media.starts_with("text/javascript")),
+        (StatusCode::OK, true)
+    );
+}
+
+#[tokio::test]
+async fn unknown_assets_are_json_404s() {
+    for uri in [
+        "/assets/nope.js",
+        "/assets/../Cargo.toml",
+        "/assets/vendor/%2e%2e/viewer.js",
+    ] {
+        let (status, media, body) = get(uri).await;
+        assert_eq!(status, StatusCode::NOT_FOUND, "{uri}");
+        assert!(media.starts_with("application/json"), "{uri}: {media}");
+        let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
+        assert_eq!(v["error"], "not_found", "{uri}");
+    }
+}
+
+#[tokio::test]
+async fn openapi_json_is_served() {
+    let (status, media, body) = get("/openapi.json").await;
+    assert_eq!(status, StatusCode::OK);
+    assert!(media.starts_with("application/json"), "{media}");
+    let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
+    assert!(v["paths"]["/v1/meshes/{name}/{method}"]["get"].is_object());
+}

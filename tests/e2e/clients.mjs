@@ -1,0 +1,321 @@
+// Real clients against a running `zerotile serve`, in headless Chromium (playwright-core):
+//   cesium   CesiumJS' CesiumTerrainProvider on a geodetic dataset's layer.json
+//   maplibre MapLibre GL JS raster-dem (terrain + hillshade) on a mercator dataset's PNG tiles
+//   viewer   our own page at `/`: terrain and mesh views, controls change the triangle count
+// Each saves a screenshot under --out and fails if it is blank or the client logged errors.
+//
+//   node tests/e2e/clients.mjs --base http://127.0.0.1:8080 --geodetic demo-ridges \
+//        --mercator n44m --out target/e2e [--only cesium,maplibre,viewer]
+//
+// CesiumJS and MapLibre are served from web/node_modules by a small static server started
+// here (they are not embedded in zerotile). Exit status 0 = every client passed.
+
+import { createServer } from "node:http";
+import { createReadStream, mkdirSync, statSync, writeFileSync } from "node:fs";
+import { dirname, extname, join, normalize } from "node:path";
+import { createRequire } from "node:module";
+import { fileURLToPath } from "node:url";
+
+const here = dirname(fileURLToPath(import.meta.url));
+const web = join(here, "..", "..", "web");
+const require = createRequire(join(web, "package.json"));
+const { chromium } = require("playwright-core");
+
+const args = Object.fromEntries(
+  process.argv.slice(2).reduce((acc, a, i, all) => (a.startsWith("--") ? [...acc, [a.slice(2), all[i + 1]]] : acc), []),
+);
+const base = (args.base || "http://127.0.0.1:8080").replace(/\/$/, "");
+const out = args.out || "target/e2e";
+const only = (args.only || "cesium,maplibre,viewer").split(",");
+mkdirSync(out, { recursive: true });
+
+// ---- a static server for the client libraries and their test pages ------------------------
+
+const TYPES = { ".js": "text/javascript", ".css": "text/css", ".json": "application/json", ".html": "text/html",
+  ".png": "image/png", ".jpg": "image/jpeg", ".svg": "image/svg+xml", ".wasm": "application/wasm", ".xml": "application/xml" };
+const pages = {};
+const statics = createServer((req, res) => {
+  const path = decodeURIComponent(new URL(req.url, "http://x").pathname);
+  if (pages[path]) {
+    res.writeHead(200, { "content-type": "text/html" });
+    return res.end(pages[path]);
+  }
+  const file = normalize(join(web, path));
+  if (!path.startsWith("/node_modules/") || !file.startsWith(join(web, "node_modules"))) {
+    res.writeHead(404);
+    return res.end();
+  }
+  try {
+    if (!statSync(file).isFile()) throw new Error("not a file");
+  } catch {
+    res.writeHead(404);
+    return res.end();
+  }
+  res.writeHead(200, { "content-type": TYPES[extname(file)] || "application/octet-stream" });
+  createReadStream(file).pipe(res);
+});
+await new Promise((ok) => statics.listen(0, "127.0.0.1", ok));
+const local = `http://127.0.0.1:${statics.address().port}`;
+
+// ---- the browser ------------------------------------------------------------------------------
+
+// SwiftShader gives WebGL without a GPU (CI machines and containers have none).
+const browser = await chromium.launch({
+  executablePath: process.env.CHROMIUM || "/usr/bin/chromium",
+  args: ["--no-sandbox", "--use-angle=swiftshader", "--use-gl=angle", "--enable-unsafe-swiftshader", "--ignore-gpu-blocklist"],
+});
+
+/// A page that records console errors, page errors, failed requests and 4xx/5xx answers.
+async function open(name) {
+  const page = await browser.newPage({ viewport: { width: 960, height: 600 } });
+  const problems = [];
+  const requests = [];
+  page.on("console", (m) => { if (m.type() === "error") problems.push(`console: ${m.text()}`); });
+  page.on("pageerror", (e) => problems.push(`page error: ${e.message}`));
+  page.on("requestfailed", (r) => problems.push(`request failed: ${r.url()} ${r.failure()?.errorText}`));
+  page.on("request", (r) => requests.push(r.url()));
+  page.on("response", (r) => { if (r.status() >= 400) problems.push(`HTTP ${r.status()}: ${r.url()}`); });
+  return { page, problems, requests, name };
+}
+
+/// Luminance standard deviation and distinct colours of a screenshot, measured in the browser
+/// (no PNG decoder needed here). A blank or single-colour frame has deviation ≈ 0.
+async function pixelStats(png) {
+  const page = await browser.newPage();
+  const stats = await page.evaluate(async (b64) => {
+    const img = new Image();
+    img.src = `data:image/png;base64,${b64}`;
+    await img.decode();
+    const c = document.createElement("canvas");
+    c.width = img.width; c.height = img.height;
+    const g = c.getContext("2d");
+    g.drawImage(img, 0, 0);
+    const d = g.getImageData(0, 0, c.width, c.height).data;
+    let s = 0, s2 = 0;
+    const colours = new Set();
+    for (let i = 0; i < d.length; i += 4) {
+      const y = 0.299 * d[i] + 0.587 * d[i + 1] + 0.114 * d[i + 2];
+      s += y; s2 += y * y;
+      if (colours.size < 5000) colours.add((d[i] << 16) | (d[i + 1] << 8) | d[i + 2]);
+    }
+    const n = d.length / 4;
+    return { std: Math.sqrt(Math.max(s2 / n - (s / n) ** 2, 0)), colours: colours.size };
+  }, png.toString("base64"));
+  await page.close();
+  return stats;
+}
+
+/// Saves the screenshot and fails unless it has real content; `area` limits it to an element.
+async function shoot(c, file, area) {
+  const png = await (area ? c.page.locator(area).screenshot() : c.page.screenshot());
+  writeFileSync(join(out, file), png);
+  const s = await pixelStats(png);
+  console.log(`${c.name}: ${file}: luminance std ${s.std.toFixed(1)}, ${s.colours} colours`);
+  check(s.std > 6 && s.colours > 50, `${c.name}: ${file} looks blank (std ${s.std.toFixed(1)}, ${s.colours} colours)`);
+}
+
+let failures = 0;
+function check(ok, what) {
+  if (!ok) { failures += 1; console.error(`FAIL ${what}`); }
+}
+function noProblems(c) {
+  for (const p of c.problems) console.error(`  ${c.name}: ${p}`);
+  check(c.problems.length === 0, `${c.name}: ${c.problems.length} error(s) in the browser`);
+}
+
+async function describe(name) {
+  const res = await fetch(`${base}/v1/datasets/${name}`);
+  if (!res.ok) throw new Error(`GET /v1/datasets/${name}: ${res.status} ${await res.text()}`);
+  return res.json();
+}
+
+// ---- (a) CesiumJS -----------------------------------------------------------------------------
+
+async function cesium() {
+  const info = await describe(args.geodetic || "demo-ridges");
+  const [w, s, e, n] = info.bounds;
+  pages["/cesium.html"] = `<!doctype html><html><head>
+<link rel="icon" href="data:,">
+<link rel="stylesheet" href="/node_modules/cesium/Build/Cesium/Widgets/widgets.css">
+<style>html,body,#c{margin:0;width:100%;height:100%;overflow:hidden}</style>
+<script>window.CESIUM_BASE_URL = "/node_modules/cesium/Build/Cesium/";</script>
+<script src="/node_modules/cesium/Build/Cesium/Cesium.js"></script></head><body><div id="c"></div>
+<script>
+(async () => {
+  window.tileErrors = [];
+  const terrainProvider = await Cesium.CesiumTerrainProvider.fromUrl(${JSON.stringify(`${base}/v1/datasets/${info.name}/`)},
+    { requestVertexNormals: true });
+  terrainProvider.errorEvent.addEventListener((e) => window.tileErrors.push(String(e.message)));
+  // Offline imagery shipped inside the cesium package (no Ion, no network).
+  const imagery = await Cesium.TileMapServiceImageryProvider.fromUrl(Cesium.buildModuleUrl("Assets/Textures/NaturalEarthII"));
+  const viewer = new Cesium.Viewer("c", {
+    terrainProvider, baseLayer: new Cesium.ImageryLayer(imagery), baseLayerPicker: false, geocoder: false,
+    animation: false, timeline: false, homeButton: false, sceneModePicker: false, navigationHelpButton: false,
+    fullscreenButton: false, infoBox: false, selectionIndicator: false, requestRenderMode: false,
+  });
+  // A low sun from the west shades the relief (with the tiles' oct-encoded normals), so the
+  // screenshot shows the terrain, not a flat texture.
+  viewer.scene.light = new Cesium.DirectionalLight({ direction: new Cesium.Cartesian3(0.6, -0.2, -0.5) });
+  viewer.scene.globe.enableLighting = true;
+  viewer.scene.globe.terrainExaggeration = 2.0;
+  window.viewer = viewer;
+  window.fly = (lon, lat, height) => viewer.camera.setView({
+    destination: Cesium.Cartesian3.fromDegrees(lon, lat, height),
+    orientation: { heading: 0, pitch: Cesium.Math.toRadians(-35), roll: 0 } });
+  window.ready = true;
+})().catch((e) => { console.error("setup: " + e); });
+</script></body></html>`;
+  const c = await open("cesium");
+  await c.page.goto(`${local}/cesium.html`);
+  await c.page.waitForFunction(() => window.ready === true, null, { timeout: 60000 });
+  const lon = (w + e) / 2, lat = (s + n) / 2;
+  const span = Math.max(e - w, n - s) * 111000;
+  const perZoom = [];
+  // From far to near, looking north at the dataset from south of it (pitch −35°, so the
+  // camera sits height / tan 35° ≈ 1.43 · height south of the centre).
+  for (const height of [span * 15, span * 2, span * 0.4]) {
+    const before = c.requests.length;
+    await c.page.evaluate(([a, b, h]) => window.fly(a, b, h), [lon, lat - (height * 1.43) / 111000, height]);
+    await c.page.waitForFunction(() => window.viewer.scene.globe.tilesLoaded, null, { timeout: 60000, polling: 250 });
+    await c.page.waitForTimeout(500);
+    await c.page.waitForFunction(() => window.viewer.scene.globe.tilesLoaded, null, { timeout: 60000, polling: 250 });
+    const zooms = {};
+    for (const u of c.requests.slice(before)) {
+      const m = u.match(/\/tiles\/(\d+)\/\d+\/\d+\.terrain/);
+      if (m) zooms[m[1]] = (zooms[m[1]] || 0) + 1;
+    }
+    perZoom.push(zooms);
+    console.log(`cesium: camera at ${(height / 1000).toFixed(0)} km: .terrain requests per zoom ${JSON.stringify(zooms)}`);
+  }
+  const deepest = (z) => Math.max(-1, ...Object.keys(z).map(Number));
+  const all = {};
+  for (const z of perZoom) for (const [k, v] of Object.entries(z)) all[k] = (all[k] || 0) + v;
+  check(Object.keys(all).length > 0, "cesium: no .terrain tile was requested");
+  // Cesium keeps tiles it has, so a step asks only for what is new: compare the deepest
+  // level of the far view with the deepest asked for by the nearer ones.
+  const far = deepest(perZoom[0]);
+  const near = Math.max(deepest(perZoom[1]), deepest(perZoom[2]));
+  check(near > far, `cesium: moving the camera closer did not request deeper levels (${JSON.stringify(perZoom)})`);
+  const tileErrors = await c.page.evaluate(() => window.tileErrors);
+  for (const t of tileErrors) c.problems.push(`terrain provider: ${t}`);
+  await shoot(c, "cesium.png");
+  noProblems(c);
+  await c.page.close();
+}
+
+// ---- (b) MapLibre GL JS -------------------------------------------------------------------
+
+async function maplibre() {
+  const info = await describe(args.mercator || "n44m");
+  const [w, s, e, n] = info.bounds;
+  const tiles = `${base}/v1/datasets/${info.name}/tiles/{z}/{x}/{y}.png`;
+  const dem = { type: "raster-dem", tiles: [tiles], tileSize: 512, encoding: "mapbox", bounds: info.bounds,
+    minzoom: info.minzoom, maxzoom: info.maxzoom };
+  pages["/maplibre.html"] = `<!doctype html><html><head>
+<link rel="icon" href="data:,">
+<link rel="stylesheet" href="/node_modules/maplibre-gl/dist/maplibre-gl.css">
+<style>html,body,#m{margin:0;width:100%;height:100%}</style>
+<script src="/node_modules/maplibre-gl/dist/maplibre-gl.js"></script></head><body><div id="m"></div>
+<script>
+window.mapErrors = [];
+const map = new maplibregl.Map({
+  container: "m", center: [${(w + e) / 2}, ${(s + n) / 2}], zoom: ${Math.max(info.maxzoom - 0.5, 1)}, pitch: 60, bearing: 20,
+  canvasContextAttributes: { preserveDrawingBuffer: true }, preserveDrawingBuffer: true,
+  style: { version: 8,
+    sources: { dem: ${JSON.stringify(dem)}, hills: ${JSON.stringify(dem)} },
+    layers: [
+      { id: "bg", type: "background", paint: { "background-color": "#d8d2c4" } },
+      { id: "hillshade", type: "hillshade", source: "hills", paint: { "hillshade-exaggeration": 0.8 } },
+    ],
+    terrain: { source: "dem", exaggeration: 1.5 } },
+});
+map.on("error", (e) => { window.mapErrors.push(String(e.error && e.error.message || e)); });
+map.on("idle", () => { window.idle = true; });
+window.map = map;
+</script></body></html>`;
+  const c = await open("maplibre");
+  await c.page.goto(`${local}/maplibre.html`);
+  await c.page.waitForFunction(() => window.idle === true, null, { timeout: 90000, polling: 250 });
+  const pngs = c.requests.filter((u) => /\/tiles\/\d+\/\d+\/\d+\.png/.test(u));
+  console.log(`maplibre: ${pngs.length} terrain-RGB tile request(s), terrain ${await c.page.evaluate(() => !!window.map.getTerrain())}`);
+  check(pngs.length > 0, "maplibre: no terrain-RGB tile was requested");
+  check(await c.page.evaluate(() => !!window.map.getTerrain()), "maplibre: terrain is not on");
+  for (const t of await c.page.evaluate(() => window.mapErrors)) c.problems.push(`map error: ${t}`);
+  await shoot(c, "maplibre.png");
+  noProblems(c);
+  await c.page.close();
+}
+
+// ---- (c) our viewer --------------------------------------------------------------------------
+
+async function viewer() {
+  const c = await open("viewer");
+  const loads = () => c.page.evaluate(() => window.zerotile && window.zerotile.loads);
+  const figures = () => c.page.evaluate(() => window.zerotile.figures);
+  /// Runs `act`, then waits until the page has finished one more load.
+  async function after(act) {
+    const n = await loads();
+    await act();
+    await c.page.waitForFunction((k) => window.zerotile.loads > k, n, { timeout: 60000, polling: 100 });
+    await c.page.waitForTimeout(300);
+    return figures();
+  }
+  const setRange = (sel, v) => c.page.$eval(sel, (el, val) => {
+    el.value = String(val);
+    el.dispatchEvent(new Event("input", { bubbles: true }));
+  }, v);
+
+  await c.page.goto(`${base}/${args.geodetic ? `?dataset=${args.geodetic}` : ""}`);
+  await c.page.waitForFunction(() => window.zerotile && window.zerotile.loads >= 1, null, { timeout: 60000 });
+  await c.page.waitForTimeout(300);
+  const coarse = await after(() => setRange("#t-value", 40));
+  const fine = await after(() => setRange("#t-value", 20));
+  console.log(`viewer: terrain triangles ${coarse.triangles} at T ${coarse.t} m, ${fine.triangles} at T ${fine.t} m`);
+  check(fine.t < coarse.t, `viewer: the slider did not lower T (${coarse.t} -> ${fine.t})`);
+  check(fine.triangles > coarse.triangles, `viewer: a lower T did not give more triangles (${coarse.triangles} -> ${fine.triangles})`);
+  await shoot(c, "viewer-terrain.png");
+
+  const first = await after(() => c.page.click("#tab-mesh"));
+  const methods = await c.page.$$eval("#method option", (os) => os.map((o) => o.value));
+  console.log(`viewer: mesh methods offered ${methods.join(", ")}; ${first.triangles} faces first`);
+  for (const m of ["curvature", "silhouette", "qem"]) check(methods.includes(m), `viewer: method ${m} not offered`);
+  await after(() => c.page.selectOption("#method", "qem"));
+  const few = await after(() => setRange("#m-value", 0.05));
+  const many = await after(() => setRange("#m-value", 0.8));
+  console.log(`viewer: qem faces ${few.triangles} at ratio 0.05, ${many.triangles} at ratio 0.8`);
+  check(many.triangles > few.triangles, `viewer: the QEM slider did not change the face count (${few.triangles} -> ${many.triangles})`);
+  await after(() => c.page.selectOption("#method", "silhouette"));
+  const s2 = await after(() => setRange("#m-value", 2));
+  const s6 = await after(() => setRange("#m-value", 6));
+  console.log(`viewer: silhouette faces ${s2.triangles} at level 2, ${s6.triangles} at level 6`);
+  check(s6.triangles !== s2.triangles, `viewer: the silhouette level did not change the face count (${s2.triangles})`);
+  if (methods.includes("octree")) {
+    const o = await after(() => c.page.selectOption("#method", "octree"));
+    console.log(`viewer: octree faces ${o.triangles}`);
+  }
+  await c.page.check("#wire");
+  await c.page.waitForTimeout(300);
+  await shoot(c, "viewer-mesh.png");
+  const errs = await c.page.evaluate(() => window.zerotile.errors);
+  check(errs === 0, `viewer: ${errs} error(s) shown on the page`);
+  noProblems(c);
+  await c.page.close();
+}
+
+const clients = { cesium, maplibre, viewer };
+try {
+  for (const name of only) {
+    const t0 = Date.now();
+    try {
+      await clients[name]();
+    } catch (e) {
+      check(false, `${name}: ${e.stack || e}`);
+    }
+    console.log(`${name}: ${((Date.now() - t0) / 1000).toFixed(1)} s`);
+  }
+} finally {
+  await browser.close();
+  statics.close();
+}
+console.log(failures === 0 ? "all clients passed" : `${failures} failure(s)`);
+process.exit(failures === 0 ? 0 : 1);
