@@ -3,7 +3,7 @@
 //! A triangle splits when its hypotenuse midpoint's value exceeds the tolerance, or when the
 //! midpoint is forced (a vertex a neighbouring tile puts on the shared border, or an ancestor
 //! of one). Forcing raises every ancestor along the parent links, so the forced mesh is as
-//! conforming as the plain one. Counted first, then filled: the buffers are exactly sized.
+//! conforming as the plain one.
 
 use super::errors::TileErrors;
 use super::hierarchy::{Hierarchy, Tri, NONE};
@@ -74,20 +74,9 @@ pub fn extract(
         splittable: hierarchy.levels() - 1,
     };
 
-    // Count, then fill.
-    let mut id = vec![0u32; n * n];
-    let (mut vertices, mut triangles) = (0usize, 0usize);
-    walk.leaves(&mut |t: &Tri| {
-        triangles += 1;
-        for s in [t.a, t.b, t.c] {
-            if id[s as usize] == 0 {
-                vertices += 1;
-                id[s as usize] = u32::MAX;
-            }
-        }
-    });
-    mesh.positions.reserve_exact(vertices);
-    mesh.triangles.reserve_exact(triangles);
+    // One walk: a vertex gets its id when a leaf first names it. Counting first would size
+    // the buffers exactly but walks the tree twice, which costs more than the growth.
+    let mut id = vec![u32::MAX; n * n];
     let h = heights.data();
     walk.leaves(&mut |t: &Tri| {
         let mut tri = [0u32; 3];
@@ -95,8 +84,8 @@ pub fn extract(
             let slot = &mut id[s as usize];
             if *slot == u32::MAX {
                 let (x, y) = (s as usize % n, s as usize / n);
+                *slot = mesh.positions.len() as u32;
                 mesh.positions.push([x as f64, y as f64, h[s as usize]]);
-                *slot = mesh.positions.len() as u32 - 1;
             }
             tri[k] = *slot;
         }
