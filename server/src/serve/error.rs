@@ -53,10 +53,21 @@ impl std::fmt::Display for ApiError {
     }
 }
 
+/// Seconds a client (or a CDN) should wait before retrying a 503: renders are tens of
+/// milliseconds, so the queue drains within a second.
+pub const RETRY_AFTER_SECONDS: u32 = 1;
+
 impl IntoResponse for ApiError {
     fn into_response(self) -> Response {
         let body = serde_json::json!({ "error": self.code, "message": self.message });
-        (self.status, Json(body)).into_response()
+        let mut res = (self.status, Json(body)).into_response();
+        if self.status == StatusCode::SERVICE_UNAVAILABLE {
+            res.headers_mut().insert(
+                axum::http::header::RETRY_AFTER,
+                axum::http::HeaderValue::from(RETRY_AFTER_SECONDS),
+            );
+        }
+        res
     }
 }
 

@@ -266,6 +266,14 @@ async fn renders_past_the_queue_are_shed_with_503() {
         (shed.status, shed.code),
         (StatusCode::SERVICE_UNAVAILABLE, "overloaded")
     );
+    // Clients and CDNs are told when to come back.
+    let res = axum::response::IntoResponse::into_response(shed);
+    assert_eq!(
+        res.headers()
+            .get(axum::http::header::RETRY_AFTER)
+            .map(|v| v.as_bytes()),
+        Some(&b"1"[..])
+    );
     drop(held);
     assert!(state.cpu_permit().await.is_ok());
     assert_eq!(
