@@ -272,3 +272,47 @@ fn world_schemes_refuse_sources_they_cannot_place() {
     assert_eq!(out.status.code(), Some(1));
     assert!(!data.join("v.ztd").exists() && !data.join("j.ztd").exists());
 }
+
+#[test]
+fn a_killed_ingest_leaves_the_previous_dataset_intact_and_served() {
+    let data = scratch("killed");
+    let small = shared_data().join("dem/terra_elev.tif");
+    assert!(ingest(&small, "keep", &data, &[]).status.success());
+    let before = std::fs::read(data.join("keep.ztd")).unwrap();
+
+    // A long ingest under the same name (max-error mode, 226 geodetic tiles: ~3.6 s on an
+    // idle 2-core machine), killed with SIGKILL mid-encode: no chance to clean up.
+    let hgt = shared_data().join("dem/N44W072.hgt");
+    let mut child = Command::new(zerotile_bin())
+        .arg("ingest")
+        .arg(&hgt)
+        .args([
+            "--name",
+            "keep",
+            "--quiet",
+            "--precision",
+            "0.1",
+            "--scheme",
+            "geodetic",
+        ])
+        .args(["--max-zoom", "11", "--data"])
+        .arg(&data)
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(700));
+    child.kill().unwrap();
+    let status = child.wait().unwrap();
+    assert!(
+        !status.success(),
+        "the ingest finished before it was killed"
+    );
+    assert_eq!(std::fs::read(data.join("keep.ztd")).unwrap(), before);
+
+    // The server still opens and serves it (a leftover temporary file is not a dataset).
+    let s = zerotile_tests::server::Server::start(&data);
+    let list = s.get("/v1/datasets", &[]).json();
+    assert_eq!(list["datasets"][0]["name"], "keep");
+    assert_eq!(list["datasets"].as_array().map(Vec::len), Some(1));
+    drop(s);
+    let _ = std::fs::remove_dir_all(&data);
+}
