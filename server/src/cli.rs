@@ -133,6 +133,10 @@ pub struct ServeArgs {
     /// Decoded-tile cache size, MiB.
     #[arg(long, default_value_t = 256, value_name = "MIB")]
     pub cache_mb: u64,
+    /// Allow only this origin in CORS (repeatable; default: any origin), e.g.
+    /// `--cors-origin https://maps.example.org`.
+    #[arg(long = "cors-origin", value_name = "ORIGIN")]
+    pub cors_origins: Vec<String>,
 }
 
 #[derive(Subcommand, Debug)]
@@ -307,8 +311,17 @@ fn demo_data(a: &DemoArgs) -> anyhow::Result<()> {
 }
 
 fn serve(a: ServeArgs) -> anyhow::Result<()> {
+    for o in &a.cors_origins {
+        let ok = (o.starts_with("http://") || o.starts_with("https://"))
+            && !o.ends_with('/')
+            && o.bytes().all(|b| b.is_ascii_graphic());
+        if !ok {
+            anyhow::bail!("--cors-origin {o:?}: give a scheme and host, e.g. https://maps.example.org (no path, no trailing slash)");
+        }
+    }
     let config = crate::serve::Config {
         cache_bytes: a.cache_mb.saturating_mul(1 << 20),
+        cors_origins: a.cors_origins.clone(),
         ..crate::serve::Config::default()
     };
     let data = match a.data {

@@ -41,7 +41,7 @@ use axum::routing::get;
 use axum::Router;
 use tower_http::compression::predicate::{DefaultPredicate, NotForContentType, Predicate};
 use tower_http::compression::CompressionLayer;
-use tower_http::cors::{Any, CorsLayer};
+use tower_http::cors::{AllowOrigin, Any, CorsLayer};
 use tower_http::timeout::TimeoutLayer;
 use tower_http::trace::TraceLayer;
 
@@ -88,8 +88,19 @@ pub fn app(state: AppState) -> Router {
     let compress = DefaultPredicate::new()
         .and(NotForContentType::const_new(routes::tiles::EZW_MEDIA))
         .and(NotForContentType::const_new("model/gltf-binary"));
+    let origins: Vec<header::HeaderValue> = state
+        .config
+        .cors_origins
+        .iter()
+        .filter_map(|o| header::HeaderValue::from_str(o).ok())
+        .collect();
     let cors = CorsLayer::new()
-        .allow_origin(Any)
+        // An unparsable configured origin is dropped, never widened to "any".
+        .allow_origin(if state.config.cors_origins.is_empty() {
+            AllowOrigin::any()
+        } else {
+            AllowOrigin::list(origins)
+        })
         .allow_methods([Method::GET, Method::HEAD, Method::OPTIONS, Method::POST])
         .allow_headers(Any)
         .expose_headers([

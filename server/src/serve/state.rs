@@ -29,6 +29,8 @@ pub struct Config {
     pub cpu_queue: usize,
     /// `Cache-Control: max-age` of tiles, seconds.
     pub tile_max_age: u32,
+    /// Origins allowed by CORS; empty: any origin (tiles are public by default).
+    pub cors_origins: Vec<String>,
 }
 
 impl Default for Config {
@@ -40,6 +42,7 @@ impl Default for Config {
             cpu_jobs: cores * 2,
             cpu_queue: cores * 64,
             tile_max_age: 3600,
+            cors_origins: Vec::new(),
         }
     }
 }

@@ -309,3 +309,47 @@ fn neighbours_follow_each_scheme_row_direction() {
         [None, Some(id(1, 0, 1)), None, Some(id(1, 1, 0))]
     );
 }
+
+#[tokio::test]
+async fn cors_allows_any_origin_unless_configured() {
+    let open = router("cors-open");
+    let (_, h, _) = send(
+        &open,
+        Method::GET,
+        "/healthz",
+        &[("origin", "https://a.example")],
+    )
+    .await;
+    assert_eq!(
+        h.get("access-control-allow-origin").map(|v| v.as_bytes()),
+        Some(&b"*"[..])
+    );
+
+    let state = AppState::new(
+        Catalog::default(),
+        Config {
+            cors_origins: vec!["https://a.example".into()],
+            ..Config::default()
+        },
+    );
+    let closed = app(state);
+    let (_, h, _) = send(
+        &closed,
+        Method::GET,
+        "/healthz",
+        &[("origin", "https://a.example")],
+    )
+    .await;
+    assert_eq!(
+        h.get("access-control-allow-origin").map(|v| v.as_bytes()),
+        Some(&b"https://a.example"[..])
+    );
+    let (_, h, _) = send(
+        &closed,
+        Method::GET,
+        "/healthz",
+        &[("origin", "https://b.example")],
+    )
+    .await;
+    assert!(h.get("access-control-allow-origin").is_none());
+}
