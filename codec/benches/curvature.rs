@@ -9,23 +9,16 @@
     reason = "a bench without its data file should stop loudly"
 )]
 
+mod common;
+
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use zerotile_codec::mesh::curvature::{self, CurvatureOptions, PAPER_LEVELS};
-use zerotile_codec::mesh::io::{read_path, MeshLimits};
-use zerotile_codec::mesh::{simplify, QemOptions, TriMesh};
-
-fn mesh(name: &str) -> TriMesh {
-    let path = format!(
-        "{}/../../shared/data/meshes/{name}",
-        env!("CARGO_MANIFEST_DIR")
-    );
-    read_path(path.as_ref(), &MeshLimits::default()).expect("../shared/data/meshes")
-}
+use zerotile_codec::mesh::{simplify, QemOptions};
 
 fn bench(c: &mut Criterion) {
     let options = CurvatureOptions::default();
     for name in ["fandisk", "uv-sphere-5002", "vase-lathe"] {
-        let input = mesh(&format!("{name}.obj"));
+        let input = common::mesh(&format!("{name}.obj"));
         let mut group = c.benchmark_group(format!("curvature_{name}"));
         group.sample_size(20);
         for e in PAPER_LEVELS {

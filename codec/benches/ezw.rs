@@ -9,6 +9,8 @@
     reason = "a bench without its data file should stop loudly"
 )]
 
+mod common;
+
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use zerotile_codec::ezw::{self, DecodeLimit, EncodeParams};
 use zerotile_codec::raster::{self, Encoding, ReadOptions};
@@ -19,33 +21,18 @@ const SIDE: usize = 257;
 /// Decode thresholds (height units, metres): fine to coarse.
 const THRESHOLDS: [f64; 4] = [0.5, 2.0, 8.0, 32.0];
 
-fn data(rel: &str) -> String {
-    format!("{}/../../shared/data/dem/{rel}", env!("CARGO_MANIFEST_DIR"))
-}
-
-/// N44W072 rows 300.., cols 500.., 257² (the tile the tests use too).
-fn tile() -> Grid<f64> {
-    let bytes = std::fs::read(data("N44W072.hgt")).expect("../shared/data/dem/N44W072.hgt");
-    let samples = bytes
-        .chunks_exact(2)
-        .map(|b| f64::from(i16::from_be_bytes([b[0], b[1]])))
-        .collect();
-    let dem = Grid::new(1201, 1201, samples).expect("1201²");
-    dem.crop(300, 500, SIDE, SIDE).expect("crop")
-}
-
 /// fuji.png: 512² Mapbox terrain-RGB (0.1 m steps), what `terrain_codec.py` codes too.
 fn fuji() -> (Grid<f64>, f64) {
     let opts = ReadOptions {
         encoding: Some(Encoding::TerrainRgb),
         ..ReadOptions::default()
     };
-    let map = raster::read_heightmap(data("fuji.png"), &opts).expect("fuji.png");
+    let map = raster::read_heightmap(common::shared("dem/fuji.png"), &opts).expect("fuji.png");
     (map.heights, map.step.expect("terrain-RGB has a step"))
 }
 
 fn decode(c: &mut Criterion) {
-    let g = tile();
+    let g = common::n44w072_tile(SIDE);
     let mut group = c.benchmark_group("ezw_decode_to_T_257");
     for wavelet in [Wavelet::Cdf97, Wavelet::LeGall53] {
         let enc = ezw::encode(&g, &EncodeParams::new(wavelet, 1.0)).expect("encode");
@@ -87,7 +74,7 @@ fn decode(c: &mut Criterion) {
 }
 
 fn encode(c: &mut Criterion) {
-    let g = tile();
+    let g = common::n44w072_tile(SIDE);
     let mut group = c.benchmark_group("ezw_encode_257");
     group.sample_size(20);
     for wavelet in [Wavelet::Cdf97, Wavelet::LeGall53] {

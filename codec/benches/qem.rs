@@ -10,22 +10,15 @@
     reason = "a bench without its data file should stop loudly"
 )]
 
-use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
-use zerotile_codec::mesh::io::{read_path, MeshLimits};
-use zerotile_codec::mesh::subdivide::loop_subdivide;
-use zerotile_codec::mesh::{simplify, surface_distance, DistanceOptions, QemOptions, TriMesh};
+mod common;
 
-fn mesh(name: &str) -> TriMesh {
-    let path = format!(
-        "{}/../../shared/data/meshes/{name}",
-        env!("CARGO_MANIFEST_DIR")
-    );
-    read_path(path.as_ref(), &MeshLimits::default()).expect("../shared/data/meshes")
-}
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use zerotile_codec::mesh::subdivide::loop_subdivide;
+use zerotile_codec::mesh::{simplify, surface_distance, DistanceOptions, QemOptions};
 
 fn qem(c: &mut Criterion) {
-    let fandisk = mesh("fandisk.obj");
-    let bunny = mesh("stanford-bunny.obj");
+    let fandisk = common::mesh("fandisk.obj");
+    let bunny = common::mesh("stanford-bunny.obj");
     let mut group = c.benchmark_group("qem");
     for (name, input, target) in [("fandisk", &fandisk, 978), ("bunny", &bunny, 6945)] {
         let id = BenchmarkId::new(name, target);

@@ -9,28 +9,15 @@
     reason = "a bench without its data file should stop loudly"
 )]
 
+mod common;
+
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use zerotile_codec::bintree::{self, Hierarchy, TileErrors};
 use zerotile_codec::ezw::{self, DecodeLimit, EncodeParams};
 use zerotile_codec::wavelet::Wavelet;
-use zerotile_codec::Grid;
-
-fn tile() -> Grid<f64> {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../shared/data/dem/N44W072.hgt"
-    );
-    let bytes = std::fs::read(path).expect("../shared/data/dem/N44W072.hgt");
-    let data = bytes
-        .chunks_exact(2)
-        .map(|b| f64::from(i16::from_be_bytes([b[0], b[1]])))
-        .collect();
-    let dem = Grid::new(1201, 1201, data).expect("1201²");
-    dem.crop(300, 500, 257, 257).expect("crop")
-}
 
 fn decode_and_mesh(c: &mut Criterion) {
-    let g = tile();
+    let g = common::n44w072_tile(257);
     let hierarchy = Hierarchy::new(257).expect("257 = 2^8 + 1");
     let mut group = c.benchmark_group("decode_and_mesh_257");
     for wavelet in [Wavelet::Cdf97, Wavelet::LeGall53] {

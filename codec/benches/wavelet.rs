@@ -7,25 +7,12 @@
     reason = "a bench without its data file should stop loudly"
 )]
 
+mod common;
+
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
 use zerotile_codec::wavelet::{self, Layout, Wavelet};
-use zerotile_codec::Grid;
 
 const SIDE: usize = 257;
-
-fn tile() -> Grid<f64> {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../shared/data/dem/N44W072.hgt"
-    );
-    let bytes = std::fs::read(path).expect("../shared/data/dem/N44W072.hgt");
-    let data = bytes
-        .chunks_exact(2)
-        .map(|b| f64::from(i16::from_be_bytes([b[0], b[1]])))
-        .collect();
-    let dem = Grid::new(1201, 1201, data).expect("1201²");
-    dem.crop(300, 500, SIDE, SIDE).expect("crop")
-}
 
 /// The textbook peer: strided column gather, interleaved in-place lifting, scatter.
 mod strided {
@@ -104,7 +91,7 @@ mod strided {
 }
 
 fn transforms(c: &mut Criterion) {
-    let heights = tile();
+    let heights = common::n44w072_tile(SIDE);
     let layout = Layout::full(SIDE, SIDE);
     let ints = heights.map(|&h| h as i32);
     let coefficients = |wavelet| {

@@ -136,7 +136,27 @@ pub fn run(job: &Export) -> Result<Exported> {
         .into_owned();
     let tmp = parent.join(format!(".{name}.export-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&tmp);
-    let result = render_all(&d, &tiles, format, variant, ext, &tmp, job.progress).and_then(|n| {
+    // The dataset goes into a private server state (opened once): its decode cache serves
+    // the neighbours that stitching needs.
+    let mut catalog = Catalog::default();
+    catalog.insert(d);
+    let state = AppState::new(catalog, Config::default());
+    let d = state
+        .catalog
+        .iter()
+        .next()
+        .context("dataset vanished")?
+        .clone();
+    let result = render_all(
+        (&state, &d),
+        &tiles,
+        format,
+        variant,
+        ext,
+        &tmp,
+        job.progress,
+    )
+    .and_then(|n| {
         if world {
             let layer = layer(&d)?;
             let mut value = layer.to_value()?;
@@ -174,8 +194,9 @@ pub fn run(job: &Export) -> Result<Exported> {
     Ok(exported)
 }
 
+/// Renders `tiles` of `d` (held by `state`, whose caches it uses) into `dir`.
 fn render_all(
-    d: &Dataset,
+    (state, d): (&AppState, &Dataset),
     tiles: &[TileId],
     format: TileFormat,
     variant: Variant,
@@ -183,16 +204,6 @@ fn render_all(
     dir: &Path,
     progress: bool,
 ) -> Result<Exported> {
-    // A private state: the decode cache serves the neighbours that stitching needs.
-    let mut catalog = Catalog::default();
-    catalog.insert(Dataset::open(&d.path)?);
-    let state = AppState::new(catalog, Config::default());
-    let d = state
-        .catalog
-        .iter()
-        .next()
-        .context("dataset vanished")?
-        .clone();
     let bar = if progress {
         let b = ProgressBar::new(tiles.len() as u64);
         if let Ok(s) = ProgressStyle::with_template("exporting {bar:40} {pos}/{len} tiles {eta}") {
@@ -207,8 +218,8 @@ fn render_all(
     let mut order = tiles.to_vec();
     order.sort_by_key(|t| (t.z, t.y, t.x));
     order.par_iter().try_for_each(|&id| -> Result<()> {
-        let t = threshold::default_threshold(&d, id.z);
-        let enc = render_tile(&state, &d, id, t, format, variant, false)
+        let t = threshold::default_threshold(d, id.z);
+        let enc = render_tile(state, d, id, t, format, variant, false)
             .with_context(|| format!("tile {}/{}/{}", id.z, id.x, id.y))?;
         // Paths follow the serving URLs, which use the stored y: TMS rows for geodetic
         // (layer.json scheme "tms"), XYZ rows for mercator ("slippyMap").

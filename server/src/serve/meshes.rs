@@ -107,9 +107,22 @@ pub fn limits() -> MeshLimits {
 impl MeshCatalog {
     /// No meshes (uploads are refused: there is no folder to keep them in).
     pub fn empty(answer_bytes: u64) -> Self {
-        let mut c = Self::open(Path::new(""), answer_bytes);
-        c.dir = PathBuf::new();
-        c
+        Self::with_entries(PathBuf::new(), BTreeMap::new(), 0, answer_bytes)
+    }
+
+    fn with_entries(
+        dir: PathBuf,
+        entries: BTreeMap<String, Arc<MeshEntry>>,
+        generation: u64,
+        answer_bytes: u64,
+    ) -> Self {
+        let items = (answer_bytes / 200_000).clamp(16, 1 << 16) as usize;
+        Self {
+            dir,
+            entries: RwLock::new(entries),
+            next_generation: std::sync::atomic::AtomicU64::new(generation + 1),
+            answers: Cache::with_weighter(items, answer_bytes.max(1), AnswerBytes),
+        }
     }
 
     /// Opens `data/meshes` (absent: an empty catalog). A mesh that fails to read is logged
@@ -141,13 +154,7 @@ impl MeshCatalog {
                 }
             }
         }
-        let items = (answer_bytes / 200_000).clamp(16, 1 << 16) as usize;
-        Self {
-            dir,
-            entries: RwLock::new(entries),
-            next_generation: std::sync::atomic::AtomicU64::new(generation + 1),
-            answers: Cache::with_weighter(items, answer_bytes.max(1), AnswerBytes),
-        }
+        Self::with_entries(dir, entries, generation, answer_bytes)
     }
 
     pub fn list(&self) -> Vec<Arc<MeshEntry>> {

@@ -180,20 +180,7 @@ impl Decimator {
 
     /// The current mesh, unreferenced vertices dropped.
     pub fn mesh(&self) -> TriMesh {
-        let mut map = vec![u32::MAX; self.pos.len()];
-        let mut positions = Vec::with_capacity(self.live_vertices);
-        let mut faces = Vec::with_capacity(self.live_faces);
-        for (f, _) in self.faces.iter().zip(&self.alive).filter(|(_, &a)| a) {
-            faces.push(f.map(|v| {
-                let slot = &mut map[v as usize];
-                if *slot == u32::MAX {
-                    *slot = positions.len() as u32;
-                    positions.push(self.pos[v as usize]);
-                }
-                *slot
-            }));
-        }
-        TriMesh { positions, faces }
+        alive_mesh(&self.pos, &self.faces, &self.alive)
     }
 
     fn push_by_curvature(&self, heap: &mut BinaryHeap<Entry>, v: u32) {
@@ -367,4 +354,20 @@ fn quantile(mut v: Vec<f64>, q: f64) -> f64 {
     v.sort_by(f64::total_cmp);
     let k = ((v.len() - 1) as f64 * q.clamp(0.0, 1.0)).round() as usize;
     v[k]
+}
+
+/// The faces marked alive over `positions`, unreferenced vertices dropped: what a
+/// decimation that removes faces in place leaves behind.
+pub(crate) fn alive_mesh(positions: &[DVec3], faces: &[[u32; 3]], alive: &[bool]) -> TriMesh {
+    let mut mesh = TriMesh {
+        positions: positions.to_vec(),
+        faces: faces
+            .iter()
+            .zip(alive)
+            .filter(|(_, &a)| a)
+            .map(|(f, _)| *f)
+            .collect(),
+    };
+    mesh.drop_unreferenced();
+    mesh
 }

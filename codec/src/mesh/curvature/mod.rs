@@ -9,7 +9,7 @@
 //! and nest: each continues from the one before. Choices the paper leaves open are in
 //! `curvature.md` beside this file.
 
-mod decimate;
+pub(crate) mod decimate;
 pub mod measure;
 pub(crate) mod retriangulate;
 pub(crate) mod ring;

@@ -5,6 +5,7 @@
 
 use glam::DVec3;
 
+use crate::mesh::curvature::decimate::alive_mesh;
 use crate::mesh::curvature::retriangulate::triangulate;
 use crate::mesh::curvature::ring::ring;
 use crate::mesh::indexed::TriMesh;
@@ -123,21 +124,5 @@ pub fn flatten_regions(mesh: &TriMesh, region: &[u32]) -> TriMesh {
         }
     }
 
-    let mut map = vec![u32::MAX; n];
-    let mut positions = Vec::new();
-    let mut out = Vec::new();
-    for (t, _) in faces.iter().zip(&alive).filter(|(_, &a)| a) {
-        out.push(t.map(|v| {
-            let slot = &mut map[v as usize];
-            if *slot == u32::MAX {
-                *slot = positions.len() as u32;
-                positions.push(mesh.positions[v as usize]);
-            }
-            *slot
-        }));
-    }
-    TriMesh {
-        positions,
-        faces: out,
-    }
+    alive_mesh(&mesh.positions, &faces, &alive)
 }
