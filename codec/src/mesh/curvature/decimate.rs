@@ -7,8 +7,7 @@ use std::collections::BinaryHeap;
 use glam::DVec3;
 
 use super::measure::{discrete_curvature, measure_with, FaceGeom, Measure, Weights};
-use super::retriangulate::triangulate;
-use super::ring::ring;
+use super::refill::refill;
 use crate::mesh::indexed::TriMesh;
 
 /// A vertex removal worked out but not applied.
@@ -193,13 +192,6 @@ impl Decimator {
         heap.push(Entry(w, v, self.version[v as usize]));
     }
 
-    fn face_list(&self, v: u32) -> Vec<[u32; 3]> {
-        self.vf[v as usize]
-            .iter()
-            .map(|&f| self.faces[f as usize])
-            .collect()
-    }
-
     /// The alive faces of `v` with their geometry.
     fn with_geom(&self, v: u32) -> impl Iterator<Item = ([u32; 3], FaceGeom)> + '_ {
         self.vf[v as usize]
@@ -222,55 +214,13 @@ impl Decimator {
         if self.removed[v as usize] || self.locked[v as usize] {
             return None;
         }
-        let own = self.face_list(v);
-        let r = ring(v, &own)?;
-        let k = r.vertices.len();
-        if k < if r.open { 2 } else { 3 } {
-            return None;
-        }
-        let normal: DVec3 = own
-            .iter()
-            .map(|f| {
-                let [a, b, c] = f.map(|i| self.pos[i as usize]);
-                (b - a).cross(c - a)
-            })
-            .sum();
-        let faces = triangulate(&r.vertices, |i| self.pos[i as usize], normal, self.lambda_c)?;
-
-        // New edges must be new: a diagonal that already exists would get a third face.
-        let adjacent = |a: u32, b: u32| {
-            self.vf[a as usize].iter().any(|&f| {
-                !self.faces[f as usize].contains(&v) && self.faces[f as usize].contains(&b)
-            })
-        };
-        for f in &faces {
-            for e in 0..3 {
-                let (a, b) = (f[e], f[(e + 1) % 3]);
-                let on_ring = r.vertices.iter().position(|&x| x == a).is_some_and(|i| {
-                    r.vertices[(i + 1) % k] == b || r.vertices[(i + k - 1) % k] == b
-                });
-                let closing = r.open && on_ring && {
-                    let (first, last) = (r.vertices[0], r.vertices[k - 1]);
-                    (a == first && b == last) || (a == last && b == first)
-                };
-                if (!on_ring || closing) && adjacent(a, b) {
-                    return None;
-                }
-            }
-        }
-        if r.open && faces.is_empty() && adjacent(r.vertices[0], r.vertices[k - 1]) {
-            return None;
-        }
-        // A triangle refill must not duplicate a face already there (a tetrahedron's cap).
-        if let [f] = faces.as_slice() {
-            let same = self.vf[f[0] as usize].iter().any(|&g| {
-                let g = self.faces[g as usize];
-                !g.contains(&v) && f.iter().all(|x| g.contains(x))
-            });
-            if same {
-                return None;
-            }
-        }
+        let (r, faces) = refill(
+            v,
+            &self.vf,
+            &self.faces,
+            |i| self.pos[i as usize],
+            self.lambda_c,
+        )?;
 
         // ε: the largest change of W on the ring against the input (eq. 9).
         let scale = self.area_scale(self.live_vertices - 1);

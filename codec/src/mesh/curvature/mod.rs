@@ -11,6 +11,7 @@
 
 pub(crate) mod decimate;
 pub mod measure;
+pub(crate) mod refill;
 pub(crate) mod retriangulate;
 pub(crate) mod ring;
 #[cfg(test)]

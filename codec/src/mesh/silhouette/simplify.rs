@@ -3,11 +3,8 @@
 //! "vertex outline" (1-ring) refilled by ear cutting. Region outlines are never touched, so
 //! regions drawn at different levels still meet edge to edge.
 
-use glam::DVec3;
-
 use crate::mesh::curvature::decimate::alive_mesh;
-use crate::mesh::curvature::retriangulate::triangulate;
-use crate::mesh::curvature::ring::ring;
+use crate::mesh::curvature::refill::refill;
 use crate::mesh::indexed::TriMesh;
 
 /// λ_c for the refill: the outline ears are cut for shape, as in the curvature decimator.
@@ -65,46 +62,12 @@ pub fn flatten_regions(mesh: &TriMesh, region: &[u32]) -> TriMesh {
         if own.iter().any(|&f| face_region[f as usize] != r) {
             continue;
         }
-        let tris: Vec<[u32; 3]> = own.iter().map(|&f| faces[f as usize]).collect();
-        let Some(fan) = ring(v, &tris) else { continue };
-        if fan.open || fan.vertices.len() < 3 {
-            continue;
-        }
-        let normal: DVec3 = tris
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
-                (b - a).cross(c - a)
-            })
-            .sum();
-        let Some(new) = triangulate(
-            &fan.vertices,
-            |i| mesh.positions[i as usize],
-            normal,
-            LAMBDA_C,
-        ) else {
+        // Input boundaries are region outlines: only closed fans are interior.
+        let Some((fan, new)) = refill(v, &vf, &faces, |i| mesh.positions[i as usize], LAMBDA_C)
+        else {
             continue;
         };
-        // A diagonal that already exists elsewhere would get a third face.
-        let k = fan.vertices.len();
-        let exists = |a: u32, b: u32| {
-            vf[a as usize]
-                .iter()
-                .any(|&f| !faces[f as usize].contains(&v) && faces[f as usize].contains(&b))
-        };
-        let bad = new.iter().any(|t| {
-            (0..3).any(|e| {
-                let (a, b) = (t[e], t[(e + 1) % 3]);
-                let i = fan.vertices.iter().position(|&x| x == a).unwrap_or(0);
-                let side = fan.vertices[(i + 1) % k] == b || fan.vertices[(i + k - 1) % k] == b;
-                !side && exists(a, b)
-            })
-        }) || (k == 3
-            && vf[fan.vertices[0] as usize].iter().any(|&f| {
-                let g = faces[f as usize];
-                !g.contains(&v) && fan.vertices.iter().all(|x| g.contains(x))
-            }));
-        if bad {
+        if fan.open {
             continue;
         }
         for &f in &own {

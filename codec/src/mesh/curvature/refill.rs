@@ -1,0 +1,74 @@
+//! Removing one vertex and filling its hole, as both vertex-removal simplifiers do (the
+//! curvature decimator and the view sphere's region flattening): order the 1-ring, cut it
+//! into ears, and refuse any refill that would break the surface.
+
+use glam::DVec3;
+
+use super::retriangulate::triangulate;
+use super::ring::{ring, Ring};
+
+/// The hole `v` would leave and the faces that would fill it; `None` when `v` cannot go:
+/// a non-manifold or pinched fan, too few neighbours, no valid ear cutting, a new edge that
+/// already exists elsewhere (it would get a third face), or a triangle refill duplicating a
+/// face already there (a tetrahedron's cap). `vf` lists each vertex's live faces in `faces`.
+pub fn refill(
+    v: u32,
+    vf: &[Vec<u32>],
+    faces: &[[u32; 3]],
+    pos: impl Fn(u32) -> DVec3,
+    lambda_c: f64,
+) -> Option<(Ring, Vec<[u32; 3]>)> {
+    let own: Vec<[u32; 3]> = vf
+        .get(v as usize)?
+        .iter()
+        .map(|&f| faces[f as usize])
+        .collect();
+    let r = ring(v, &own)?;
+    let k = r.vertices.len();
+    if k < if r.open { 2 } else { 3 } {
+        return None;
+    }
+    let normal: DVec3 = own
+        .iter()
+        .map(|f| {
+            let [a, b, c] = f.map(&pos);
+            (b - a).cross(c - a)
+        })
+        .sum();
+    let new = triangulate(&r.vertices, &pos, normal, lambda_c)?;
+
+    let adjacent = |a: u32, b: u32| {
+        vf[a as usize]
+            .iter()
+            .any(|&f| !faces[f as usize].contains(&v) && faces[f as usize].contains(&b))
+    };
+    for f in &new {
+        for e in 0..3 {
+            let (a, b) = (f[e], f[(e + 1) % 3]);
+            let on_ring =
+                r.vertices.iter().position(|&x| x == a).is_some_and(|i| {
+                    r.vertices[(i + 1) % k] == b || r.vertices[(i + k - 1) % k] == b
+                });
+            let closing = r.open && on_ring && {
+                let (first, last) = (r.vertices[0], r.vertices[k - 1]);
+                (a == first && b == last) || (a == last && b == first)
+            };
+            if (!on_ring || closing) && adjacent(a, b) {
+                return None;
+            }
+        }
+    }
+    if r.open && new.is_empty() && adjacent(r.vertices[0], r.vertices[k - 1]) {
+        return None;
+    }
+    if let [f] = new.as_slice() {
+        let same = vf[f[0] as usize].iter().any(|&g| {
+            let g = faces[g as usize];
+            !g.contains(&v) && f.iter().all(|x| g.contains(x))
+        });
+        if same {
+            return None;
+        }
+    }
+    Some((r, new))
+}
