@@ -201,9 +201,10 @@ impl Header {
         let mut segments = Vec::with_capacity(nseg as usize);
         let mut last = [0u32; 3];
         for s in 0..nseg as usize {
-            let b = i64::from(last[s % 3]) + bits.signed()?;
-            let b = u32::try_from(b)
-                .ok()
+            // The delta is the stream's word: a hostile one must not overflow the sum.
+            let b = i64::from(last[s % 3])
+                .checked_add(bits.signed()?)
+                .and_then(|b| u32::try_from(b).ok())
                 .filter(|&b| b <= MAX_LENGTH_BITS)
                 .ok_or_else(|| DecodeError::Malformed(format!("segment {s} length")))?;
             last[s % 3] = b;
