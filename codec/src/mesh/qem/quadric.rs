@@ -84,7 +84,9 @@ impl Quadric {
     /// [`Self::optimize`] and Q at the result (not divided by the weight). When the solve
     /// succeeds, Q(v) comes from the solution itself: (A + λI)v = λm − b gives
     /// vᵀAv = v·(λm − b) − λ|v|², so Q(v) = v·(λm + b) − λ|v|² + c without another product.
-    #[inline]
+    /// Always inlined: it runs once per ranked pair, and as a call the summed quadric went
+    /// through the stack (callgrind: 2.4 % fewer instructions in `simplify` inlined).
+    #[inline(always)]
     pub fn minimize(&self, p: DVec3, q: DVec3) -> (DVec3, f64) {
         const REGULARISE: f64 = 1e-3;
         let m = 0.5 * (p + q);
