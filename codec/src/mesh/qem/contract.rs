@@ -17,13 +17,13 @@ impl State {
     /// (in this pass or before: their stamps no longer match), so every error used is exact;
     /// then re-rank the moved vertices' pairs and merge them in.
     pub(super) fn run(&mut self, target_faces: usize, limit_sq: f64) -> Stop {
-        let (mut ranked, mut fresh, mut scratch) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut fresh, mut scratch) = (Vec::new(), Vec::new());
         let mut moved = Vec::new();
         let mut touched = vec![0u32; self.geo.len()];
         let limit = limit_sq as f32;
         // Entries in `ranked` whose vertices changed since (an upper estimate).
         let mut stale = 0usize;
-        self.collect(&mut ranked);
+        let mut ranked = self.collect();
         radix_sort(&mut ranked, &mut scratch);
         for pass in 1u32.. {
             if self.live_faces <= target_faces {
@@ -35,12 +35,15 @@ impl State {
                 .get(goal + stale)
                 .map_or(f32::INFINITY, |e| PASS_ERROR_SLACK * e.error());
             let (mut done, mut over_limit) = (0usize, false);
+            // Entries before `end` were looked at this pass: only the refused ones stay valid.
+            let mut end = ranked.len();
             moved.clear();
-            for e in &ranked {
+            for (i, e) in ranked.iter().enumerate() {
                 if self.live_faces <= target_faces {
                     return Stop::TargetReached;
                 }
                 if e.error() > cap && done > goal / 6 {
+                    end = i;
                     break;
                 }
                 let (a, b) = (e.a, e.b);
@@ -49,6 +52,7 @@ impl State {
                 }
                 if e.error() > limit {
                     over_limit = true;
+                    end = i;
                     break;
                 }
                 let Ok(removed) = self.link_condition(a, b) else {
@@ -75,23 +79,26 @@ impl State {
                     Stop::NoValidCollapse
                 };
             }
-            // Re-rank the moved vertices' pairs (once per pair) and merge them in; purge stale
-            // entries once they could make up a third of the list.
+            // Re-rank the moved vertices' pairs (once per pair) and merge them in. Stale entries
+            // go where this pass already looked (the check is cheap there: those vertices are
+            // in cache), and everywhere once they could make up a third of the list.
             fresh.clear();
             for &a in &moved {
                 self.collect_vertex(a, |u| touched[u as usize] != pass || u > a, &mut fresh);
             }
             radix_sort(&mut fresh, &mut scratch);
-            if 3 * stale > ranked.len() {
-                let (stamp, flags) = (&self.stamp, &self.flags);
-                merge(&ranked, &fresh, &mut scratch, |e| {
-                    flags[e.a as usize] & flags[e.b as usize] & ALIVE != 0
-                        && stamp[e.a as usize].wrapping_add(stamp[e.b as usize]) == e.stamp
-                });
-                stale = 0;
+            let purge = 3 * stale > ranked.len();
+            let (stamp, flags) = (&self.stamp, &self.flags);
+            let checked = if purge { ranked.len() } else { end };
+            let dropped = merge(&ranked, &fresh, &mut scratch, checked, |e| {
+                flags[e.a as usize] & flags[e.b as usize] & ALIVE != 0
+                    && stamp[e.a as usize].wrapping_add(stamp[e.b as usize]) == e.stamp
+            });
+            stale = if purge {
+                0
             } else {
-                merge(&ranked, &fresh, &mut scratch, |_| true);
-            }
+                stale.saturating_sub(dropped)
+            };
             std::mem::swap(&mut ranked, &mut scratch);
             self.maybe_compact();
         }

@@ -84,12 +84,14 @@ impl Quadric {
     /// [`Self::optimize`] and Q at the result (not divided by the weight). When the solve
     /// succeeds, Q(v) comes from the solution itself: (A + λI)v = λm − b gives
     /// vᵀAv = v·(λm − b) − λ|v|², so Q(v) = v·(λm + b) − λ|v|² + c without another product.
-    #[inline]
+    /// Always inlined: it runs once per ranked pair, and as a call the summed quadric went
+    /// through the stack (callgrind: 2.4 % fewer instructions in `simplify` inlined).
+    #[inline(always)]
     pub fn minimize(&self, p: DVec3, q: DVec3) -> (DVec3, f64) {
         const REGULARISE: f64 = 1e-3;
         let m = 0.5 * (p + q);
         let [xx, xy, xz, yy, yz, zz] = self.a;
-        let lambda = REGULARISE * (xx + yy + zz) / 3.0;
+        let lambda = (REGULARISE / 3.0) * (xx + yy + zz);
         let (xx, yy, zz) = (xx + lambda, yy + lambda, zz + lambda);
         // Solve A' v = λm − b by cofactors (A' symmetric positive definite when λ > 0).
         let lm = lambda * m;
@@ -102,11 +104,13 @@ impl Quadric {
             let c11 = xx * zz - xz * xz;
             let c12 = xy * xz - xx * yz;
             let c22 = xx * yy - xy * xy;
+            // One division, not three: this solve runs for every ranked pair.
+            let inv = 1.0 / det;
             let v = DVec3::new(
                 c00 * r.x + c01 * r.y + c02 * r.z,
                 c01 * r.x + c11 * r.y + c12 * r.z,
                 c02 * r.x + c12 * r.y + c22 * r.z,
-            ) / det;
+            ) * inv;
             // Also false for NaN: a solution that is not a number falls through.
             if (v - m).length_squared() <= 4.0 * (q - p).length_squared() {
                 let e = v.dot(lm + self.b) - lambda * v.length_squared() + self.c;

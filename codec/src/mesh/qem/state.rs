@@ -7,11 +7,10 @@ use std::collections::HashMap;
 use glam::{DVec3, Vec3};
 
 use super::quadric::Quadric;
-use super::ranked::Entry;
+use super::ranked::{Entry, KEY_MASK};
 use super::{plane, QemOptions, QemReport, Stop};
 use crate::mesh::error::MeshError;
 use crate::mesh::indexed::{Aabb, TriMesh};
-use crate::mesh::topology::VertexFaces;
 
 /// Marks a dead face (its first index) and "no vertex".
 pub(super) const DEAD: u32 = u32::MAX;
@@ -58,8 +57,9 @@ pub(super) struct State {
     pub(super) refs: Vec<u32>,
     /// Length of `refs` after the last compaction.
     refs_compact: usize,
-    /// Every manifold edge once, smaller vertex first: the first ranking's input.
-    edges: Vec<[u32; 2]>,
+    /// Every manifold edge once, smaller vertex first: the first ranking's input, listed as
+    /// entries so the ranking fills in their keys where they are (one list, not two).
+    edges: Vec<Entry>,
     /// Scratch marks for neighbour sets, valid where equal to the current generation.
     pub(super) mark: Vec<u32>,
     generation: u32,
@@ -90,59 +90,75 @@ impl State {
         // Large meshes get their vertices in Morton order: neighbours end up close in memory,
         // which is much of the speed of the contraction loop once the data outgrows the caches
         // (small meshes run a little faster without the sort).
-        let order: Vec<u32> = if n > SPATIAL_ORDER_MIN_VERTICES {
-            spatial_order(&mesh.positions)
-        } else {
-            (0..n as u32).collect()
-        };
-        let mut new_of = vec![0u32; n];
-        for (new, &old) in order.iter().enumerate() {
-            new_of[old as usize] = new as u32;
+        let order = (n > SPATIAL_ORDER_MIN_VERTICES).then(|| spatial_order(&mesh.positions));
+        let mut new_of: Vec<u32> = (0..n as u32).collect();
+        if let Some(order) = &order {
+            for (new, &old) in order.iter().enumerate() {
+                new_of[old as usize] = new as u32;
+            }
         }
-        let pos: Vec<DVec3> = order
-            .iter()
-            .map(|&old| mesh.positions[old as usize])
-            .collect();
         // Faces that repeat a vertex carry no plane and would confuse the link condition.
-        let mut faces: Vec<[u32; 3]> = mesh
-            .faces
-            .iter()
-            .filter(|t| t[0] != t[1] && t[1] != t[2] && t[2] != t[0])
-            .map(|t| t.map(|i| new_of[i as usize]))
-            .collect();
+        let mut faces: Vec<[u32; 3]> = Vec::with_capacity(mesh.faces.len());
+        faces.extend(
+            mesh.faces
+                .iter()
+                .filter(|t| t[0] != t[1] && t[1] != t[2] && t[2] != t[0])
+                .map(|t| t.map(|i| new_of[i as usize])),
+        );
         if n > SPATIAL_ORDER_MIN_VERTICES {
             // Faces follow their first vertex on the curve too (a counting sort).
             faces = sort_by_first_vertex(&faces, n);
         }
-        // Fundamental quadrics K_p, area-weighted, summed into each corner (paper §5).
-        let mut geo: Vec<Geo> = pos
-            .iter()
-            .map(|&pos| Geo {
+        // Positions go straight into their records (no intermediate copy: every page this
+        // setup touches is a page fault on a fresh heap, and those add up at 10 k faces).
+        let at = |new: usize| order.as_ref().map_or(new, |o| o[new] as usize);
+        let mut geo: Vec<Geo> = (0..n)
+            .map(|v| Geo {
                 q: Quadric::default(),
-                pos,
+                pos: mesh.positions[at(v)],
             })
             .collect();
+        drop(order);
+        // Fundamental quadrics K_p, area-weighted, summed into each corner (paper §5).
         let mut normal_in = Vec::with_capacity(faces.len());
         for t in &faces {
-            let [a, b, c] = t.map(|i| pos[i as usize]);
-            normal_in.push((b - a).cross(c - a).normalize_or_zero().as_vec3());
+            let [a, b, c] = t.map(|i| geo[i as usize].pos);
+            // One normal serves the plane and the orientation record.
             if let Some((normal, d, area)) = plane(a, b, c) {
+                normal_in.push(normal.as_vec3());
                 let k = Quadric::from_plane(normal, d, area);
                 for &i in t {
                     geo[i as usize].q += k;
                 }
+            } else {
+                normal_in.push(Vec3::ZERO);
             }
         }
-        // Faces around each vertex, copied into the growable reference layout.
-        let vf = VertexFaces::new(&faces, n);
-        let (offsets, list) = vf.raw();
-        let start = offsets[..n].iter().map(|&o| o as u32).collect();
-        let count = offsets.windows(2).map(|w| (w[1] - w[0]) as u32).collect();
-        let mut refs = Vec::with_capacity(3 * list.len() + 4096);
-        refs.extend_from_slice(list);
-        let flags = offsets
-            .windows(2)
-            .map(|w| if w[1] > w[0] { ALIVE } else { 0 })
+        // Faces around each vertex, by counting, straight into the growable reference layout
+        // (its capacity leaves room for the slices contractions rewrite at the end).
+        let mut count = vec![0u32; n];
+        for &i in faces.iter().flatten() {
+            count[i as usize] += 1;
+        }
+        // `start` runs as each slice's end while filling, and is its start afterwards.
+        let mut start = Vec::with_capacity(n);
+        let mut total = 0u32;
+        for &c in &count {
+            total += c;
+            start.push(total);
+        }
+        let mut refs = Vec::with_capacity(3 * total as usize + 4096);
+        refs.resize(total as usize, 0u32);
+        for (f, t) in faces.iter().enumerate().rev() {
+            for &i in t {
+                let s = &mut start[i as usize];
+                *s -= 1;
+                refs[*s as usize] = f as u32;
+            }
+        }
+        let flags = count
+            .iter()
+            .map(|&c| if c > 0 { ALIVE } else { 0 })
             .collect();
         let report = QemReport {
             vertices_in: n,
@@ -215,7 +231,8 @@ impl State {
             );
             for &f in &self.refs[s..s + c] {
                 for u in self.faces[f as usize] {
-                    if u == v {
+                    // Each edge once, from its smaller end (which sees all of its faces).
+                    if u <= v {
                         continue;
                     }
                     if self.mark[u as usize] == g {
@@ -232,18 +249,23 @@ impl State {
                 }
             }
             for &(u, times, fs) in &seen {
-                if v < u && times <= 2 {
-                    self.edges.push([v, u]);
+                if times <= 2 {
+                    self.edges.push(Entry {
+                        a: v,
+                        b: u,
+                        ..Entry::default()
+                    });
                 }
                 match times {
                     1 => {
                         self.flags[v as usize] |= BOUNDARY;
-                        if v < u && options.boundary_weight > 0.0 {
+                        self.flags[u as usize] |= BOUNDARY;
+                        if options.boundary_weight > 0.0 {
                             self.add_edge_planes(v, u, &fs[..1], options.boundary_weight);
                         }
                     }
                     2 => {
-                        if v > u || options.crease_weight <= 0.0 {
+                        if options.crease_weight <= 0.0 {
                             continue;
                         }
                         // Unit normals (zero where a face has no area): sharp means the
@@ -309,8 +331,9 @@ impl State {
         let len_sq = (self.geo[a as usize].pos - self.geo[b as usize].pos).length_squared();
         let key = self.evaluate(a, b).0 + TIE_BREAK * len_sq;
         Some(Entry {
-            // f32 is plenty to order errors; non-negative floats order like their bits.
-            key: (key as f32).to_bits(),
+            // Non-negative floats order like their bits; 14 mantissa bits (errors within 6·10⁻⁵
+            // of each other tie and keep their order) let the sort take two radix passes.
+            key: (key as f32).to_bits() & KEY_MASK,
             a,
             b,
             stamp: self.stamps(a, b),
@@ -364,12 +387,17 @@ impl State {
     }
 
     /// Every edge once (as [`Self::classify_edges`] listed them) and every non-edge partner
-    /// pair, ranked.
-    pub(super) fn collect(&mut self, out: &mut Vec<Entry>) {
-        out.clear();
-        let edges = std::mem::take(&mut self.edges);
-        out.reserve(edges.len());
-        out.extend(edges.iter().filter_map(|&[a, b]| self.entry(a, b)));
+    /// pair, ranked (not yet sorted).
+    pub(super) fn collect(&mut self) -> Vec<Entry> {
+        let mut out = std::mem::take(&mut self.edges);
+        let mut kept = 0;
+        for i in 0..out.len() {
+            if let Some(e) = self.entry(out[i].a, out[i].b) {
+                out[kept] = e;
+                kept += 1;
+            }
+        }
+        out.truncate(kept);
         for v in 0..self.partners.len() {
             for i in 0..self.partners[v].len() {
                 let u = self.partners[v][i];
@@ -378,6 +406,7 @@ impl State {
                 }
             }
         }
+        out
     }
 
     /// Pairs of vertices closer than `t` that share no face (paper §3.1 aggregation), found
