@@ -26,6 +26,11 @@ pub struct Server {
 
 impl Server {
     pub fn start(data: &Path) -> Self {
+        Self::start_with(data.as_os_str(), &[])
+    }
+
+    /// Serves `data` (a folder or a store URL) with extra environment variables.
+    pub fn start_with(data: &std::ffi::OsStr, env: &[(&str, &str)]) -> Self {
         static STARTED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
         let n = STARTED.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let log =
@@ -33,6 +38,7 @@ impl Server {
         let mut child = Command::new(zerotile_bin())
             .args(["serve", "--addr", "127.0.0.1:0", "--data"])
             .arg(data)
+            .envs(env.iter().copied())
             .stdout(Stdio::piped())
             .stderr(std::fs::File::create(&log).unwrap())
             .spawn()

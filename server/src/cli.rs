@@ -123,8 +123,10 @@ pub struct IngestArgs {
 
 #[derive(Args, Debug)]
 pub struct ServeArgs {
-    /// Folder of datasets (`*.ztd`, as `zerotile ingest` writes them). Without it the
-    /// server uses `data/`, generating the default data there first if it has none.
+    /// Folder of datasets (`*.ztd`, as `zerotile ingest` writes them), or a store URL
+    /// (`s3://bucket/prefix`, `http(s)://…`; credentials and endpoint from the usual `AWS_*`
+    /// variables) read by byte ranges. Without it the server uses `data/`, generating the
+    /// default data there first if it has none.
     #[arg(long)]
     pub data: Option<PathBuf>,
     /// Address to listen on; port 0 picks a free port (the URL is printed).

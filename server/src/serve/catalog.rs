@@ -10,6 +10,7 @@ use std::sync::Arc;
 use anyhow::{Context, Result};
 
 use super::dataset::Dataset;
+use super::storage;
 use crate::ingest::EXTENSION;
 
 /// The datasets a server answers for.
@@ -33,28 +34,45 @@ impl Catalog {
         paths.sort();
         let mut catalog = Self::default();
         for path in paths {
-            match Dataset::open(&path) {
-                Ok(d) => {
-                    tracing::info!(
-                        dataset = %d.name,
-                        tiles = d.container.len(),
-                        scheme = %d.metadata().scheme,
-                        "opened {}",
-                        path.display()
-                    );
-                    catalog.insert(d);
-                }
-                Err(e) => {
-                    tracing::warn!("skipping {}: {e:#}", path.display());
-                    let file = path
-                        .file_name()
-                        .map(|f| f.to_string_lossy().into_owned())
-                        .unwrap_or_default();
-                    catalog.skipped.push((file, format!("{e:#}")));
-                }
-            }
+            let file = path
+                .file_name()
+                .map(|f| f.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            catalog.add(file, Dataset::open(&path));
         }
         Ok(catalog)
+    }
+
+    /// Opens every `*.ztd` object directly under a store URL's prefix (see
+    /// [`storage::open_url`]). An unreachable store or prefix is an error; a bad object is
+    /// not.
+    pub fn open_url(url: &str) -> Result<Self> {
+        let (store, prefix) = storage::open_url(url)?;
+        let mut catalog = Self::default();
+        for meta in storage::list(&store, &prefix, EXTENSION)? {
+            let file = meta.location.filename().unwrap_or_default().to_string();
+            catalog.add(file, Dataset::open_object(&store, &meta));
+        }
+        Ok(catalog)
+    }
+
+    fn add(&mut self, file: String, opened: Result<Dataset>) {
+        match opened {
+            Ok(d) => {
+                tracing::info!(
+                    dataset = %d.name,
+                    tiles = d.container.len(),
+                    scheme = %d.metadata().scheme,
+                    "opened {}",
+                    d.location
+                );
+                self.insert(d);
+            }
+            Err(e) => {
+                tracing::warn!("skipping {file}: {e:#}");
+                self.skipped.push((file, format!("{e:#}")));
+            }
+        }
     }
 
     pub fn insert(&mut self, d: Dataset) {

@@ -2,69 +2,107 @@
 //!
 //! Opening reads only the header (one bounded read, checked by its CRC); each tile request
 //! then reads one record at a known offset, so a dataset of any size costs its index in
-//! memory. Records carry their own CRC: a flipped bit fails that tile, not the dataset.
+//! memory, and a dataset in an object store costs one range request per tile. Records carry
+//! their own CRC: a flipped bit fails that tile, not the dataset.
 
 use std::fs::File;
 use std::hash::{Hash, Hasher};
-use std::os::unix::fs::FileExt;
-use std::path::{Path, PathBuf};
+use std::path::Path;
+use std::sync::Arc;
 
 use anyhow::{bail, Context, Result};
+use object_store::ObjectStore;
 use zerotile_codec::bintree::Hierarchy;
 use zerotile_codec::container::{
     Container, Fixed, Limits, Metadata, TileId, TileRecord, FIXED_LEN,
 };
 use zerotile_codec::geo::{Scheme, Tiling};
 
+use super::storage::Source;
+
 /// A dataset ready for tile requests.
 #[derive(Debug)]
 pub struct Dataset {
     /// The URL name: the file's stem.
     pub name: String,
-    pub path: PathBuf,
+    /// Where it was read from (a path or a store URL), for messages.
+    pub location: String,
     pub container: Container,
     pub tiling: Tiling,
     /// Per tile side: the mesher's tables, shared by every tile of the dataset.
     pub hierarchy: Hierarchy,
     /// Identifies this build of the dataset (its header and size): part of every ETag, so
-    /// re-ingesting invalidates client caches.
+    /// re-ingesting invalidates client caches, and the same file gives the same ETags from
+    /// local disk or a store (replicas agree behind one CDN).
     pub version: u64,
-    file: File,
-    file_len: u64,
+    source: Source,
+    len: u64,
 }
 
 impl Dataset {
-    /// Opens `path`, checks its header and that every record lies inside the file.
+    /// Opens a local file, checks its header and that every record lies inside the file.
     pub fn open(path: &Path) -> Result<Self> {
-        let name = path
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        crate::ingest::check_name(&name)?;
         let file = File::open(path).with_context(|| format!("opening {}", path.display()))?;
-        let file_len = file.metadata()?.len();
+        let len = file.metadata()?.len();
+        Self::from_source(
+            path.file_stem().map(|s| s.to_string_lossy().into_owned()),
+            path.display().to_string(),
+            Source::File(file),
+            len,
+        )
+    }
+
+    /// Opens an object of a store, as [`Dataset::open`] does a file.
+    pub fn open_object(
+        store: &Arc<dyn ObjectStore>,
+        meta: &object_store::ObjectMeta,
+    ) -> Result<Self> {
+        let name = meta
+            .location
+            .filename()
+            .and_then(|f| f.rsplit_once('.'))
+            .map(|(stem, _)| stem.to_string());
+        Self::from_source(
+            name,
+            format!("{store}/{}", meta.location),
+            Source::Object {
+                store: Arc::clone(store),
+                path: meta.location.clone(),
+            },
+            meta.size,
+        )
+    }
+
+    fn from_source(
+        name: Option<String>,
+        location: String,
+        source: Source,
+        len: u64,
+    ) -> Result<Self> {
+        let name = name.unwrap_or_default();
+        crate::ingest::check_name(&name)?;
 
         // The fixed part says how long the header is; read exactly that.
         let limits = Limits::default();
-        let mut fixed = [0u8; FIXED_LEN];
-        file.read_exact_at(&mut fixed, 0)
+        if len < FIXED_LEN as u64 {
+            bail!("{len} bytes: shorter than the fixed header");
+        }
+        let fixed = source
+            .read_at(0, FIXED_LEN)
             .context("reading the fixed header")?;
         let fixed = Fixed::parse(&fixed, &limits)?;
-        if fixed.header_len as u64 > file_len {
-            bail!(
-                "header of {} bytes in a {file_len}-byte file",
-                fixed.header_len
-            );
+        if fixed.header_len as u64 > len {
+            bail!("header of {} bytes in a {len}-byte file", fixed.header_len);
         }
-        let mut header = vec![0u8; fixed.header_len];
-        file.read_exact_at(&mut header, 0)
+        let header = source
+            .read_at(0, fixed.header_len)
             .context("reading the header")?;
         let container = Container::parse(&header, &limits)?;
 
         // Records must lie inside the file: a truncated copy is refused whole.
         if let Some((id, _)) = container
             .tiles()
-            .find(|(_, e)| e.offset.saturating_add(u64::from(e.len)) > file_len)
+            .find(|(_, e)| e.offset.saturating_add(u64::from(e.len)) > len)
         {
             bail!("tile {id} record ends past the end of the file (truncated copy?)");
         }
@@ -78,16 +116,16 @@ impl Dataset {
 
         let mut h = std::collections::hash_map::DefaultHasher::new();
         header.hash(&mut h);
-        file_len.hash(&mut h);
+        len.hash(&mut h);
         Ok(Self {
             name,
-            path: path.to_path_buf(),
+            location,
             container,
             tiling,
             hierarchy,
             version: h.finish(),
-            file,
-            file_len,
+            source,
+            len,
         })
     }
 
@@ -99,17 +137,17 @@ impl Dataset {
         self.container.entry(id).is_some()
     }
 
-    /// Reads and checks one tile record: corners and EZW stream (blocking file I/O).
+    /// Reads and checks one tile record: corners and EZW stream (blocking I/O).
     pub fn read_tile(&self, id: TileId) -> Result<OwnedRecord> {
         let entry = self
             .container
             .entry(id)
             .with_context(|| format!("tile {id} is not in {}", self.name))?;
-        debug_assert!(entry.offset + u64::from(entry.len) <= self.file_len);
-        let mut bytes = vec![0u8; entry.len as usize];
-        self.file
-            .read_exact_at(&mut bytes, entry.offset)
-            .with_context(|| format!("reading tile {id} of {}", self.path.display()))?;
+        debug_assert!(entry.offset + u64::from(entry.len) <= self.len);
+        let mut bytes = self
+            .source
+            .read_at(entry.offset, entry.len as usize)
+            .with_context(|| format!("reading tile {id} of {}", self.location))?;
         let rec = TileRecord::parse(id, &bytes, &entry)?;
         let corners = rec.corners;
         let stream_start = bytes.len() - rec.stream.len();

@@ -28,6 +28,8 @@ pub struct Metrics {
     latency_sum_micros: AtomicU64,
     latency_count: AtomicU64,
     pub tiles_decoded: AtomicU64,
+    /// Renders whose client disconnected before they finished.
+    pub renders_cancelled: AtomicU64,
     pub bytes_out: AtomicU64,
     pub cache_hits: AtomicU64,
     pub cache_misses: AtomicU64,
@@ -111,6 +113,21 @@ impl Metrics {
                 "zerotile_response_cache_hits_total",
                 "Tiles answered from the encoded-response cache.",
                 &self.response_cache_hits,
+            ),
+            (
+                "zerotile_storage_reads_total",
+                "Byte-range reads of dataset files or objects.",
+                &super::storage::READS,
+            ),
+            (
+                "zerotile_storage_read_bytes_total",
+                "Bytes those reads returned.",
+                &super::storage::BYTES_READ,
+            ),
+            (
+                "zerotile_renders_cancelled_total",
+                "Tile renders stopped early because their client went away.",
+                &self.renders_cancelled,
             ),
         ] {
             let _ = writeln!(out, "# HELP {name} {help}\n# TYPE {name} counter");

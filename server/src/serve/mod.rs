@@ -2,7 +2,7 @@
 //!
 //! | module | concern |
 //! |---|---|
-//! | [`catalog`], [`dataset`] | datasets of a folder, opened once, tiles read on demand |
+//! | [`catalog`], [`dataset`], [`storage`] | datasets of a folder or store URL, opened once, tiles read by range |
 //! | [`threshold`], [`view_plane`] | T from `threshold`, `ratio`, a camera (eq. 4) or the zoom |
 //! | [`pipeline`], [`tile_cache`] | decode (cached by bytes), stitch, off the async threads |
 //! | [`render`] | quantized-mesh, PNG, ZTM1, OBJ/GLB/JSON bytes |
@@ -22,6 +22,7 @@ pub mod pipeline;
 pub mod render;
 pub mod routes;
 pub mod state;
+pub mod storage;
 pub mod threshold;
 pub mod tile_cache;
 pub mod view_plane;
@@ -146,9 +147,20 @@ pub struct ServeOptions {
 /// in-flight requests finish.
 pub fn run(opts: ServeOptions) -> Result<()> {
     init_tracing();
-    let catalog = Catalog::open_dir(&opts.data)?;
+    let data = opts.data.to_string_lossy().into_owned();
+    let (catalog, meshes) = if storage::is_url(&data) {
+        // Object meshes are served from local folders only.
+        (
+            Catalog::open_url(&data)?,
+            meshes::MeshCatalog::empty(opts.config.response_cache_bytes),
+        )
+    } else {
+        (
+            Catalog::open_dir(&opts.data)?,
+            meshes::MeshCatalog::open(&opts.data, opts.config.response_cache_bytes),
+        )
+    };
     let n = catalog.len();
-    let meshes = meshes::MeshCatalog::open(&opts.data, opts.config.response_cache_bytes);
     if catalog.is_empty() && meshes.list().is_empty() {
         tracing::warn!(
             "no datasets or meshes in {} (build a dataset with `zerotile ingest`)",

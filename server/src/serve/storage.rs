@@ -1,0 +1,154 @@
+//! Where a dataset's bytes live: a local file (the default) or an object in any store the
+//! `object_store` crate reaches by URL (`s3://bucket/prefix` on AWS or any S3-compatible
+//! server, `http(s)://` with range support, `gs://`, `az://`).
+//!
+//! Every read is one byte range: the header once at open, then one record per tile. A remote
+//! dataset is never downloaded whole, and a replica needs no disk.
+
+use std::fs::File;
+use std::os::unix::fs::FileExt;
+use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
+use std::sync::{Arc, OnceLock};
+
+use anyhow::{bail, Context, Result};
+use object_store::path::Path as ObjectPath;
+use object_store::ObjectStore;
+
+/// A dataset's bytes.
+#[derive(Debug)]
+pub enum Source {
+    /// A local file, held open: a re-ingest renames a new file over the path, and this handle
+    /// keeps reading the very file whose index was parsed (a path-based reader would mix a new
+    /// file's records with the old index).
+    File(File),
+    /// An object in a store. Records are CRC-checked against the index read at start, so an
+    /// object replaced in place fails its tiles loudly rather than serving a mix.
+    Object {
+        store: Arc<dyn ObjectStore>,
+        path: ObjectPath,
+    },
+}
+
+/// Bytes read from every source since start, for `/metrics`: shows that tiles cost ranges,
+/// not whole files.
+pub static BYTES_READ: AtomicU64 = AtomicU64::new(0);
+/// Reads issued, for `/metrics`.
+pub static READS: AtomicU64 = AtomicU64::new(0);
+
+impl Source {
+    /// Reads `len` bytes at `offset` (blocking: call it off the async threads).
+    pub fn read_at(&self, offset: u64, len: usize) -> Result<Vec<u8>> {
+        READS.fetch_add(1, Relaxed);
+        BYTES_READ.fetch_add(len as u64, Relaxed);
+        match self {
+            Self::File(f) => {
+                let mut buf = vec![0u8; len];
+                f.read_exact_at(&mut buf, offset)?;
+                Ok(buf)
+            }
+            Self::Object { store, path } => {
+                let end = offset.saturating_add(len as u64);
+                let bytes = io_runtime()?
+                    .block_on(store.get_range(path, offset..end))
+                    .with_context(|| format!("reading bytes {offset}..{end} of {path}"))?;
+                anyhow::ensure!(
+                    bytes.len() == len,
+                    "store returned {} bytes for a {len}-byte range of {path}",
+                    bytes.len()
+                );
+                Ok(bytes.to_vec())
+            }
+        }
+    }
+}
+
+/// True when `data` names a store URL rather than a local folder.
+pub fn is_url(data: &str) -> bool {
+    data.contains("://")
+}
+
+/// The store and the prefix a URL names: `s3://bucket/prefix` (AWS or any S3-compatible
+/// server; credentials, region and endpoint from the usual `AWS_*` variables, e.g.
+/// `AWS_ENDPOINT=http://minio:9000 AWS_ALLOW_HTTP=true`) or `http(s)://host/prefix` (a
+/// server that lists with WebDAV and answers ranges).
+///
+/// Retries are few and bounded: a store that is down must fail a tile in seconds (the
+/// client retries, nginx tries the other replica) rather than hold it for minutes.
+pub fn open_url(url: &str) -> Result<(Arc<dyn ObjectStore>, ObjectPath)> {
+    use object_store::{BackoffConfig, ClientOptions, RetryConfig};
+    use std::time::Duration;
+    let parsed = url::Url::parse(url).with_context(|| format!("data URL {url:?}"))?;
+    let retry = RetryConfig {
+        backoff: BackoffConfig::default(),
+        max_retries: 2,
+        retry_timeout: Duration::from_secs(5),
+    };
+    // These options replace the builder's own, so plain HTTP is allowed here as the
+    // environment (S3) or the URL (http://) asks.
+    let allow_http = parsed.scheme() == "http"
+        || std::env::var("AWS_ALLOW_HTTP")
+            .is_ok_and(|v| v.eq_ignore_ascii_case("true") || v == "1");
+    let client = ClientOptions::new()
+        .with_allow_http(allow_http)
+        .with_connect_timeout(Duration::from_secs(2))
+        .with_timeout(Duration::from_secs(10));
+    let prefix = ObjectPath::from(parsed.path().trim_matches('/'));
+    let store: Arc<dyn ObjectStore> = match parsed.scheme() {
+        "s3" | "s3a" => Arc::new(
+            object_store::aws::AmazonS3Builder::from_env()
+                .with_url(url)
+                .with_retry(retry)
+                .with_client_options(client)
+                .build()
+                .with_context(|| format!("data URL {url}"))?,
+        ),
+        "http" | "https" => {
+            let mut root = parsed.clone();
+            root.set_path("/");
+            Arc::new(
+                object_store::http::HttpBuilder::new()
+                    .with_url(root.as_str())
+                    .with_retry(retry)
+                    .with_client_options(client)
+                    .build()
+                    .with_context(|| format!("data URL {url}"))?,
+            )
+        }
+        other => bail!("data URL {url}: scheme {other:?} is not supported (s3://, http(s)://)"),
+    };
+    Ok((store, prefix))
+}
+
+/// Every `.ext` object directly under `prefix`, with its size and ETag.
+pub fn list(
+    store: &Arc<dyn ObjectStore>,
+    prefix: &ObjectPath,
+    ext: &str,
+) -> Result<Vec<object_store::ObjectMeta>> {
+    let listing = io_runtime()?
+        .block_on(store.list_with_delimiter(Some(prefix)))
+        .with_context(|| format!("listing {prefix} in {store}"))?;
+    let mut objects: Vec<_> = listing
+        .objects
+        .into_iter()
+        .filter(|o| o.location.extension() == Some(ext))
+        .collect();
+    objects.sort_by(|a, b| a.location.cmp(&b.location));
+    Ok(objects)
+}
+
+/// The runtime that drives store I/O for blocking callers (tile work on the blocking pool,
+/// startup, the CLI), apart from the server's own so that a blocking read never parks an
+/// async worker.
+fn io_runtime() -> Result<&'static tokio::runtime::Runtime> {
+    static RT: OnceLock<std::io::Result<tokio::runtime::Runtime>> = OnceLock::new();
+    RT.get_or_init(|| {
+        tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(2)
+            .thread_name("zerotile-io")
+            .enable_all()
+            .build()
+    })
+    .as_ref()
+    .map_err(|e| anyhow::anyhow!("starting the storage runtime: {e}"))
+}

@@ -1,0 +1,213 @@
+//! Datasets read from an S3-compatible object store: a real `moto_server` (PyPI `moto[server]`)
+//! on loopback holds a real SRTM dataset, and `zerotile serve --data s3://…` must answer byte
+//! for byte what the same file answers locally, reading byte ranges, never the whole object.
+//!
+//! Without `moto_server` on PATH the test skips with a message; with `ZEROTILE_E2E=1` (set
+//! by `.ci/run`, which installs it) its absence fails the test.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    reason = "integration test: a failed step should stop the test loudly"
+)]
+
+use std::net::TcpListener;
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use zerotile_tests::server::Server;
+use zerotile_tests::{shared_data, zerotile_bin};
+
+/// A `moto_server` on a free loopback port, stopped on drop.
+struct Moto {
+    child: Child,
+    base: String,
+}
+
+impl Moto {
+    fn start() -> Option<Self> {
+        let port = TcpListener::bind("127.0.0.1:0")
+            .unwrap()
+            .local_addr()
+            .unwrap()
+            .port();
+        let child = Command::new("moto_server")
+            .args(["-H", "127.0.0.1", "-p", &port.to_string()])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn();
+        let child = match child {
+            Ok(c) => c,
+            Err(e) => {
+                let msg = format!("moto_server not runnable ({e}); `pip install 'moto[server]'`");
+                if std::env::var("ZEROTILE_E2E").is_ok_and(|v| v == "1") {
+                    panic!("ZEROTILE_E2E=1 but {msg}");
+                }
+                eprintln!("SKIPPED (set ZEROTILE_E2E=1 to require it): {msg}");
+                return None;
+            }
+        };
+        let moto = Self {
+            child,
+            base: format!("http://127.0.0.1:{port}"),
+        };
+        let start = Instant::now();
+        while ureq::get(&moto.base).call().is_err() {
+            assert!(
+                start.elapsed() < Duration::from_secs(60),
+                "moto_server did not come up"
+            );
+            std::thread::sleep(Duration::from_millis(200));
+        }
+        Some(moto)
+    }
+
+    fn put(&self, path: &str, body: &[u8]) {
+        let r = ureq::put(format!("{}{path}", self.base))
+            .send(body)
+            .unwrap();
+        assert_eq!(r.status(), 200, "PUT {path}");
+    }
+}
+
+impl Drop for Moto {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn metric(s: &Server, name: &str) -> f64 {
+    let text = String::from_utf8(s.get("/metrics", &[]).body).unwrap();
+    text.lines()
+        .find_map(|l| l.strip_prefix(name)?.trim().parse().ok())
+        .unwrap_or_else(|| panic!("{name} not in /metrics"))
+}
+
+#[test]
+fn s3_datasets_serve_the_same_bytes_by_range_reads() {
+    let Some(moto) = Moto::start() else { return };
+
+    // A real dataset, ingested by the real binary.
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("storage-s3");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = Command::new(zerotile_bin())
+        .args([
+            "ingest", "--quiet", "--scheme", "geodetic", "--name", "srtm", "--data",
+        ])
+        .arg(&dir)
+        .arg(shared_data().join("dem/N44W072.hgt"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let file = std::fs::read(dir.join("srtm.ztd")).unwrap();
+
+    // The bucket: the dataset, a truncated copy (skipped, not fatal) and an unrelated object.
+    moto.put("/tiles", b"");
+    moto.put("/tiles/prod/srtm.ztd", &file);
+    moto.put("/tiles/prod/broken.ztd", &file[..file.len() / 2]);
+    moto.put("/tiles/prod/README.txt", b"not a dataset");
+    moto.put("/tiles/other/elsewhere.ztd", &file);
+
+    let local = Server::start(&dir);
+    let endpoint = moto.base.clone();
+    let mut remote = Server::start_with(
+        "s3://tiles/prod".as_ref(),
+        &[
+            ("AWS_ENDPOINT", &endpoint),
+            ("AWS_ALLOW_HTTP", "true"),
+            ("AWS_ACCESS_KEY_ID", "test"),
+            ("AWS_SECRET_ACCESS_KEY", "test"),
+            ("AWS_REGION", "us-east-1"),
+        ],
+    );
+    remote.warnings_expected = true; // broken.ztd is skipped with a warning
+
+    let list = remote.get("/v1/datasets", &[]).json();
+    let names: Vec<&str> = list["datasets"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|d| d["name"].as_str())
+        .collect();
+    assert_eq!(names, ["srtm"], "{list}");
+    let skipped = list.to_string();
+    assert!(
+        skipped.contains("broken.ztd"),
+        "the truncated copy is reported: {list}"
+    );
+
+    let before = metric(&remote, "zerotile_storage_read_bytes_total");
+    let layer = local.get("/v1/datasets/srtm/layer.json", &[]).json();
+    let z9 = &layer["available"][9][0];
+    let (x0, y0) = (
+        z9["startX"].as_u64().unwrap(),
+        z9["startY"].as_u64().unwrap(),
+    );
+    let mut asked = 0;
+    for path in [
+        format!("/v1/datasets/srtm/tiles/9/{x0}/{y0}.terrain?threshold=4"),
+        format!("/v1/datasets/srtm/tiles/9/{x0}/{y0}.png"),
+        format!("/v1/datasets/srtm/tiles/9/{x0}/{y0}.json?threshold=16"),
+        "/v1/datasets/srtm/tiles/3/4/5.terrain".to_string(),
+        "/v1/datasets/srtm/layer.json".to_string(),
+    ] {
+        let (a, b) = (local.get(&path, &[]), remote.get(&path, &[]));
+        assert_eq!(
+            a.status,
+            200,
+            "{path}: {}",
+            String::from_utf8_lossy(&a.body)
+        );
+        assert_eq!(
+            b.status,
+            200,
+            "{path}: {}",
+            String::from_utf8_lossy(&b.body)
+        );
+        assert_eq!(a.body, b.body, "{path}: bodies differ");
+        assert_eq!(
+            a.header("etag"),
+            b.header("etag"),
+            "{path}: same file, same ETag"
+        );
+        asked += 1;
+    }
+    assert_eq!(asked, 5);
+    let read = metric(&remote, "zerotile_storage_read_bytes_total") - before;
+    let reads = metric(&remote, "zerotile_storage_reads_total");
+    assert!(read > 0.0, "tiles were read from the store");
+    assert!(
+        read < file.len() as f64 / 4.0,
+        "{read} bytes read for a few tiles of a {}-byte object: ranges, not downloads",
+        file.len()
+    );
+    assert!(reads >= 4.0, "one range per record: {reads} reads");
+
+    // A store that does not answer is a clear startup error, not a hang or a panic.
+    let out = Command::new(zerotile_bin())
+        .args([
+            "serve",
+            "--addr",
+            "127.0.0.1:0",
+            "--data",
+            "s3://tiles/prod",
+        ])
+        .envs([
+            ("AWS_ENDPOINT", "http://127.0.0.1:9"),
+            ("AWS_ALLOW_HTTP", "true"),
+            ("AWS_ACCESS_KEY_ID", "test"),
+            ("AWS_SECRET_ACCESS_KEY", "test"),
+            ("AWS_REGION", "us-east-1"),
+        ])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("listing"), "{err}");
+}
