@@ -16,6 +16,7 @@ use zerotile_codec::geo::Scheme;
 
 use crate::serve::dataset::Dataset;
 use crate::serve::negotiate::Extensions;
+use crate::serve::pipeline::Cancel;
 use crate::serve::routes::meta::layer;
 use crate::serve::routes::tiles::{render_tile, TileFormat, Variant};
 use crate::serve::{threshold, AppState, Catalog, Config};
@@ -219,7 +220,7 @@ fn render_all(
     order.sort_by_key(|t| (t.z, t.y, t.x));
     order.par_iter().try_for_each(|&id| -> Result<()> {
         let t = threshold::default_threshold(d, id.z);
-        let enc = render_tile(state, d, id, t, format, variant, false)
+        let enc = render_tile(state, d, id, t, format, variant, false, &Cancel::default())
             .with_context(|| format!("tile {}/{}/{}", id.z, id.x, id.y))?;
         // Paths follow the serving URLs, which use the stored y: TMS rows for geodetic
         // (layer.json scheme "tms"), XYZ rows for mercator ("slippyMap").

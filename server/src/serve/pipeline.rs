@@ -2,7 +2,7 @@
 //! it stitched to its neighbours. Blocking functions; the routes call them through
 //! `spawn_blocking`.
 
-use std::sync::atomic::Ordering::Relaxed;
+use std::sync::atomic::{AtomicBool, Ordering::Relaxed};
 use std::sync::Arc;
 
 use anyhow::{Context, Result};
@@ -18,12 +18,63 @@ use super::state::AppState;
 use super::threshold::{mesh_tolerance, Depth};
 use super::tile_cache::{DecodedTile, Key};
 
+/// Set once nobody waits for a render any more (the client went away, or the request timed
+/// out): the render stops at its next stage instead of decoding tiles no one will read.
+#[derive(Clone, Debug, Default)]
+pub struct Cancel(Arc<AtomicBool>);
+
+/// The error a cancelled render stops with.
+#[derive(Debug, thiserror::Error)]
+#[error("the request was cancelled")]
+pub struct Cancelled;
+
+impl Cancel {
+    /// A guard for the request's future: dropping the future (hyper does when the client
+    /// disconnects) cancels the render it started.
+    #[must_use]
+    pub fn on_drop(&self) -> CancelOnDrop {
+        CancelOnDrop(self.clone())
+    }
+
+    pub fn is_cancelled(&self) -> bool {
+        self.0.load(Relaxed)
+    }
+
+    /// A stage boundary: stop here if cancelled.
+    pub fn check(&self) -> Result<()> {
+        if self.is_cancelled() {
+            Err(Cancelled.into())
+        } else {
+            Ok(())
+        }
+    }
+}
+
+/// Cancels its [`Cancel`] when dropped.
+#[derive(Debug)]
+pub struct CancelOnDrop(Cancel);
+
+impl Drop for CancelOnDrop {
+    fn drop(&mut self) {
+        self.0 .0.store(true, Relaxed);
+    }
+}
+
+/// Counts `r` in the metrics if it ended by cancellation, and passes it on.
+pub fn count_cancelled<T>(state: &AppState, r: Result<T>) -> Result<T> {
+    if r.as_ref().is_err_and(|e| e.is::<Cancelled>()) {
+        state.metrics.renders_cancelled.fetch_add(1, Relaxed);
+    }
+    r
+}
+
 /// `id` decoded to `depth`, from the cache or decoded now.
 pub fn decoded(
     state: &AppState,
     d: &Dataset,
     id: TileId,
     depth: Depth,
+    cancel: &Cancel,
 ) -> Result<Arc<DecodedTile>> {
     let key = Key {
         dataset: d.version,
@@ -37,6 +88,7 @@ pub fn decoded(
     state.metrics.cache_misses.fetch_add(1, Relaxed);
     // Concurrent misses on one key wait for a single decode.
     state.cache.get_or_insert_with(&key, || {
+        cancel.check()?;
         let rec = d.read_tile(id)?;
         let dec = ezw::decode(&rec.stream, depth.limit(), ezw::DEFAULT_MAX_SAMPLES)
             .with_context(|| format!("decoding tile {id} of {}", d.name))?;
@@ -99,17 +151,19 @@ pub fn stitched(
     d: &Dataset,
     id: TileId,
     t: f64,
+    cancel: &Cancel,
 ) -> Result<(Arc<DecodedTile>, TerrainMesh)> {
     // The tile and each neighbour at one depth: the stitch needs them decoded alike.
     let depth = Depth::for_threshold(t);
-    let center = decoded(state, d, id, depth)?;
+    let center = decoded(state, d, id, depth, cancel)?;
     let mut around: [Option<Arc<DecodedTile>>; 4] = Default::default();
     for (slot, n) in around.iter_mut().zip(neighbours(d, id)) {
         if let Some(n) = n {
             // A neighbour that cannot be read (a corrupt record) costs this tile its match
             // on that edge, not the tile itself.
-            match decoded(state, d, n, depth) {
+            match decoded(state, d, n, depth, cancel) {
                 Ok(t) => *slot = Some(t),
+                Err(e) if e.is::<Cancelled>() => return Err(e),
                 Err(e) => tracing::warn!("meshing {id} of {} without neighbour {n}: {e:#}", d.name),
             }
         }
@@ -123,6 +177,7 @@ pub fn stitched(
         east: east.as_deref().map(view),
         corners: Some(center.corners),
     };
+    cancel.check()?;
     let mesh = stitched_mesh(&d.hierarchy, &n, mesh_tolerance(t))?;
     Ok((center, mesh))
 }

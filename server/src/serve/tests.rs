@@ -1,6 +1,8 @@
 //! The router in-process (`oneshot`), on a one-tile dataset written to a scratch folder:
 //! status codes, headers and the error shape, without a socket.
 
+use std::sync::atomic::Ordering::Relaxed;
+
 use axum::body::{to_bytes, Body};
 use axum::http::{header, Method, Request, StatusCode};
 use axum::Router;
@@ -352,4 +354,63 @@ async fn cors_allows_any_origin_unless_configured() {
     )
     .await;
     assert!(h.get("access-control-allow-origin").is_none());
+}
+
+#[test]
+fn a_cancelled_render_decodes_nothing_more() {
+    let d = hill_dataset("cancel-before", "local", &[TileId { z: 0, x: 0, y: 0 }]);
+    let state = AppState::new(Catalog::default(), Config::default());
+    let cancel = pipeline::Cancel::default();
+    drop(cancel.on_drop());
+    let err = pipeline::stitched(&state, &d, TileId { z: 0, x: 0, y: 0 }, 1.0, &cancel)
+        .expect_err("a cancelled render stops");
+    assert!(err.is::<pipeline::Cancelled>(), "{err:#}");
+    assert_eq!(state.metrics.tiles_decoded.load(Relaxed), 0);
+    // Not cancelled, the same call renders.
+    pipeline::stitched(
+        &state,
+        &d,
+        TileId { z: 0, x: 0, y: 0 },
+        1.0,
+        &Default::default(),
+    )
+    .expect("renders");
+    assert_eq!(state.metrics.tiles_decoded.load(Relaxed), 1);
+}
+
+/// A client that goes away mid-render (its request future dropped, as hyper does on a
+/// disconnect) stops the render at its next tile instead of decoding all five.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn dropping_a_request_stops_its_decode_work() {
+    let all: Vec<TileId> = (0..4)
+        .flat_map(|x| (0..2).map(move |y| TileId { z: 1, x, y }))
+        .collect();
+    let d = hill_dataset("cancel-drop", "geodetic", &all);
+    let name = d.name.clone();
+    let mut catalog = Catalog::default();
+    catalog.insert(d);
+    let state = AppState::new(catalog, Config::default());
+    let app = app(state.clone());
+    // The finest threshold: every pass decoded, milliseconds a tile.
+    let uri = format!("/v1/datasets/{name}/tiles/1/1/0.terrain?threshold=0.01");
+    let req = tokio::spawn(async move { send(&app, Method::GET, &uri, &[]).await });
+    let metrics = state.metrics.clone();
+    let started = std::time::Instant::now();
+    while metrics.tiles_decoded.load(Relaxed) == 0 {
+        assert!(started.elapsed().as_secs() < 30, "the render never started");
+        tokio::time::sleep(std::time::Duration::from_micros(100)).await;
+    }
+    req.abort();
+    while metrics.renders_cancelled.load(Relaxed) == 0 {
+        assert!(
+            started.elapsed().as_secs() < 30,
+            "the render was not cancelled"
+        );
+        tokio::time::sleep(std::time::Duration::from_millis(1)).await;
+    }
+    let decoded = metrics.tiles_decoded.load(Relaxed);
+    assert!(
+        decoded < 5,
+        "{decoded} of the 5 tiles decoded after the client left"
+    );
 }

@@ -161,9 +161,14 @@ pub async fn tile(
             let permit = state.cpu_permit().await?;
             let job_state = state.clone();
             let job_d = d.clone();
+            let cancel = pipeline::Cancel::default();
+            let _cancel_on_drop = cancel.on_drop();
             let fresh = tokio::task::spawn_blocking(move || {
                 let _permit = permit;
-                render_tile(&job_state, &job_d, id, t.t, format, variant, flat_root)
+                let r = render_tile(
+                    &job_state, &job_d, id, t.t, format, variant, flat_root, &cancel,
+                );
+                pipeline::count_cancelled(&job_state, r)
             })
             .await
             .map_err(ApiError::internal)?
@@ -375,6 +380,10 @@ fn header(s: &str) -> ApiResult<HeaderValue> {
 }
 
 /// Decode, mesh and encode one tile (blocking).
+#[allow(
+    clippy::too_many_arguments,
+    reason = "the tile's identity, its rendering and the cancel token; both callers pass them straight through"
+)]
 pub(crate) fn render_tile(
     state: &AppState,
     d: &Dataset,
@@ -383,12 +392,13 @@ pub(crate) fn render_tile(
     format: TileFormat,
     variant: Variant,
     flat_root: bool,
+    cancel: &pipeline::Cancel,
 ) -> anyhow::Result<Encoded> {
     let mesh_of = || -> anyhow::Result<_> {
         Ok(if flat_root {
             render::flat_mesh(d.hierarchy.side(), d.metadata().fill)
         } else {
-            pipeline::stitched(state, d, id, t)?.1
+            pipeline::stitched(state, d, id, t, cancel)?.1
         })
     };
     let (bytes, triangles) = match (format, variant) {
@@ -409,7 +419,7 @@ pub(crate) fn render_tile(
             )
         }
         (TileFormat::Png, Variant::Png { terrarium, size }) => {
-            let dec = pipeline::decoded(state, d, id, Depth::for_threshold(t))?;
+            let dec = pipeline::decoded(state, d, id, Depth::for_threshold(t), cancel)?;
             let enc = if terrarium {
                 Encoding::Terrarium
             } else {
@@ -418,7 +428,7 @@ pub(crate) fn render_tile(
             (render::png(&dec.heights, enc, size)?, None)
         }
         (TileFormat::Ezw, _) => {
-            let dec = pipeline::decoded(state, d, id, Depth::for_threshold(t))?;
+            let dec = pipeline::decoded(state, d, id, Depth::for_threshold(t), cancel)?;
             (dec.prefix.clone(), None)
         }
         (TileFormat::Bin, _) => {

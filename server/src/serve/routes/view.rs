@@ -59,9 +59,12 @@ pub async fn view(
     let job_state = state.clone();
     let job_d = d.clone();
     let job_plane = plane.clone();
+    let cancel = pipeline::Cancel::default();
+    let _cancel_on_drop = cancel.on_drop();
     let mesh = tokio::task::spawn_blocking(move || {
         let _permit = permit;
-        view_mesh(&job_state, &job_d, &tiles, t, &job_plane)
+        let r = view_mesh(&job_state, &job_d, &tiles, t, &job_plane, &cancel);
+        pipeline::count_cancelled(&job_state, r)
     })
     .await
     .map_err(ApiError::internal)?
@@ -174,6 +177,7 @@ fn view_mesh(
     tiles: &[TileId],
     t: f64,
     plane: &ViewPlane,
+    cancel: &pipeline::Cancel,
 ) -> anyhow::Result<TriMesh> {
     // The footprint in the mesh's coordinates (see `render::tri_mesh`).
     let polygon: Vec<[f64; 2]> = plane
@@ -189,7 +193,7 @@ fn view_mesh(
     let mut faces = Vec::new();
     let mut welded: HashMap<[u64; 2], u32> = HashMap::new();
     for &id in tiles {
-        let (_, mesh) = pipeline::stitched(state, d, id, t)?;
+        let (_, mesh) = pipeline::stitched(state, d, id, t, cancel)?;
         let tile = render::tri_mesh(d, id, &mesh)?;
         for f in &tile.faces {
             let p = f.map(|i| tile.positions[i as usize]);
