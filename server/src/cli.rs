@@ -139,6 +139,13 @@ pub struct ServeArgs {
     /// `--cors-origin https://maps.example.org`.
     #[arg(long = "cors-origin", value_name = "ORIGIN")]
     pub cors_origins: Vec<String>,
+    /// Renders (decode + mesh + encode) run at once; default twice the cores.
+    #[arg(long, value_name = "N")]
+    pub cpu_jobs: Option<usize>,
+    /// Renders allowed to wait for a slot; past it requests get 503 + Retry-After at once
+    /// (load shedding). Default 64 per core.
+    #[arg(long, value_name = "N")]
+    pub cpu_queue: Option<usize>,
 }
 
 #[derive(Subcommand, Debug)]
@@ -321,10 +328,16 @@ fn serve(a: ServeArgs) -> anyhow::Result<()> {
             anyhow::bail!("--cors-origin {o:?}: give a scheme and host, e.g. https://maps.example.org (no path, no trailing slash)");
         }
     }
+    let defaults = crate::serve::Config::default();
+    if a.cpu_jobs == Some(0) {
+        anyhow::bail!("--cpu-jobs 0: at least one render must be able to run");
+    }
     let config = crate::serve::Config {
         cache_bytes: a.cache_mb.saturating_mul(1 << 20),
         cors_origins: a.cors_origins.clone(),
-        ..crate::serve::Config::default()
+        cpu_jobs: a.cpu_jobs.unwrap_or(defaults.cpu_jobs),
+        cpu_queue: a.cpu_queue.unwrap_or(defaults.cpu_queue),
+        ..defaults
     };
     let data = match a.data {
         Some(dir) => dir,
