@@ -49,12 +49,11 @@ impl TileErrors {
         finest_two_levels(h, n, &mut value);
         for l in (0..splittable.saturating_sub(2)).rev() {
             let range = hierarchy.level_start[l]..hierarchy.level_start[l + 1];
-            let shapes = (l + SHAPED_LEVELS + 2 >= splittable)
-                .then(|| Shapes::of_level(hierarchy, l, coords));
+            let shapes = hierarchy.shapes.get(l).and_then(Option::as_ref);
             for t in range {
                 let tri = hierarchy.tris[t];
                 let m = tri.m as usize;
-                let own = match &shapes {
+                let own = match shapes {
                     Some(shapes) => shapes.error(&tri, h, coords),
                     None => plane_error(&tri, h, coords),
                 };
@@ -188,8 +187,23 @@ impl Plane {
 /// The samples one triangle shape covers, for every triangle of one level: a level holds a
 /// few shapes (the hypotenuse along one axis or diagonal, the right angle on either side,
 /// either end first), each with the same samples relative to its corner `a`.
-struct Shapes {
+#[derive(Debug)]
+pub(super) struct Shapes {
     shapes: Vec<(ShapeKey, Vec<Offset>)>,
+}
+
+/// Per level, the shape lists of the levels [`TileErrors::new`] reads them for: built once
+/// per grid size with the [`Hierarchy`] (finding a level's shapes looks at every triangle of
+/// it, ~0.1 ms per tile at 257² when done per tile).
+pub(super) fn level_shapes(hierarchy: &Hierarchy) -> Vec<Option<Shapes>> {
+    let splittable = hierarchy.levels() - 1;
+    let coords = Coords::new(hierarchy.side());
+    (0..splittable)
+        .map(|l| {
+            (l + 2 < splittable && l + SHAPED_LEVELS + 2 >= splittable)
+                .then(|| Shapes::of_level(hierarchy, l, coords))
+        })
+        .collect()
 }
 
 /// Corner b − a and c − a.
