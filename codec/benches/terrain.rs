@@ -37,6 +37,28 @@ fn decode_and_mesh(c: &mut Criterion) {
     }
     group.finish();
 
+    // The server's split of the budget (read to T·share, mesh within T·(1 − share)) at the
+    // shipped share and the next larger one: what a larger share saves in decode time, to set
+    // against the triangles it costs (docs/terrain-mesh.md).
+    let mut group = c.benchmark_group("decode_share_257");
+    let enc = ezw::encode(&g, &EncodeParams::new(Wavelet::Cdf97, 1.0)).expect("encode");
+    for share in [0.125, 0.25] {
+        for budget in [4.0, 16.0, 64.0] {
+            let id = BenchmarkId::new(format!("share={share}"), format!("T={budget}"));
+            group.bench_with_input(id, &budget, |b, &budget| {
+                b.iter(|| {
+                    let limit = DecodeLimit::Threshold(budget * share);
+                    let d =
+                        ezw::decode(&enc.bytes, limit, ezw::DEFAULT_MAX_SAMPLES).expect("decode");
+                    let errors = TileErrors::new(&hierarchy, &d.heights);
+                    let tolerance = budget * (1.0 - share);
+                    bintree::extract(&hierarchy, &errors, &d.heights, tolerance, None)
+                })
+            });
+        }
+    }
+    group.finish();
+
     // The parts, so a regression says where it is.
     let mut group = c.benchmark_group("parts_257");
     group.bench_function("hierarchy_new", |b| b.iter(|| Hierarchy::new(257)));

@@ -201,6 +201,10 @@ pub struct TerrainArgs {
     /// Timed runs per measurement (medians are reported).
     #[arg(long, default_value_t = 3)]
     pub repeat: usize,
+    /// Bintree, threshold mode: read the stream to T × this share (default: the server's,
+    /// 0.125), mesh with the rest. For measuring other shares; must be in (0, 1).
+    #[arg(long = "decode-share", value_name = "S")]
+    pub decode_share: Option<f64>,
 }
 
 /// Parses the arguments and runs the command; errors print one line and exit non-zero.
@@ -381,6 +385,10 @@ fn eval_terrain(a: TerrainArgs) -> anyhow::Result<()> {
             anyhow::bail!("--step must be finite and > 0, got {s}");
         }
     }
+    let decode_share = a.decode_share.unwrap_or(terrain::DECODE_SHARE);
+    if !(decode_share > 0.0 && decode_share < 1.0) {
+        anyhow::bail!("--decode-share must be in (0, 1), got {decode_share}");
+    }
     let eval = terrain::TerrainEval {
         input: a.input,
         crop: a.crop,
@@ -392,6 +400,7 @@ fn eval_terrain(a: TerrainArgs) -> anyhow::Result<()> {
         repeat: a.repeat.clamp(1, 100),
         eight_bit: a.eight_bit,
         mesher: a.mesher,
+        decode_share,
     };
     let points = terrain::run(&eval)?;
     if a.json {

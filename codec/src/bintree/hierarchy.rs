@@ -49,6 +49,8 @@ pub struct Hierarchy {
     /// For each sample, the midpoints of the (at most two) triangles whose split creates the
     /// triangles this sample splits: a vertex needs both to be vertices first (conformity).
     pub(crate) parents: Vec<[u32; 2]>,
+    /// Per level, the small triangles' sample lists (`None` where the error pass scans).
+    pub(super) shapes: Vec<Option<super::errors::Shapes>>,
 }
 
 impl Hierarchy {
@@ -85,12 +87,15 @@ impl Hierarchy {
             }
             level_start.push(tris.len());
         }
-        Some(Self {
+        let mut hierarchy = Self {
             n,
             tris,
             level_start,
             parents,
-        })
+            shapes: Vec::new(),
+        };
+        hierarchy.shapes = super::errors::level_shapes(&hierarchy);
+        Some(hierarchy)
     }
 
     /// Samples per side.

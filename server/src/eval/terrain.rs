@@ -37,6 +37,9 @@ pub struct TerrainEval {
     pub eight_bit: bool,
     /// Which mesher; `None` picks the bintree on (2^k + 1)² grids, the zerotree elsewhere.
     pub mesher: Option<Mesher>,
+    /// Bintree in threshold mode: the share of T the decode gets ([`DECODE_SHARE`] unless
+    /// measuring another).
+    pub decode_share: f64,
 }
 
 /// The two terrain meshers (see `zerotile_codec::bintree` for why there are two).
@@ -228,7 +231,9 @@ fn measure(
     });
     // The bintree spends T on decode and mesh together (see DECODE_SHARE).
     let limit = match (mesher, limit) {
-        (Mesher::Bintree, DecodeLimit::Threshold(t)) => DecodeLimit::Threshold(t * DECODE_SHARE),
+        (Mesher::Bintree, DecodeLimit::Threshold(t)) => {
+            DecodeLimit::Threshold(t * eval.decode_share)
+        }
         (_, l) => l,
     };
     let (decode_ms, dec) = median_ms(eval.repeat, || {

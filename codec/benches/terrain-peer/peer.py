@@ -1,0 +1,85 @@
+#!/usr/bin/env python3
+"""Martini beside the criterion medians of `decode_and_mesh_257` (see run.sh).
+
+usage: peer.py CRITERION_DIR [REPEAT]
+
+Martini's side is what it does per tile: createTile (its error pass) + getMesh(E), with E = the
+zerotile budget T. Martini's E understates its true max error (up to ~1.7x on these tiles, see
+docs/terrain-mesh.md), so at equal E its mesh is coarser and cheaper than zerotile's: the
+comparison leans towards Martini. Its init (per grid size, like zerotile's Hierarchy) is left
+out on both sides. Times are medians of REPEAT runs, in the same run as the criterion bench.
+"""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+sys.dont_write_bytecode = True
+BENCH = Path(os.environ.get("ZT_BENCH", Path(__file__).resolve().parents[4] / "shared" / "bench"))
+sys.path.insert(0, str(BENCH))
+import benchlib as bl  # noqa: E402
+
+if __name__ == "__main__":
+    bl.use_peers_python()
+
+import numpy as np  # noqa: E402
+
+BUDGETS = [4.0, 16.0, 64.0]
+WAVELETS = ["cdf97", "legall53"]
+
+
+def criterion_median_ms(root: Path, wavelet: str, t: float) -> float | None:
+    f = root / "decode_and_mesh_257" / wavelet / f"T={t:g}" / "new" / "estimates.json"
+    if not f.exists():
+        return None
+    return json.loads(f.read_text())["median"]["point_estimate"] / 1e6
+
+
+def main() -> int:
+    root = Path(sys.argv[1])
+    repeat = int(sys.argv[2]) if len(sys.argv) > 2 else 51
+    z, _, _ = bl.load_heightmap(bl.DEM / "N44W072.hgt")
+    tile = np.ascontiguousarray(z[300:557, 500:757], dtype=np.float32)
+
+    from pymartini import Martini
+
+    martini = Martini(257)
+    peers = {}
+    _, create = bl.median_ms(lambda: martini.create_tile(tile), repeat)
+    t = martini.create_tile(tile)
+    peers["pymartini"] = {e: create + bl.median_ms(lambda: t.get_mesh(e), repeat)[1] for e in BUDGETS}
+
+    node_js = BENCH / "terrain_mesh_node.mjs"
+    if shutil.which("node") and (bl.NODE_DIR / "node_modules" / "@mapbox" / "martini").exists():
+        with tempfile.TemporaryDirectory() as tmp:
+            f32 = Path(tmp) / "tile.f32"
+            tile.astype("<f4").tofile(f32)
+            errors = ",".join(f"{e:g}" for e in BUDGETS)
+            out = subprocess.run(["node", str(node_js), str(bl.NODE_DIR), str(f32), "257", errors, str(repeat)],
+                                 capture_output=True, text=True, check=True).stdout
+            m = json.loads(out.strip().splitlines()[-1]).get("martini")
+            if m:
+                peers["@mapbox/martini"] = {g["max_error"]: m["create_tile_ms"] + g["get_mesh_ms"] for g in m["meshes"]}
+
+    names = list(peers)
+    head = ["wavelet", "T (m)", "zerotile ms"] + [f"{p} ms" for p in names] + [f"zerotile / {p}" for p in names]
+    rows = []
+    for w in WAVELETS:
+        for e in BUDGETS:
+            zt = criterion_median_ms(root, w, e)
+            cells = [w, f"{e:g}", "-" if zt is None else f"{zt:.3f}"]
+            cells += [f"{peers[p][e]:.3f}" for p in names]
+            cells += ["-" if zt is None else f"{zt / peers[p][e]:.2f}" for p in names]
+            rows.append(cells)
+    print(f"# decode to T/8 + mesh (criterion median) vs Martini createTile + getMesh(T) (median of {repeat})\n")
+    print(bl.md_table(head, rows))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,11 @@
+#!/usr/bin/env bash
+# Same-run peer figure for the terrain codec: the criterion bench's decode to T/8 + bintree
+# mesh (`decode_and_mesh_257`) and Martini's createTile + getMesh on the same 257² N44W072
+# tile, run back to back so both see the same machine load (the bench machine is shared).
+# Usage: codec/benches/terrain-peer/run.sh; REPEAT=n sets Martini's timed runs (default 51).
+set -euo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+repo=$(git -C "$here" rev-parse --show-toplevel)
+target=${CARGO_TARGET_DIR:-$repo/target}
+(cd "$repo" && cargo bench -p zerotile-codec --bench terrain -- decode_and_mesh_257 >&2)
+python3 "$here/peer.py" "$target/criterion" "${REPEAT:-51}"
