@@ -20,6 +20,7 @@ pub mod metrics;
 pub mod negotiate;
 pub mod pipeline;
 pub mod render;
+pub mod render_slots;
 pub mod routes;
 pub mod state;
 pub mod storage;

@@ -1,17 +1,16 @@
 //! What every handler shares: the datasets, the decoded-tile cache, the counters, and the
 //! permits that bound CPU work.
 
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 
 use axum::http::StatusCode;
-use tokio::sync::{OwnedSemaphorePermit, Semaphore};
 
 use super::error::ApiError;
 
 use super::catalog::Catalog;
 use super::meshes::MeshCatalog;
 use super::metrics::Metrics;
+use super::render_slots::{RenderSlots, Ticket};
 use super::tile_cache::{new_cache, new_response_cache, ResponseCache, TileCache};
 
 /// Settings with their defaults.
@@ -54,9 +53,8 @@ pub struct AppState {
     pub cache: Arc<TileCache>,
     pub responses: Arc<ResponseCache>,
     pub metrics: Arc<Metrics>,
-    pub cpu: Arc<Semaphore>,
-    /// Requests waiting for a CPU permit.
-    pub cpu_waiting: Arc<AtomicUsize>,
+    /// Admission and CPU slots for renders.
+    pub renders: Arc<RenderSlots>,
     pub config: Arc<Config>,
     /// Object meshes and their LODs.
     pub meshes: Arc<MeshCatalog>,
@@ -69,8 +67,7 @@ impl AppState {
             cache: Arc::new(new_cache(config.cache_bytes)),
             responses: Arc::new(new_response_cache(config.response_cache_bytes)),
             metrics: Arc::new(Metrics::default()),
-            cpu: Arc::new(Semaphore::new(config.cpu_jobs.max(1))),
-            cpu_waiting: Arc::new(AtomicUsize::new(0)),
+            renders: Arc::new(RenderSlots::new(config.cpu_jobs, config.cpu_queue)),
             meshes: Arc::new(MeshCatalog::empty(config.response_cache_bytes / 4)),
             config: Arc::new(config),
         }
@@ -85,45 +82,16 @@ impl AppState {
 }
 
 impl AppState {
-    /// A permit to run one render, waiting behind at most `cpu_queue` others; beyond that the
-    /// request is shed (503) so a burst cannot pile up work nobody will wait for.
-    pub async fn cpu_permit(&self) -> Result<OwnedSemaphorePermit, ApiError> {
-        if let Ok(p) = self.cpu.clone().try_acquire_owned() {
-            return Ok(p);
-        }
-        // Counted while waiting, uncounted on every exit (a timed-out request is dropped
-        // mid-wait).
-        let queued = Queued::join(&self.cpu_waiting);
-        if queued.ahead >= self.config.cpu_queue {
-            return Err(ApiError::new(
+    /// A ticket to run one render (see [`RenderSlots`]), or 503 + Retry-After when
+    /// `cpu_jobs + cpu_queue` renders are already in: a burst cannot pile up work nobody
+    /// will wait for.
+    pub fn admit_render(&self) -> Result<Ticket, ApiError> {
+        self.renders.admit().ok_or_else(|| {
+            ApiError::new(
                 StatusCode::SERVICE_UNAVAILABLE,
                 "overloaded",
                 "too many tiles are being rendered; retry shortly",
-            ));
-        }
-        self.cpu
-            .clone()
-            .acquire_owned()
-            .await
-            .map_err(ApiError::internal)
-    }
-}
-
-/// A place in the render queue, given up on drop.
-struct Queued<'a> {
-    count: &'a AtomicUsize,
-    ahead: usize,
-}
-
-impl<'a> Queued<'a> {
-    fn join(count: &'a AtomicUsize) -> Self {
-        let ahead = count.fetch_add(1, Ordering::Relaxed);
-        Self { count, ahead }
-    }
-}
-
-impl Drop for Queued<'_> {
-    fn drop(&mut self) {
-        self.count.fetch_sub(1, Ordering::Relaxed);
+            )
+        })
     }
 }

@@ -346,17 +346,18 @@ pub async fn lod(
     let answer = match state.meshes.answers.get(&key) {
         Some(hit) => hit,
         None => {
-            let permit = state.cpu_permit().await?;
+            let ticket = state.admit_render()?;
             let job = e.clone();
             let fresh = tokio::task::spawn_blocking(move || -> ApiResult<MeshAnswer> {
-                let _permit = permit;
-                let (mesh, error) = compute(&job, &ask)?;
-                let bytes = io::write_bytes(&mesh, format).map_err(ApiError::internal)?;
-                Ok(MeshAnswer {
-                    bytes: bytes.into(),
-                    vertices: mesh.vertex_count(),
-                    faces: mesh.face_count(),
-                    error,
+                ticket.run(|| {
+                    let (mesh, error) = compute(&job, &ask)?;
+                    let bytes = io::write_bytes(&mesh, format).map_err(ApiError::internal)?;
+                    Ok(MeshAnswer {
+                        bytes: bytes.into(),
+                        vertices: mesh.vertex_count(),
+                        faces: mesh.face_count(),
+                        error,
+                    })
                 })
             })
             .await

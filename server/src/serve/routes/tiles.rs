@@ -158,17 +158,18 @@ pub async fn tile(
             hit
         }
         None => {
-            let permit = state.cpu_permit().await?;
+            let ticket = state.admit_render()?;
             let job_state = state.clone();
             let job_d = d.clone();
             let cancel = pipeline::Cancel::default();
             let _cancel_on_drop = cancel.on_drop();
             let fresh = tokio::task::spawn_blocking(move || {
-                let _permit = permit;
-                let r = render_tile(
-                    &job_state, &job_d, id, t.t, format, variant, flat_root, &cancel,
-                );
-                pipeline::count_cancelled(&job_state, r)
+                ticket.run(|| {
+                    let r = render_tile(
+                        &job_state, &job_d, id, t.t, format, variant, flat_root, &cancel,
+                    );
+                    pipeline::count_cancelled(&job_state, r)
+                })
             })
             .await
             .map_err(ApiError::internal)?

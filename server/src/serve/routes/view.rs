@@ -55,16 +55,17 @@ pub async fn view(
     let (zoom, tiles) = tiles_in_view(&d, &plane)?;
 
     // Mesh off the async threads.
-    let permit = state.cpu_permit().await?;
+    let ticket = state.admit_render()?;
     let job_state = state.clone();
     let job_d = d.clone();
     let job_plane = plane.clone();
     let cancel = pipeline::Cancel::default();
     let _cancel_on_drop = cancel.on_drop();
     let mesh = tokio::task::spawn_blocking(move || {
-        let _permit = permit;
-        let r = view_mesh(&job_state, &job_d, &tiles, t, &job_plane, &cancel);
-        pipeline::count_cancelled(&job_state, r)
+        ticket.run(|| {
+            let r = view_mesh(&job_state, &job_d, &tiles, t, &job_plane, &cancel);
+            pipeline::count_cancelled(&job_state, r)
+        })
     })
     .await
     .map_err(ApiError::internal)?
