@@ -162,7 +162,12 @@ pub fn run(job: &Export) -> Result<Exported> {
             let layer = layer(&d)?;
             let mut value = layer.to_value()?;
             // Static trees keep tiles beside layer.json, not under tiles/.
-            value["tiles"] = serde_json::json!([format!("{{z}}/{{x}}/{{y}}.{ext}?v={{version}}")]);
+            if let Some(o) = value.as_object_mut() {
+                o.insert(
+                    "tiles".into(),
+                    serde_json::json!([format!("{{z}}/{{x}}/{{y}}.{ext}?v={{version}}")]),
+                );
+            }
             let bytes = serde_json::to_vec_pretty(&value)?;
             std::fs::write(tmp.join("layer.json"), &bytes)?;
         }

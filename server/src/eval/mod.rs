@@ -16,7 +16,7 @@ pub fn median_ms<T>(repeat: usize, mut f: impl FnMut() -> T) -> (f64, T) {
         times.push(t.elapsed().as_secs_f64() * 1e3);
     }
     times.sort_by(f64::total_cmp);
-    let median = times[times.len() / 2];
+    let median = times.get(times.len() / 2).copied().unwrap_or(f64::NAN);
     match out {
         Some(v) => (median, v),
         None => unreachable!("at least one run"),

@@ -244,8 +244,11 @@ pub fn build(job: &Ingest, map: &Heightmap) -> Result<(PathBuf, Metadata)> {
 /// The `local` pyramid: the source grid at the deepest zoom, halved until one tile holds it.
 fn local_plan(heights: &Grid<f64>) -> Plan {
     let mut levels = vec![full_resolution(heights)];
-    while levels.last().is_some_and(|l| l.tiles(TILE_SIDE) != (1, 1)) {
-        let next = levels[levels.len() - 1].coarser(TILE_SIDE);
+    while let Some(next) = levels
+        .last()
+        .filter(|l| l.tiles(TILE_SIDE) != (1, 1))
+        .map(|l| l.coarser(TILE_SIDE))
+    {
         levels.push(next);
     }
     // A 257-sample tile doubles per zoom, so even a 2^40-sample side needs < 40 zooms.
@@ -263,12 +266,15 @@ fn local_plan(heights: &Grid<f64>) -> Plan {
         let (w, h) = level.tiles(TILE_SIDE);
         let inside_x = ((heights.cols() - 1).div_ceil(span).max(1) as u32).min(w);
         let inside_y = ((heights.rows() - 1).div_ceil(span).max(1) as u32).min(h);
-        available[level.zoom as usize].push(Availability {
-            start_x: 0,
-            start_y: 0,
-            end_x: inside_x - 1,
-            end_y: inside_y - 1,
-        });
+        // Zooms run 0..=max_zoom, one list each: always present.
+        if let Some(at_zoom) = available.get_mut(level.zoom as usize) {
+            at_zoom.push(Availability {
+                start_x: 0,
+                start_y: 0,
+                end_x: inside_x - 1,
+                end_y: inside_y - 1,
+            });
+        }
         for y in 0..inside_y {
             for x in 0..inside_x {
                 jobs.push((

@@ -52,8 +52,12 @@ pub fn build(source: &Source, scheme: Scheme, max_zoom: Option<u8>) -> Result<Wo
         lonlat_of((rows - 1) as f64, 0.0),
         lonlat_of((rows - 1) as f64, (cols - 1) as f64),
     ];
-    let fold =
-        |f: fn(f64, f64) -> f64, k: usize, init: f64| corners.iter().map(|p| p[k]).fold(init, f);
+    let fold = |f: fn(f64, f64) -> f64, k: usize, init: f64| {
+        corners
+            .iter()
+            .filter_map(|p| p.get(k))
+            .fold(init, |a, &b| f(a, b))
+    };
     let bounds = [
         fold(f64::min, 0, f64::INFINITY),
         fold(f64::min, 1, f64::INFINITY),
@@ -117,8 +121,11 @@ pub fn build(source: &Source, scheme: Scheme, max_zoom: Option<u8>) -> Result<Wo
 
     let deepest = lattice(source, &tiling, scheme, max_zoom, range.x0, ty0, tw, th)?;
     let mut levels = vec![deepest];
-    while levels.last().is_some_and(|l| l.zoom > 0) {
-        let next = levels[levels.len() - 1].coarser(TILE_SIDE);
+    while let Some(next) = levels
+        .last()
+        .filter(|l| l.zoom > 0)
+        .map(|l| l.coarser(TILE_SIDE))
+    {
         levels.push(next);
     }
     // Clients ask for every root tile (CesiumJS requests both geodetic ones): give zoom 0
@@ -138,7 +145,10 @@ pub fn build(source: &Source, scheme: Scheme, max_zoom: Option<u8>) -> Result<Wo
             _ => row,
         };
         let (ya, yb) = (id_y(level.tile_y0), id_y(level.tile_y0 + h - 1));
-        available[usize::from(level.zoom)].push(Availability {
+        let Some(at_zoom) = available.get_mut(usize::from(level.zoom)) else {
+            anyhow::bail!("level zoom {} past --max-zoom {max_zoom}", level.zoom);
+        };
+        at_zoom.push(Availability {
             start_x: level.tile_x0,
             start_y: ya.min(yb),
             end_x: level.tile_x0 + w - 1,

@@ -47,7 +47,9 @@ impl Metrics {
                 b.fetch_add(1, Relaxed);
             }
         }
-        self.latency_buckets[BUCKETS.len()].fetch_add(1, Relaxed);
+        if let Some(inf) = self.latency_buckets.last() {
+            inf.fetch_add(1, Relaxed);
+        }
         self.latency_sum_micros
             .fetch_add(elapsed.as_micros() as u64, Relaxed);
         self.latency_count.fetch_add(1, Relaxed);

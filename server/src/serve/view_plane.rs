@@ -70,10 +70,9 @@ pub fn footprint(cam: &Camera, far: f64) -> Result<[DVec2; 4], ViewError> {
 
 /// Area of a simple polygon (shoelace formula), ≥ 0.
 pub fn polygon_area(points: &[DVec2]) -> f64 {
-    let n = points.len();
-    let twice: f64 = (0..n)
-        .map(|i| points[i].perp_dot(points[(i + 1) % n]))
-        .sum();
+    // Each vertex with the next (the first after the last).
+    let after = points.iter().skip(1).chain(points.first());
+    let twice: f64 = points.iter().zip(after).map(|(a, b)| a.perp_dot(*b)).sum();
     twice.abs() / 2.0
 }
 

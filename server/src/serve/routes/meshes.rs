@@ -49,14 +49,17 @@ pub async fn describe(
     let e = entry(&state, &name)?;
     let mut v = summary(&e);
     let base = format!("/v1/meshes/{name}");
-    v["methods"] = json!({
+    let methods = json!({
         "original": format!("{base}/original"),
         "curvature": { "url": format!("{base}/curvature"), "params": "error=E | level=1..3 (ε 0.15, 0.20, 0.25)" },
         "silhouette": { "url": format!("{base}/silhouette"), "params": "level=0..7 and/or eye=x,y,z&target=x,y,z" },
         "qem": { "url": format!("{base}/qem"), "params": "faces=N | ratio=R | error=E (fraction of the diagonal)" },
         "octree": { "url": format!("{base}/octree"), "params": "level=K [&roi=x0,y0,x1,y1 (NDC, -1..1) &eye=x,y,z&target=x,y,z[&fov=DEG][&aspect=W/H]]" },
     });
-    v["formats"] = json!(["obj", "ply", "glb", "json"]);
+    if let Some(o) = v.as_object_mut() {
+        o.insert("methods".into(), methods);
+        o.insert("formats".into(), json!(["obj", "ply", "glb", "json"]));
+    }
     Ok(Json(v))
 }
 
@@ -132,7 +135,12 @@ fn parse_ask(method: &str, q: &HashMap<String, String>, mesh: &TriMesh) -> ApiRe
                             "level must be 1, 2 or 3",
                         ));
                     }
-                    Ok(Ask::Curvature(PAPER_LEVELS[k as usize - 1]))
+                    PAPER_LEVELS
+                        .get((k as usize).saturating_sub(1))
+                        .map(|&e| Ask::Curvature(e))
+                        .ok_or_else(|| {
+                            ApiError::bad_request("out_of_range", "level must be 1, 2 or 3")
+                        })
                 }
                 _ => Err(ApiError::bad_request(
                     "bad_query",

@@ -155,11 +155,11 @@ pub(crate) fn layer(d: &Dataset) -> anyhow::Result<LayerJson> {
     // Availability as stored (scheme y → TMS y), roots kept from the tiling.
     for (k, ranges) in m.available.iter().enumerate() {
         let z = usize::from(m.min_zoom) + k;
-        if z == 0 || z >= layer.available.len() {
-            continue;
-        }
-        let ny = d.tiling.tiles_per_axis(z as u8)?.1;
-        layer.available[z] = ranges
+        let ny = match layer.available.get(z) {
+            Some(_) if z > 0 => d.tiling.tiles_per_axis(z as u8)?.1,
+            _ => continue,
+        };
+        let converted: Vec<AvailableRange> = ranges
             .iter()
             .map(|a| match d.tiling.scheme() {
                 Scheme::Geodetic => AvailableRange {
@@ -176,6 +176,9 @@ pub(crate) fn layer(d: &Dataset) -> anyhow::Result<LayerJson> {
                 },
             })
             .collect();
+        if let Some(slot) = layer.available.get_mut(z) {
+            *slot = converted;
+        }
     }
     Ok(layer)
 }

@@ -197,7 +197,9 @@ fn view_mesh(
         let (_, mesh) = pipeline::stitched(state, d, id, t, cancel)?;
         let tile = render::tri_mesh(d, id, &mesh)?;
         for f in &tile.faces {
-            let p = f.map(|i| tile.positions[i as usize]);
+            let Some(p) = at3(&tile.positions, *f) else {
+                anyhow::bail!("tile {id} mesh has a face past its vertices");
+            };
             let c = (p[0] + p[1] + p[2]) / 3.0;
             if !inside(&polygon, [c.x, c.y]) {
                 continue;
@@ -217,12 +219,18 @@ fn view_mesh(
     Ok(TriMesh::new(positions, faces))
 }
 
+/// The three corners of `f`, if they exist.
+fn at3(positions: &[DVec3], f: [u32; 3]) -> Option<[DVec3; 3]> {
+    let p = |i: u32| positions.get(i as usize).copied();
+    Some([p(f[0])?, p(f[1])?, p(f[2])?])
+}
+
 /// Point in polygon (even-odd rule).
 fn inside(poly: &[[f64; 2]], p: [f64; 2]) -> bool {
     let mut odd = false;
-    let n = poly.len();
-    for i in 0..n {
-        let (a, b) = (poly[i], poly[(i + n - 1) % n]);
+    // Each vertex with the one before it (the last before the first).
+    let before = poly.last().into_iter().chain(poly);
+    for (&a, &b) in poly.iter().zip(before) {
         if (a[1] > p[1]) != (b[1] > p[1]) {
             let x = a[0] + (p[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0]);
             if p[0] < x {
