@@ -189,6 +189,22 @@ fn s3_datasets_serve_the_same_bytes_by_range_reads() {
     );
     assert!(reads >= 4.0, "one range per record: {reads} reads");
 
+    // The store goes away: a tile it must read is a quick 503 with Retry-After (a cache in
+    // front retries another replica), not a 500 or a hang.
+    drop(moto);
+    let started = Instant::now();
+    let r = remote.get(
+        &format!("/v1/datasets/srtm/tiles/9/{x0}/{y0}.terrain?threshold=0.5"),
+        &[],
+    );
+    r.error(503, "storage_unavailable");
+    assert_eq!(r.header("retry-after"), Some("1"));
+    assert!(
+        started.elapsed() < Duration::from_secs(20),
+        "answered in {:?}",
+        started.elapsed()
+    );
+
     // A store that does not answer is a clear startup error, not a hang or a panic.
     let out = Command::new(zerotile_bin())
         .args([

@@ -47,6 +47,22 @@ impl ApiError {
     }
 }
 
+impl ApiError {
+    /// A failed render: 503 (with Retry-After) when the dataset's store could not be read,
+    /// so a cache in front retries another replica or later; otherwise 500.
+    pub fn render(e: anyhow::Error) -> Self {
+        if e.chain().any(|c| c.is::<object_store::Error>()) {
+            tracing::warn!("storage unavailable: {e:#}");
+            return Self::new(
+                StatusCode::SERVICE_UNAVAILABLE,
+                "storage_unavailable",
+                "the dataset's storage did not answer; retry shortly",
+            );
+        }
+        Self::internal(format!("{e:#}"))
+    }
+}
+
 impl std::fmt::Display for ApiError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "{} ({}): {}", self.status, self.code, self.message)

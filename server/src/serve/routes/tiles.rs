@@ -173,7 +173,7 @@ pub async fn tile(
             })
             .await
             .map_err(ApiError::internal)?
-            .map_err(ApiError::internal)?;
+            .map_err(ApiError::render)?;
             let fresh = Arc::new(fresh);
             state.responses.insert(etag_key, fresh.clone());
             fresh

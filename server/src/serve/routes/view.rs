@@ -69,7 +69,7 @@ pub async fn view(
     })
     .await
     .map_err(ApiError::internal)?
-    .map_err(ApiError::internal)?;
+    .map_err(ApiError::render)?;
     if mesh.faces.is_empty() {
         return Err(ApiError::not_found(
             "empty_view",
