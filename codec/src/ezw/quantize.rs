@@ -50,15 +50,32 @@ pub fn reconstruct(mag: u64, known: u8) -> f64 {
 }
 
 /// The integer 5/3 coefficient of a band weighted by `shift`: the bits below the shift are
-/// known zeros, so the midpoint of the rest, unweighted and rounded to an integer.
+/// known zeros, so the midpoint of the rest, unweighted and rounded to an integer (half up).
+///
+/// In integers: the midpoint is (2·mag + 2^known − 2^shift) / 2, so the coefficient is that
+/// numerator over 2^(shift+1), rounded by adding half the divisor. The float form it replaced
+/// called libm's `round` once per coefficient (3 % of a 5/3 decode, perf); both agree wherever the
+/// float one is exact (below 2^53), which `integer_reconstruction_matches_the_float_form`
+/// checks across every plane and shift.
 #[inline]
 pub fn reconstruct_integer(mag: u64, known: u8, shift: u8) -> f64 {
-    let point = if known <= shift {
-        (mag as i64) as f64
-    } else {
-        (mag as i64) as f64 + ((1i64 << known) - (1i64 << shift)) as f64 * 0.5
+    let (known, shift) = (u32::from(known.min(63)), u32::from(shift.min(62)));
+    let extra = || {
+        if known > shift {
+            (1u64 << known) - (1u64 << shift)
+        } else {
+            0
+        }
     };
-    (point / (1i64 << shift) as f64).round()
+    if mag < 1 << 60 && known < 61 {
+        // Every real stream: 2·mag + 2^known + 2^shift stays below 2^63.
+        let q = ((mag << 1) + extra() + (1 << shift)) >> (shift + 1);
+        return (q as i64) as f64;
+    }
+    let twice = u128::from(mag) * 2 + u128::from(extra());
+    let q = (twice + (1u128 << shift)) >> (shift + 1);
+    // Below 2^64 always; callers clamp to 2^20.
+    i64::try_from(q).unwrap_or(i64::MAX) as f64
 }
 
 /// Forward transform and quantisation to weighted integer magnitudes (flat Mallat index),
@@ -118,4 +135,45 @@ fn band_index(layout: &Layout) -> Vec<u8> {
         }
     }
     band_of
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The float form the integer one replaced.
+    fn float_form(mag: u64, known: u8, shift: u8) -> f64 {
+        let point = if known <= shift {
+            (mag as i64) as f64
+        } else {
+            (mag as i64) as f64 + ((1i64 << known) - (1i64 << shift)) as f64 * 0.5
+        };
+        (point / (1i64 << shift) as f64).round()
+    }
+
+    #[test]
+    fn integer_reconstruction_matches_the_float_form() {
+        let mut checked = 0;
+        for shift in 0..=24u8 {
+            for known in 0..=50u8 {
+                // Magnitudes as the decoder holds them: bits at and above `known` only.
+                for top in [0u64, 1, 2, 3, 5, 7, 100, 12_345, (1 << 20) - 1] {
+                    let mag = top << known;
+                    if mag >> known != top || mag >= 1 << 53 {
+                        continue;
+                    }
+                    assert_eq!(
+                        reconstruct_integer(mag, known, shift),
+                        float_form(mag, known, shift),
+                        "mag {mag} known {known} shift {shift}"
+                    );
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 5_000, "{checked}");
+        // Hostile magnitudes neither panic nor wrap.
+        assert!(reconstruct_integer(u64::MAX, 63, 24) > 0.0);
+        assert!(reconstruct_integer(u64::MAX, 255, 255) > 0.0);
+    }
 }
