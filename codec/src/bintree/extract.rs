@@ -69,7 +69,7 @@ pub fn extract(
     let walk = Walk {
         hierarchy,
         value: &errors.value,
-        tolerance,
+        tolerance: f32_at_or_below(tolerance),
         forced,
         splittable: hierarchy.levels() - 1,
     };
@@ -111,7 +111,7 @@ pub fn border_vertices(
     let walk = Walk {
         hierarchy,
         value: &errors.value,
-        tolerance,
+        tolerance: f32_at_or_below(tolerance),
         forced: None,
         splittable: hierarchy.levels() - 1,
     };
@@ -139,10 +139,22 @@ pub fn border_vertices(
     out
 }
 
+/// The largest f32 at or below `v` (NaN stays NaN, so nothing splits, as in f64).
+fn f32_at_or_below(v: f64) -> f32 {
+    let f = v as f32;
+    if f64::from(f) > v {
+        f.next_down()
+    } else {
+        f
+    }
+}
+
 struct Walk<'a> {
     hierarchy: &'a Hierarchy,
     value: &'a [f32],
-    tolerance: f64,
+    /// The tolerance as the largest f32 not above it: `v > tolerance` for an f32 `v` is then
+    /// `v > tolerance` in f64 exactly, without a conversion per visited triangle.
+    tolerance: f32,
     forced: Option<&'a Forced>,
     splittable: usize,
 }
@@ -152,7 +164,7 @@ impl Walk<'_> {
     #[inline]
     fn splits(&self, l: usize, tri: &Tri) -> bool {
         l < self.splittable
-            && (f64::from(self.value[tri.m as usize]) > self.tolerance
+            && (self.value[tri.m as usize] > self.tolerance
                 || self.forced.is_some_and(|f| f.get(tri.m)))
     }
 

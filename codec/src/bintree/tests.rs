@@ -67,3 +67,23 @@ fn forced_border_vertices_appear_and_keep_the_mesh_conforming() {
     let plain = extract(&h, &e, &g, 32.0, None);
     assert!(m.triangle_count() > plain.triangle_count());
 }
+
+/// The walk compares in f32; a tolerance between two f32 values must split exactly the
+/// triangles an f64 comparison would: a value v splits at any tolerance below it, however
+/// close, and not at v itself.
+#[test]
+fn tolerances_between_f32_values_split_as_in_f64() {
+    let g = n44w072_crop(300, 500, 65);
+    let h = Hierarchy::new(65).unwrap();
+    let e = TileErrors::new(&h, &g);
+    let root = e.max();
+    assert!(root > 0.0);
+    let at = f64::from(root);
+    // Just below the root value, closer than any f32 below it.
+    let below = at - f64::from(root - root.next_down()) / 4.0;
+    assert!(below < at && below as f32 == root);
+    assert_eq!(extract(&h, &e, &g, at, None).triangle_count(), 2);
+    assert!(extract(&h, &e, &g, below, None).triangle_count() > 2);
+    assert_eq!(extract(&h, &e, &g, f64::NAN, None).triangle_count(), 2);
+    assert_eq!(extract(&h, &e, &g, f64::INFINITY, None).triangle_count(), 2);
+}
