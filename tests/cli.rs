@@ -31,3 +31,65 @@ fn serve_refuses_what_it_cannot_honour() {
         assert!(err.contains(says), "{args:?}: {err}");
     }
 }
+
+/// `subdivide` makes 4× the faces a step and writes a mesh `eval mesh` reads back; a step
+/// count out of range and a missing input are refused with a message.
+#[test]
+fn subdivide_quadruples_the_faces_and_refuses_bad_input() {
+    let dir = std::env::temp_dir().join(format!("zerotile-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("fandisk-x4.obj");
+    let input = zerotile_tests::shared_data().join("meshes/fandisk.obj");
+    let run = |args: &[&std::ffi::OsStr]| {
+        Command::new(zerotile_tests::zerotile_bin())
+            .arg("subdivide")
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let ok = run(&[
+        input.as_os_str(),
+        out.as_os_str(),
+        "--times".as_ref(),
+        "1".as_ref(),
+    ]);
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    let eval = Command::new(zerotile_tests::zerotile_bin())
+        .args(["eval", "mesh"])
+        .arg(&out)
+        .args([
+            "--method",
+            "qem",
+            "--faces",
+            "1000",
+            "--samples",
+            "0",
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        eval.status.success(),
+        "{}",
+        String::from_utf8_lossy(&eval.stderr)
+    );
+    let point: serde_json::Value = serde_json::from_slice(&eval.stdout).unwrap();
+    assert_eq!(point["faces_in"], 4 * 12_946, "{point}");
+
+    let too_many = run(&[
+        input.as_os_str(),
+        out.as_os_str(),
+        "--times".as_ref(),
+        "9".as_ref(),
+    ]);
+    assert_eq!(too_many.status.code(), Some(2));
+    let missing = dir.join("missing.obj");
+    let gone = run(&[missing.as_os_str(), out.as_os_str()]);
+    assert_eq!(gone.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&gone.stderr).contains("missing.obj"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}

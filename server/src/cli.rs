@@ -34,6 +34,9 @@ pub enum Command {
     /// Generate the default data (a synthetic terrain dataset and object meshes) into DATA
     /// unless it already has some; `serve` does this on its default folder.
     DemoData(DemoArgs),
+    /// Loop-subdivide a mesh (4× the faces a step) into a large smooth test mesh, e.g. the
+    /// 1.1M-face bunny the QEM figures use: `subdivide stanford-bunny.obj bunny-x16.obj`.
+    Subdivide(SubdivideArgs),
     /// Exit 0 if a server answers GET /healthz with 200 (for container health checks, where
     /// there is no curl).
     Healthcheck(HealthArgs),
@@ -65,6 +68,17 @@ pub struct HealthArgs {
     /// Address of the server.
     #[arg(long, default_value = "127.0.0.1:8080")]
     pub addr: String,
+}
+
+#[derive(Args, Debug)]
+pub struct SubdivideArgs {
+    /// Mesh: .obj, .ply or .stl.
+    pub input: PathBuf,
+    /// Output mesh (.obj, .ply, .glb or .json), written atomically.
+    pub output: PathBuf,
+    /// Loop steps, each 4× the faces.
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=4))]
+    pub times: u8,
 }
 
 #[derive(Args, Debug)]
@@ -215,6 +229,7 @@ pub fn run() -> ExitCode {
         Command::Eval(EvalCommand::Mesh(args)) => eval::mesh::run(&args),
         Command::Ingest(args) => ingest(args),
         Command::DemoData(args) => demo_data(&args),
+        Command::Subdivide(args) => eval::mesh::subdivide(&args),
         Command::Healthcheck(args) => healthcheck(&args.addr),
         Command::Serve(args) => serve(args),
         Command::Export(args) => export(args),

@@ -165,6 +165,33 @@ fn param(args: &MeshArgs) -> Result<Param> {
     }
 }
 
+/// `zerotile subdivide`: the input, repaired as `eval mesh` reads it, Loop-subdivided.
+pub fn subdivide(args: &crate::cli::SubdivideArgs) -> Result<()> {
+    let mut mesh = load(&args.input, false)?;
+    let limit = MeshLimits::default();
+    for _ in 0..args.times {
+        let faces = mesh.face_count().saturating_mul(4);
+        if faces > limit.max_faces {
+            bail!(
+                "{} subdivided {} times would have {faces} faces or more, above the {} a mesh may have",
+                args.input.display(),
+                args.times,
+                limit.max_faces
+            );
+        }
+        mesh = zerotile_codec::mesh::subdivide::loop_subdivide(&mesh);
+    }
+    io::write_path(&mesh, &args.output)
+        .with_context(|| format!("writing {}", args.output.display()))?;
+    eprintln!(
+        "{}: {} vertices, {} faces",
+        args.output.display(),
+        mesh.vertex_count(),
+        mesh.face_count()
+    );
+    Ok(())
+}
+
 fn load(path: &Path, weld: bool) -> Result<TriMesh> {
     let mut mesh = io::read_path(path, &MeshLimits::default())
         .with_context(|| format!("reading {}", path.display()))?;
