@@ -220,6 +220,7 @@ impl Decimator {
             &self.faces,
             |i| self.pos[i as usize],
             self.lambda_c,
+            Some(self.weights.feature_angle),
         )?;
 
         // ε: the largest change of W on the ring against the input (eq. 9).
