@@ -222,3 +222,35 @@ fn a_crease_vertex_leaves_its_crease_behind() {
         );
     }
 }
+
+#[test]
+fn real_meshes_keep_the_papers_order_at_every_level() {
+    // Table 1: at each ε the sphere keeps the most vertices, the fandisk the least.
+    use crate::mesh::io::{read_path, MeshLimits};
+    let kept = |name: &str| {
+        let m = read_path(
+            &crate::fixtures::shared_data(&format!("meshes/{name}")),
+            &MeshLimits::default(),
+        )
+        .unwrap();
+        levels(&m, &PAPER_LEVELS, &CurvatureOptions::default())
+            .unwrap()
+            .iter()
+            .map(|l| l.mesh.positions.len() as f64 / m.positions.len() as f64)
+            .collect::<Vec<_>>()
+    };
+    let (f, s, v) = (
+        kept("fandisk.obj"),
+        kept("uv-sphere-5002.obj"),
+        kept("vase-lathe.obj"),
+    );
+    for (k, e) in PAPER_LEVELS.iter().enumerate() {
+        assert!(
+            s[k] > v[k] && v[k] > f[k],
+            "ε {e}: sphere {:.3}, vase {:.3}, fandisk {:.3}",
+            s[k],
+            v[k],
+            f[k]
+        );
+    }
+}
