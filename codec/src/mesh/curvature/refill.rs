@@ -11,12 +11,19 @@ use super::ring::{ring, Ring};
 /// a non-manifold or pinched fan, too few neighbours, no valid ear cutting, a new edge that
 /// already exists elsewhere (it would get a third face), or a triangle refill duplicating a
 /// face already there (a tetrahedron's cap). `vf` lists each vertex's live faces in `faces`.
+///
+/// With `crease` (a dihedral angle), a vertex on a crease line (exactly two edges sharper
+/// than it, closed fan) has its hole split along the chord joining its two crease
+/// neighbours and each side filled alone, as in Schroeder et al.'s decimation, which the
+/// paper removes vertices by (its ref. 20): the chord becomes the crease, so removing a
+/// vertex along a crease shortens the crease instead of cutting across it.
 pub fn refill(
     v: u32,
     vf: &[Vec<u32>],
     faces: &[[u32; 3]],
     pos: impl Fn(u32) -> DVec3,
     lambda_c: f64,
+    crease: Option<f64>,
 ) -> Option<(Ring, Vec<[u32; 3]>)> {
     let own: Vec<[u32; 3]> = vf
         .get(v as usize)?
@@ -28,14 +35,40 @@ pub fn refill(
     if k < if r.open { 2 } else { 3 } {
         return None;
     }
-    let normal: DVec3 = own
-        .iter()
-        .map(|f| {
-            let [a, b, c] = f.map(&pos);
-            (b - a).cross(c - a)
-        })
-        .sum();
-    let new = triangulate(&r.vertices, &pos, normal, lambda_c)?;
+    let split = crease.and_then(|angle| crease_ends(v, &r, &pos, angle));
+    let new = if let Some((i, j)) = split {
+        // Fan face k is (v, ring[k], ring[k + 1]): faces i..j lie on the first side.
+        let side = |from: usize, to: usize| {
+            let mut poly = Vec::with_capacity(k);
+            let mut normal = DVec3::ZERO;
+            let mut at = from;
+            loop {
+                poly.push(r.vertices[at]);
+                if at == to {
+                    break;
+                }
+                let (a, b) = (
+                    pos(r.vertices[at]) - pos(v),
+                    pos(r.vertices[(at + 1) % k]) - pos(v),
+                );
+                normal += a.cross(b);
+                at = (at + 1) % k;
+            }
+            triangulate(&poly, &pos, normal, lambda_c)
+        };
+        let mut new = side(i, j)?;
+        new.extend(side(j, i)?);
+        new
+    } else {
+        let normal: DVec3 = own
+            .iter()
+            .map(|f| {
+                let [a, b, c] = f.map(&pos);
+                (b - a).cross(c - a)
+            })
+            .sum();
+        triangulate(&r.vertices, &pos, normal, lambda_c)?
+    };
 
     let adjacent = |a: u32, b: u32| {
         vf[a as usize]
@@ -71,4 +104,20 @@ pub fn refill(
         }
     }
     Some((r, new))
+}
+
+/// The ring positions of the two crease neighbours of `v` (closed fan, exactly two edges
+/// whose faces meet at more than `angle`), or `None`.
+fn crease_ends(v: u32, r: &Ring, pos: impl Fn(u32) -> DVec3, angle: f64) -> Option<(usize, usize)> {
+    let k = r.vertices.len();
+    if r.open || k < 4 {
+        return None;
+    }
+    let p = pos(v);
+    let normal = |i: usize| (pos(r.vertices[i]) - p).cross(pos(r.vertices[(i + 1) % k]) - p);
+    let mut ends = (0..k).filter(|&i| normal((i + k - 1) % k).angle_between(normal(i)) > angle);
+    match (ends.next(), ends.next(), ends.next()) {
+        (Some(i), Some(j), None) => Some((i, j)),
+        _ => None,
+    }
 }

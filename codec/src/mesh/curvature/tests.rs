@@ -177,3 +177,80 @@ fn a_face_target_is_met_and_bad_parameters_are_refused() {
     o.weights.area = 2.0;
     assert!(levels(&sphere, &[0.2], &o).is_err());
 }
+
+#[test]
+fn a_crease_vertex_leaves_its_crease_behind() {
+    // A roof: two planes meeting at 90° along the x axis, the ridge row in the middle.
+    let (w, rows) = (7usize, 5usize);
+    let mut positions = Vec::new();
+    for r in 0..rows {
+        let y = r as f64 - 2.0;
+        for i in 0..w {
+            let x = i as f64 - 3.0;
+            positions.push(DVec3::new(x, y, 2.0 - y.abs()));
+        }
+    }
+    let at = |r: usize, i: usize| (r * w + i) as u32;
+    let mut faces = Vec::new();
+    for r in 0..rows - 1 {
+        for i in 0..w - 1 {
+            faces.push([at(r, i), at(r, i + 1), at(r + 1, i + 1)]);
+            faces.push([at(r, i), at(r + 1, i + 1), at(r + 1, i)]);
+        }
+    }
+    let mesh = TriMesh { positions, faces };
+    let mut vf = vec![Vec::new(); mesh.positions.len()];
+    for (k, f) in mesh.faces.iter().enumerate() {
+        for &v in f {
+            vf[v as usize].push(k as u32);
+        }
+    }
+    let v = at(2, 3);
+    let pos = |i: u32| mesh.positions[i as usize];
+    let crease = Some(Weights::default().feature_angle);
+    let (_, new) = refill::refill(v, &vf, &mesh.faces, pos, 0.5, crease).unwrap();
+    let (a, b) = (at(2, 2), at(2, 4));
+    let has = |f: &[u32; 3]| f.contains(&a) && f.contains(&b);
+    // The chord along the ridge is an edge of two new faces, one on each slope.
+    assert_eq!(new.iter().filter(|f| has(f)).count(), 2, "{new:?}");
+    // Every new face lies on one slope: none cuts across the ridge.
+    for f in &new {
+        let y = f.map(|i| pos(i).y);
+        assert!(
+            y.iter().all(|&y| y <= 0.0) || y.iter().all(|&y| y >= 0.0),
+            "{f:?}"
+        );
+    }
+}
+
+#[test]
+fn real_meshes_keep_the_papers_order_at_every_level() {
+    // Table 1: at each ε the sphere keeps the most vertices, the fandisk the least.
+    use crate::mesh::io::{read_path, MeshLimits};
+    let kept = |name: &str| {
+        let m = read_path(
+            &crate::fixtures::shared_data(&format!("meshes/{name}")),
+            &MeshLimits::default(),
+        )
+        .unwrap();
+        levels(&m, &PAPER_LEVELS, &CurvatureOptions::default())
+            .unwrap()
+            .iter()
+            .map(|l| l.mesh.positions.len() as f64 / m.positions.len() as f64)
+            .collect::<Vec<_>>()
+    };
+    let (f, s, v) = (
+        kept("fandisk.obj"),
+        kept("uv-sphere-5002.obj"),
+        kept("vase-lathe.obj"),
+    );
+    for (k, e) in PAPER_LEVELS.iter().enumerate() {
+        assert!(
+            s[k] > v[k] && v[k] > f[k],
+            "ε {e}: sphere {:.3}, vase {:.3}, fandisk {:.3}",
+            s[k],
+            v[k],
+            f[k]
+        );
+    }
+}

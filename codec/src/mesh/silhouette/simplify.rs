@@ -63,8 +63,14 @@ pub fn flatten_regions(mesh: &TriMesh, region: &[u32]) -> TriMesh {
             continue;
         }
         // Input boundaries are region outlines: only closed fans are interior.
-        let Some((fan, new)) = refill(v, &vf, &faces, |i| mesh.positions[i as usize], LAMBDA_C)
-        else {
+        let Some((fan, new)) = refill(
+            v,
+            &vf,
+            &faces,
+            |i| mesh.positions[i as usize],
+            LAMBDA_C,
+            None,
+        ) else {
             continue;
         };
         if fan.open {
