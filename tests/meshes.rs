@@ -69,6 +69,21 @@ fn lods_come_in_every_format_with_their_counts() {
         &[],
     );
     assert!(r3.number("x-faces") < r.number("x-faces"));
+    // Levels nest: one continuing decimation removes vertices and never moves one, so every
+    // vertex of level 3 is a vertex of level 1.
+    let vertex_lines = |body: &[u8]| -> std::collections::HashSet<String> {
+        String::from_utf8_lossy(body)
+            .lines()
+            .filter(|l| l.starts_with("v "))
+            .map(str::to_owned)
+            .collect()
+    };
+    let (fine, coarse) = (vertex_lines(&r.body), vertex_lines(&r3.body));
+    assert!(!coarse.is_empty() && coarse.len() < fine.len());
+    assert!(
+        coarse.is_subset(&fine),
+        "level 3 has vertices level 1 lacks"
+    );
 
     // QEM to the fandisk's paper count, as PLY and GLB.
     let r = s.get("/v1/meshes/fandisk/qem?faces=978&format=ply", &[]);

@@ -47,7 +47,7 @@ pub struct MeshArgs {
     /// curvature the paper's ε.
     #[arg(long, value_name = "E")]
     pub error: Option<f64>,
-    /// LOD level (octree, silhouette).
+    /// LOD level (octree, silhouette; curvature 1–3: the nested levels cut at ε 0.15/0.20/0.25).
     #[arg(long, value_name = "K")]
     pub level: Option<u32>,
     /// Target face count.
@@ -235,25 +235,32 @@ fn simplify(
         }
         Method::Curvature => {
             let options = CurvatureOptions::default();
+            // Per nested level, the time from the level before (`--level` only).
+            let mut steps_ms = Vec::new();
             let (out, error) = match param {
                 Param::Error(e) => (curvature::to_error(input, e, &options)?, e),
                 Param::Faces(n) => curvature::to_faces(input, n, &options)?,
+                // Level K of the nested sequence (as the server's `level=K`): one continuing
+                // decimation cut at each of the paper's ε up to the K-th.
                 Param::Level(k) => {
-                    let Some(&e) = (k as usize)
-                        .checked_sub(1)
-                        .and_then(|i| curvature::PAPER_LEVELS.get(i))
+                    let Some(cuts) = curvature::PAPER_LEVELS
+                        .get(..k as usize)
+                        .filter(|c| !c.is_empty())
                     else {
                         bail!(
                             "curvature --level is 1, 2 or 3 (ε = 0.15, 0.20, 0.25); \
                              use --error E for others"
                         );
                     };
-                    (curvature::to_error(input, e, &options)?, e)
+                    let mut levels = curvature::levels(input, cuts, &options)?;
+                    steps_ms = levels.iter().map(|l| l.ms).collect();
+                    let last = levels.pop().context("no curvature level")?;
+                    (last.mesh, last.error)
                 }
             };
             Ok((
                 out,
-                serde_json::json!({ "epsilon": error, "options": options }),
+                serde_json::json!({ "epsilon": error, "steps_ms": steps_ms, "options": options }),
             ))
         }
         Method::Silhouette => {

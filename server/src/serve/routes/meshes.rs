@@ -92,6 +92,10 @@ type Browse = ([f64; 3], [f64; 3], f64, f64, [f64; 4]);
 enum Ask {
     Original,
     Curvature(f64),
+    /// Level K of the nested sequence cut at the paper's ε: one continuing decimation, so a
+    /// coarser level's vertices are a subset of a finer one's (a client can switch LODs
+    /// without popping vertices back).
+    CurvatureLevel(usize),
     Silhouette {
         level: Option<u8>,
         view: Option<View>,
@@ -135,12 +139,7 @@ fn parse_ask(method: &str, q: &HashMap<String, String>, mesh: &TriMesh) -> ApiRe
                             "level must be 1, 2 or 3",
                         ));
                     }
-                    PAPER_LEVELS
-                        .get((k as usize).saturating_sub(1))
-                        .map(|&e| Ask::Curvature(e))
-                        .ok_or_else(|| {
-                            ApiError::bad_request("out_of_range", "level must be 1, 2 or 3")
-                        })
+                    Ok(Ask::CurvatureLevel(k as usize))
                 }
                 _ => Err(ApiError::bad_request(
                     "bad_query",
@@ -267,6 +266,15 @@ fn compute(e: &MeshEntry, ask: &Ask) -> Result<(TriMesh, f64), ApiError> {
             let m = curvature::to_error(&e.mesh, *eps, &CurvatureOptions::default())
                 .map_err(|x| bad(x.to_string()))?;
             Ok((m, *eps))
+        }
+        Ask::CurvatureLevel(k) => {
+            let cuts = PAPER_LEVELS
+                .get(..*k)
+                .ok_or_else(|| bad(format!("no level {k}")))?;
+            let mut levels = curvature::levels(&e.mesh, cuts, &CurvatureOptions::default())
+                .map_err(|x| bad(x.to_string()))?;
+            let last = levels.pop().ok_or_else(|| bad(format!("no level {k}")))?;
+            Ok((last.mesh, last.error))
         }
         Ask::Silhouette { level, view } => {
             let vs = e.view_sphere().map_err(bad)?;
