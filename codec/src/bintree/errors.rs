@@ -47,24 +47,24 @@ impl TileErrors {
         let coords = Coords::new(n);
         let splittable = hierarchy.levels() - 1;
         finest_two_levels(h, n, &mut value);
-        let mut own = Vec::new();
+        // The children's midpoints are those of c–a and b–c; their extents are even, so
+        // the midpoint's index is the mean of the ends' (y·n + x is linear). The order of
+        // the updates within a level does not matter: every value is a max of values that
+        // are never −0, so the max of a set is one number whatever the order.
+        let mut raise = |&Tri { a, b, c, m }: &Tri, own: f64| {
+            let (a, b, c) = (a as usize, b as usize, c as usize);
+            let (m, c1, c2) = (m as usize, (a + c) / 2, (b + c) / 2);
+            value[m] = value[m].max(round_up(own)).max(value[c1]).max(value[c2]);
+        };
         for l in (0..splittable.saturating_sub(2)).rev() {
-            let range = hierarchy.level_start[l]..hierarchy.level_start[l + 1];
-            let level = &hierarchy.tris[range.clone()];
-            own.clear();
+            let level = &hierarchy.tris[hierarchy.level_start[l]..hierarchy.level_start[l + 1]];
             match hierarchy.shapes.get(l).and_then(Option::as_ref) {
-                Some(shapes) => {
-                    own.resize(level.len(), 0.0);
-                    shapes.errors::<LANES>(level, h, &mut own);
+                Some(shapes) => shapes.errors::<LANES>(level, h, |_, t, own| raise(t, own)),
+                None => {
+                    for t in level {
+                        raise(t, plane_error(t, h, coords));
+                    }
                 }
-                None => own.extend(level.iter().map(|t| plane_error(t, h, coords))),
-            }
-            // The children's midpoints are those of c–a and b–c; their extents are even, so
-            // the midpoint's index is the mean of the ends' (y·n + x is linear).
-            for (&Tri { a, b, c, m }, &own) in level.iter().zip(&own) {
-                let (a, b, c) = (a as usize, b as usize, c as usize);
-                let (m, c1, c2) = (m as usize, (a + c) / 2, (b + c) / 2);
-                value[m] = value[m].max(round_up(own)).max(value[c1]).max(value[c2]);
             }
         }
         Self { n, value }
@@ -328,14 +328,20 @@ impl Shapes {
     }
 
     /// What [`plane_error`] returns for each triangle of the level `level` (its
-    /// triangles), into `own` (one per triangle): the same expression on the same samples,
-    /// residual for residual (order does not change a max).
-    fn errors<const L: usize>(&self, level: &[Tri], h: &[f64], own: &mut [f64]) {
+    /// triangles), handed to `sink` with the triangle and its index in the level, shape by
+    /// shape: the same expression on the same samples, residual for residual (order does
+    /// not change a max).
+    fn errors<const L: usize>(
+        &self,
+        level: &[Tri],
+        h: &[f64],
+        mut sink: impl FnMut(usize, &Tri, f64),
+    ) {
         for shape in &self.shapes {
             if shape.det == 0.0 {
                 // Degenerate (never one of the bintree's): as plane_error.
                 for &t in &shape.tris {
-                    own[t as usize] = 0.0;
+                    sink(t as usize, &level[t as usize], 0.0);
                 }
                 continue;
             }
@@ -345,8 +351,8 @@ impl Shapes {
                 let tri: [Tri; L] =
                     std::array::from_fn(|k| level[group[k.min(group.len() - 1)] as usize]);
                 let err = shape.error(&tri, h, &mut products);
-                for (&t, err) in group.iter().zip(err) {
-                    own[t as usize] = err;
+                for ((&t, tri), err) in group.iter().zip(&tri).zip(err) {
+                    sink(t as usize, tri, err);
                 }
             }
         }
@@ -570,7 +576,7 @@ mod tests {
             let level = &hier.tris[range.clone()];
             let shapes = Shapes::of_level(&hier, l, coords);
             let mut own = vec![0.0; level.len()];
-            let shaped = time(&mut || shapes.errors::<LANES>(level, h, &mut own));
+            let shaped = time(&mut || shapes.errors::<LANES>(level, h, |t, _, e| own[t] = e));
             let scan = time(&mut || {
                 for (o, t) in own.iter_mut().zip(level) {
                     *o = plane_error(t, h, coords);
@@ -656,7 +662,7 @@ mod tests {
                 );
                 let level = &h.tris[h.level_start[l]..h.level_start[l + 1]];
                 let mut own = vec![f64::NAN; level.len()];
-                shapes.errors::<LANES>(level, g.data(), &mut own);
+                shapes.errors::<LANES>(level, g.data(), |t, _, e| own[t] = e);
                 for (t, fast) in level.iter().zip(own) {
                     let slow = plane_error(t, g.data(), coords);
                     assert_eq!(fast.to_bits(), slow.to_bits(), "{what}, level {l}: {t:?}");
