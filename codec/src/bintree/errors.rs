@@ -660,6 +660,8 @@ mod tests {
                     "level {l}: {}",
                     shapes.shapes.len()
                 );
+                // Every bintree det is a power of two: the plane divides by multiplying.
+                assert!(shapes.shapes.iter().all(|s| s.inv.is_some()), "level {l}");
                 let level = &h.tris[h.level_start[l]..h.level_start[l + 1]];
                 let mut own = vec![f64::NAN; level.len()];
                 shapes.errors::<LANES>(level, g.data(), |t, _, e| own[t] = e);
