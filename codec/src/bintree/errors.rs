@@ -28,14 +28,14 @@ impl TileErrors {
     /// Exact errors of `heights` over `hierarchy`. `heights` must be `side × side`; another
     /// shape is a broken contract (debug assertion) and gives an all-zero map in release.
     ///
-    /// Per level, finest first, so children are final before their parents. Where the
-    /// time went was not the coarse levels' passes over the tile (their few big triangles
-    /// scan in vectorised rows, ~30 µs a level at 257²) but the 2^(2k) small triangles
-    /// of the fine levels, each fetched from the hierarchy with its corners found by
-    /// division. The two finest levels are now row-major sweeps over the grid
-    /// ([`finest_two_levels`]), the next [`SHAPED_LEVELS`] read per-shape lists of sample
-    /// offsets ([`Shapes`]) instead of setting up a scanline, and corners come from a
-    /// multiply ([`Coords`]). The values are those of the per-triangle pass bit for bit.
+    /// Per level, finest first, so children are final before their parents. The two
+    /// finest levels are row-major sweeps over the grid ([`finest_two_levels`]); every
+    /// level whose shapes each hold at least [`LANES`] triangles (at 257², all but the
+    /// three coarsest) is evaluated [`LANES`] triangles of one shape side by side over
+    /// the shape's precomputed rows ([`Shapes`]), which vectorises however short the rows
+    /// are; the few big triangles left scan in vectorised rows ([`plane_error`]). Both
+    /// evaluate each residual by one expression, so the values are those of the
+    /// per-triangle pass bit for bit.
     pub fn new(hierarchy: &Hierarchy, heights: &Grid<f64>) -> Self {
         let n = hierarchy.side();
         let mut value = vec![0f32; n * n];
@@ -47,22 +47,24 @@ impl TileErrors {
         let coords = Coords::new(n);
         let splittable = hierarchy.levels() - 1;
         finest_two_levels(h, n, &mut value);
+        // The children's midpoints are those of c–a and b–c; their extents are even, so
+        // the midpoint's index is the mean of the ends' (y·n + x is linear). The order of
+        // the updates within a level does not matter: every value is a max of values that
+        // are never −0, so the max of a set is one number whatever the order.
+        let mut raise = |&Tri { a, b, c, m }: &Tri, own: f64| {
+            let (a, b, c) = (a as usize, b as usize, c as usize);
+            let (m, c1, c2) = (m as usize, (a + c) / 2, (b + c) / 2);
+            value[m] = value[m].max(round_up(own)).max(value[c1]).max(value[c2]);
+        };
         for l in (0..splittable.saturating_sub(2)).rev() {
-            let range = hierarchy.level_start[l]..hierarchy.level_start[l + 1];
-            let shapes = hierarchy.shapes.get(l).and_then(Option::as_ref);
-            for t in range {
-                let tri = hierarchy.tris[t];
-                let m = tri.m as usize;
-                let own = match shapes {
-                    Some(shapes) => shapes.error(&tri, h, coords),
-                    None => plane_error(&tri, h, coords),
-                };
-                let first = hierarchy.first_child(l, t);
-                let (c1, c2) = (hierarchy.tris[first].m, hierarchy.tris[first + 1].m);
-                value[m] = value[m]
-                    .max(round_up(own))
-                    .max(value[c1 as usize])
-                    .max(value[c2 as usize]);
+            let level = &hierarchy.tris[hierarchy.level_start[l]..hierarchy.level_start[l + 1]];
+            match hierarchy.shapes.get(l).and_then(Option::as_ref) {
+                Some(shapes) => shapes.errors::<LANES>(level, h, |_, t, own| raise(t, own)),
+                None => {
+                    for t in level {
+                        raise(t, plane_error(t, h, coords));
+                    }
+                }
             }
         }
         Self { n, value }
@@ -90,44 +92,44 @@ impl TileErrors {
 /// centre and the cell's four side midpoints, so its value is the larger of its own
 /// deviation and theirs.
 fn finest_two_levels(h: &[f64], n: usize, value: &mut [f32]) {
-    let deviation = |m: usize, p: usize, q: usize| (h[m] - (h[p] + h[q]) / 2.0).abs();
+    let deviation = |m: f64, p: f64, q: f64| round_up((m - (p + q) / 2.0).abs());
     for y in 0..n {
         let row = y * n;
-        // Even rows: the horizontal sides' midpoints at odd x; odd rows: the vertical
-        // sides' at even x.
-        let first = if y % 2 == 0 { 1 } else { 0 };
-        for x in (first..n).step_by(2) {
-            let s = row + x;
-            let d = if y % 2 == 0 {
-                deviation(s, s - 1, s + 1)
-            } else {
-                deviation(s, s - n, s + n)
-            };
-            value[s] = round_up(d);
+        let out = &mut value[row..row + n];
+        if y % 2 == 0 {
+            // The horizontal sides' midpoints at odd x.
+            let here = &h[row..row + n];
+            for x in (1..n).step_by(2) {
+                out[x] = deviation(here[x], here[x - 1], here[x + 1]);
+            }
+        } else {
+            // The vertical sides' at even x.
+            let (up, here, down) = (&h[row - n..row], &h[row..row + n], &h[row + n..row + 2 * n]);
+            for x in (0..n).step_by(2) {
+                out[x] = deviation(here[x], up[x], down[x]);
+            }
         }
     }
     for y in (1..n).step_by(2) {
+        let row = y * n;
+        let (up, here, down) = (&h[row - n..row], &h[row..row + n], &h[row + n..row + 2 * n]);
+        let (above, rest) = value[row - n..row + 2 * n].split_at_mut(n);
+        let (out, below) = rest.split_at_mut(n);
         for x in (1..n).step_by(2) {
-            let s = y * n + x;
             let backslash = (x / 2 + y / 2) % 2 == 0;
             let d = if backslash {
-                deviation(s, s - n - 1, s + n + 1)
+                deviation(here[x], up[x - 1], down[x + 1])
             } else {
-                deviation(s, s - n + 1, s + n - 1)
+                deviation(here[x], up[x + 1], down[x - 1])
             };
-            value[s] = round_up(d)
-                .max(value[s - 1])
-                .max(value[s + 1])
-                .max(value[s - n])
-                .max(value[s + n]);
+            out[x] = d
+                .max(out[x - 1])
+                .max(out[x + 1])
+                .max(above[x])
+                .max(below[x]);
         }
     }
 }
-
-/// The scanned levels next above the two finest that read offset lists instead: from 4
-/// (about 10 samples a triangle) to 64 (about 300), where a scanline's per-row set-up
-/// costs more than the list's gathers.
-const SHAPED_LEVELS: usize = 6;
 
 /// Sample index → (x, y) without a division: `y = ⌊s · magic / 2⁴⁰⌋`. With `magic` =
 /// ⌊2⁴⁰/n⌋ + 1 the quotient is exact while `s · n < 2⁴⁰`, far above any grid the
@@ -187,21 +189,59 @@ impl Plane {
 /// The samples one triangle shape covers, for every triangle of one level: a level holds a
 /// few shapes (the hypotenuse along one axis or diagonal, the right angle on either side,
 /// either end first), each with the same samples relative to its corner `a`.
+///
+/// Each shape keeps its triangles' indices, so a level is evaluated [`LANES`] triangles
+/// of one shape at a time: the lanes share the shape's rows and run the scanline's
+/// expression side by side, where one triangle's short rows would leave the lanes idle.
 #[derive(Debug)]
 pub(super) struct Shapes {
-    shapes: Vec<(ShapeKey, Vec<Offset>)>,
+    shapes: Vec<Shape>,
 }
 
-/// Per level, the shape lists of the levels [`TileErrors::new`] reads them for: built once
-/// per grid size with the [`Hierarchy`] (finding a level's shapes looks at every triangle of
-/// it, ~0.1 ms per tile at 257² when done per tile).
+#[derive(Debug)]
+struct Shape {
+    /// Corner b − a and c − a as the plane's set-up reads them.
+    ux: f64,
+    uy: f64,
+    vx: f64,
+    vy: f64,
+    det: f64,
+    /// `1 / det` when `det` is a power of two, so that `x * inv` is `x / det` bit for bit
+    /// (true of every bintree shape: ±2s² or ±4s² for a power of two s).
+    inv: Option<f64>,
+    /// The covered samples, one contiguous run per row.
+    rows: Vec<Run>,
+    /// The columns the runs cover: x − x_a from `dx0` to `dx0 + width − 1`.
+    dx0: f64,
+    width: usize,
+    /// The level's triangles of this shape (index within the level), padded with copies of
+    /// the last to a multiple of [`LANES`].
+    tris: Vec<u32>,
+}
+
+/// One row of a shape: `len` samples from index offset `offset` (relative to a), in
+/// the shape's columns from `column` on, at y − y_a = `dy`.
+#[derive(Clone, Copy, Debug)]
+struct Run {
+    offset: isize,
+    len: usize,
+    column: usize,
+    dy: f64,
+}
+
+/// Per level, the shape lists of the levels [`TileErrors::new`] reads them for (below the
+/// two finest, where every shape fills the lanes): built once per grid size with the
+/// [`Hierarchy`] (finding a level's shapes looks at every triangle of it, ~0.1 ms per tile
+/// at 257² when done per tile).
 pub(super) fn level_shapes(hierarchy: &Hierarchy) -> Vec<Option<Shapes>> {
     let splittable = hierarchy.levels() - 1;
     let coords = Coords::new(hierarchy.side());
     (0..splittable)
         .map(|l| {
-            (l + 2 < splittable && l + SHAPED_LEVELS + 2 >= splittable)
-                .then(|| Shapes::of_level(hierarchy, l, coords))
+            let shapes = (l + 2 < splittable)
+                .then(|| Shapes::group(hierarchy, l, coords))
+                .filter(|groups| groups.iter().all(|(_, tris)| tris.len() >= LANES))?;
+            Some(Shapes::of_groups(hierarchy.side(), shapes))
         })
         .collect()
 }
@@ -209,18 +249,30 @@ pub(super) fn level_shapes(hierarchy: &Hierarchy) -> Vec<Option<Shapes>> {
 /// Corner b − a and c − a.
 type ShapeKey = (i64, i64, i64, i64);
 
-/// A covered sample: index offset from a, x − x_a, y − y_a.
-type Offset = (isize, f64, f64);
-
 impl Shapes {
+    #[cfg(test)]
     fn of_level(hierarchy: &Hierarchy, l: usize, coords: Coords) -> Self {
-        let n = hierarchy.side() as i64;
-        let mut shapes: Vec<(ShapeKey, Vec<Offset>)> = Vec::new();
-        for t in &hierarchy.tris[hierarchy.level_start[l]..hierarchy.level_start[l + 1]] {
+        Self::of_groups(hierarchy.side(), Self::group(hierarchy, l, coords))
+    }
+
+    /// The level's triangles (indices within it) by shape.
+    fn group(hierarchy: &Hierarchy, l: usize, coords: Coords) -> Vec<(ShapeKey, Vec<u32>)> {
+        let level = &hierarchy.tris[hierarchy.level_start[l]..hierarchy.level_start[l + 1]];
+        let mut groups: Vec<(ShapeKey, Vec<u32>)> = Vec::new();
+        for (i, t) in level.iter().enumerate() {
             let key = Self::key(t, coords);
-            if shapes.iter().any(|(k, _)| *k == key) {
-                continue;
+            match groups.iter_mut().find(|(k, _)| *k == key) {
+                Some((_, tris)) => tris.push(i as u32),
+                None => groups.push((key, vec![i as u32])),
             }
+        }
+        groups
+    }
+
+    fn of_groups(n: usize, groups: Vec<(ShapeKey, Vec<u32>)>) -> Self {
+        let n = n as i64;
+        let mut shapes: Vec<Shape> = Vec::new();
+        for (key, tris) in groups {
             let (bx, by, cx, cy) = key;
             // The closed triangle (0, 0), (bx, by), (cx, cy) by edge functions.
             let edge = |p: (i64, i64), q: (i64, i64), r: (i64, i64)| {
@@ -228,18 +280,43 @@ impl Shapes {
             };
             let (a, b, c) = ((0, 0), (bx, by), (cx, cy));
             let sign = edge(a, b, c).signum();
-            let mut samples = Vec::new();
+            let mut rows = Vec::new();
+            let (x_min, x_max) = (0.min(bx).min(cx), 0.max(bx).max(cx));
             for y in 0.min(by).min(cy)..=0.max(by).max(cy) {
-                for x in 0.min(bx).min(cx)..=0.max(bx).max(cx) {
-                    let inside = [edge(b, c, (x, y)), edge(c, a, (x, y)), edge(a, b, (x, y))]
-                        .iter()
-                        .all(|&w| w * sign >= 0);
-                    if inside {
-                        samples.push(((y * n + x) as isize, x as f64, y as f64));
-                    }
+                let covered: Vec<i64> = (x_min..=x_max)
+                    .filter(|&x| {
+                        [edge(b, c, (x, y)), edge(c, a, (x, y)), edge(a, b, (x, y))]
+                            .iter()
+                            .all(|&w| w * sign >= 0)
+                    })
+                    .collect();
+                if let (Some(&x0), Some(&x1)) = (covered.first(), covered.last()) {
+                    // A triangle is convex: its samples on a row are one run.
+                    debug_assert_eq!(covered.len() as i64, x1 - x0 + 1);
+                    rows.push(Run {
+                        offset: (y * n + x0) as isize,
+                        len: covered.len(),
+                        column: (x0 - x_min) as usize,
+                        dy: y as f64,
+                    });
                 }
             }
-            shapes.push((key, samples));
+            let (ux, uy, vx, vy) = (bx as f64, by as f64, cx as f64, cy as f64);
+            let det = ux * vy - uy * vx;
+            let inv =
+                (det != 0.0 && det.abs().to_bits() & ((1u64 << 52) - 1) == 0).then(|| 1.0 / det);
+            shapes.push(Shape {
+                ux,
+                uy,
+                vx,
+                vy,
+                det,
+                inv,
+                rows,
+                dx0: x_min as f64,
+                width: (x_max - x_min + 1) as usize,
+                tris,
+            });
         }
         Self { shapes }
     }
@@ -250,25 +327,81 @@ impl Shapes {
         (pb.0 - pa.0, pb.1 - pa.1, pc.0 - pa.0, pc.1 - pa.1)
     }
 
-    /// What [`plane_error`] returns for `t`, residual for residual: the same expression on
-    /// the same samples (order does not change a max).
-    fn error(&self, t: &Tri, h: &[f64], coords: Coords) -> f64 {
-        let key = Self::key(t, coords);
-        let (Some(plane), Some((_, samples))) = (
-            Plane::of(t, h, coords),
-            self.shapes.iter().find(|(k, _)| *k == key),
-        ) else {
-            return plane_error(t, h, coords);
-        };
-        let a = t.a as isize;
-        let (mut hi, mut lo) = (f64::MIN, f64::MAX);
-        for &(offset, dx, dy) in samples {
-            let z = h[(a + offset) as usize];
-            let d = z - (plane.za + (plane.gx * dx + plane.gy * dy));
-            hi = if d > hi { d } else { hi };
-            lo = if d < lo { d } else { lo };
+    /// What [`plane_error`] returns for each triangle of the level `level` (its
+    /// triangles), handed to `sink` with the triangle and its index in the level, shape by
+    /// shape: the same expression on the same samples, residual for residual (order does
+    /// not change a max).
+    fn errors<const L: usize>(
+        &self,
+        level: &[Tri],
+        h: &[f64],
+        mut sink: impl FnMut(usize, &Tri, f64),
+    ) {
+        for shape in &self.shapes {
+            if shape.det == 0.0 {
+                // Degenerate (never one of the bintree's): as plane_error.
+                for &t in &shape.tris {
+                    sink(t as usize, &level[t as usize], 0.0);
+                }
+                continue;
+            }
+            let mut products = vec![[0.0; L]; shape.width];
+            for group in shape.tris.chunks(L) {
+                // A short last group repeats its last triangle.
+                let tri: [Tri; L] =
+                    std::array::from_fn(|k| level[group[k.min(group.len() - 1)] as usize]);
+                let err = shape.error(&tri, h, &mut products);
+                for ((&t, tri), err) in group.iter().zip(&tri).zip(err) {
+                    sink(t as usize, tri, err);
+                }
+            }
         }
-        hi.max(-lo)
+    }
+}
+
+impl Shape {
+    /// The errors of [`L`] triangles of this shape, side by side.
+    #[inline]
+    fn error<const L: usize>(
+        &self,
+        tri: &[Tri; L],
+        h: &[f64],
+        products: &mut [[f64; L]],
+    ) -> [f64; L] {
+        let (mut za, mut gx, mut gy) = ([0f64; L], [0f64; L], [0f64; L]);
+        for k in 0..L {
+            // Plane::of with the shape's constants.
+            let t = &tri[k];
+            let (a, b, c) = (h[t.a as usize], h[t.b as usize], h[t.c as usize]);
+            let (uz, vz) = (b - a, c - a);
+            let (px, py) = (uz * self.vy - self.uy * vz, self.ux * vz - uz * self.vx);
+            za[k] = a;
+            (gx[k], gy[k]) = match self.inv {
+                Some(inv) => (px * inv, py * inv),
+                None => (px / self.det, py / self.det),
+            };
+        }
+        // g_x·Δx once per column rather than once per sample: the same products.
+        for (j, p) in products.iter_mut().enumerate() {
+            let dx = self.dx0 + j as f64;
+            *p = std::array::from_fn(|k| gx[k] * dx);
+        }
+        let mut worst = [f64::MIN; L];
+        for run in &self.rows {
+            let row: [&[f64]; L] = std::array::from_fn(|k| {
+                let start = (tri[k].a as isize + run.offset) as usize;
+                &h[start..start + run.len]
+            });
+            let gy_dy: [f64; L] = std::array::from_fn(|k| gy[k] * run.dy);
+            let gx_dx = &products[run.column..run.column + run.len];
+            for (j, gx_dx) in gx_dx.iter().enumerate() {
+                for k in 0..L {
+                    let d = (row[k][j] - (za[k] + (gx_dx[k] + gy_dy[k]))).abs();
+                    worst[k] = if d > worst[k] { d } else { worst[k] };
+                }
+            }
+        }
+        worst
     }
 }
 
@@ -276,8 +409,10 @@ impl Shapes {
 ///
 /// The triangle's edges run along the axes or the diagonals, so on every row each edge
 /// crosses a whole sample and moves by −1, 0 or +1 sample per row: a scanline without
-/// divisions. Each residual is `z − (z_a + (g_x·Δx + g_y·Δy))`, the expression
-/// [`Shapes::error`] evaluates too, so both give one value for one triangle.
+/// divisions. Each residual is `|z − (z_a + (g_x·Δx + g_y·Δy))|`, the expression
+/// [`Shapes::errors`] evaluates too, so both give one value for one triangle. (The largest
+/// |d| is the larger of the largest d and −(the smallest d), what the pass computed before,
+/// and NaN residuals are skipped by both.)
 fn plane_error(t: &Tri, h: &[f64], coords: Coords) -> f64 {
     let Some(plane) = Plane::of(t, h, coords) else {
         return 0.0;
@@ -305,8 +440,13 @@ fn plane_error(t: &Tri, h: &[f64], coords: Coords) -> f64 {
         }
     };
     let (long, upper, lower) = (slope(v[0], v[2]), slope(v[0], v[1]), slope(v[1], v[2]));
-    let (mut hi, mut lo) = ([f64::MIN; LANES], [f64::MAX; LANES]);
-    let lane: [f64; LANES] = std::array::from_fn(|k| k as f64);
+    // g_x·Δx once per column (Δx is a small integer, exact in f64).
+    let x_min = v[0].0.min(v[1].0).min(v[2].0);
+    let x_max = v[0].0.max(v[1].0).max(v[2].0);
+    let products: Vec<f64> = (x_min..=x_max)
+        .map(|x| plane.gx * (x - plane.xa) as f64)
+        .collect();
+    let mut worst = [f64::MIN; LANES];
     for y in v[0].1..=v[2].1 {
         // Rows above v1 see the upper short edge; from v1's row on, the lower one (which
         // also covers a horizontal edge at the top or bottom row).
@@ -319,40 +459,37 @@ fn plane_error(t: &Tri, h: &[f64], coords: Coords) -> f64 {
         let (x0, x1) = (x_long.min(x_short), x_long.max(x_short));
         let base = y as usize * n;
         let row = &h[base + x0 as usize..=base + x1 as usize];
-        // Branch-free min/max lanes so the loop vectorises; offsets are small integers,
-        // exact in f64.
+        let gx_dx = &products[(x0 - x_min) as usize..=(x1 - x_min) as usize];
+        // Branch-free max lanes so the loop vectorises.
         let gy_dy = plane.gy * (y - plane.ya) as f64;
-        let mut dx = (x0 - plane.xa) as f64;
-        let mut chunks = row.chunks_exact(LANES);
-        for chunk in &mut chunks {
+        let mut chunks = row.chunks_exact(LANES).zip(gx_dx.chunks_exact(LANES));
+        for (z, p) in &mut chunks {
             for k in 0..LANES {
-                let d = chunk[k] - (plane.za + (plane.gx * (dx + lane[k]) + gy_dy));
-                hi[k] = if d > hi[k] { d } else { hi[k] };
-                lo[k] = if d < lo[k] { d } else { lo[k] };
+                let d = (z[k] - (plane.za + (p[k] + gy_dy))).abs();
+                worst[k] = if d > worst[k] { d } else { worst[k] };
             }
-            dx += LANES as f64;
         }
-        for (k, &z) in chunks.remainder().iter().enumerate() {
-            let d = z - (plane.za + (plane.gx * (dx + lane[k]) + gy_dy));
-            hi[k] = if d > hi[k] { d } else { hi[k] };
-            lo[k] = if d < lo[k] { d } else { lo[k] };
+        let done = row.len() / LANES * LANES;
+        for (k, (&z, &p)) in row[done..].iter().zip(&gx_dx[done..]).enumerate() {
+            let d = (z - (plane.za + (p + gy_dy))).abs();
+            worst[k] = if d > worst[k] { d } else { worst[k] };
         }
     }
-    let (hi, lo) = (
-        hi.iter().copied().fold(f64::MIN, f64::max),
-        lo.iter().copied().fold(f64::MAX, f64::min),
-    );
-    hi.max(-lo)
+    worst.iter().copied().fold(f64::MIN, f64::max)
 }
 
 /// The f32 at or above `v`, so a stored error never understates the f64 one.
+///
+/// `f32::next_up` of `v as f32` when that is below `v`, without a branch: the hot loops
+/// meet both cases about equally often, and a mispredicted branch cost more than the rest
+/// of a sample. Below `v` means `v as f32` is finite or −∞ and not −0, where the next f32
+/// up is one bit pattern up for a positive and one down for a negative.
+#[inline]
 fn round_up(v: f64) -> f32 {
     let f = v as f32;
-    if f64::from(f) < v {
-        f.next_up()
-    } else {
-        f
-    }
+    let up = u32::from(f64::from(f) < v);
+    let bits = f.to_bits();
+    f32::from_bits(bits.wrapping_add(up).wrapping_sub((up & (bits >> 31)) << 1))
 }
 
 /// Samples per step of the scanline's inner loop.
@@ -411,6 +548,90 @@ mod tests {
     }
 
     #[test]
+    #[ignore]
+    fn level_times() {
+        let n = 257;
+        let hier = Hierarchy::new(n).unwrap();
+        let g = crate::fixtures::n44w072().crop(300, 500, n, n).unwrap();
+        let h = g.data();
+        let coords = Coords::new(n);
+        let splittable = hier.levels() - 1;
+        let reps = 50;
+        let time = |f: &mut dyn FnMut()| {
+            (0..7)
+                .map(|_| {
+                    let t0 = std::time::Instant::now();
+                    for _ in 0..reps {
+                        f();
+                    }
+                    t0.elapsed().as_secs_f64() * 1e6 / reps as f64
+                })
+                .fold(f64::MAX, f64::min)
+        };
+        let mut value = vec![0f32; n * n];
+        let us = time(&mut || finest_two_levels(h, n, &mut value));
+        eprintln!("finest two: {us:.1} us");
+        for l in (0..splittable.saturating_sub(2)).rev() {
+            let range = hier.level_start[l]..hier.level_start[l + 1];
+            let level = &hier.tris[range.clone()];
+            let shapes = Shapes::of_level(&hier, l, coords);
+            let mut own = vec![0.0; level.len()];
+            let shaped = time(&mut || shapes.errors::<LANES>(level, h, |t, _, e| own[t] = e));
+            let scan = time(&mut || {
+                for (o, t) in own.iter_mut().zip(level) {
+                    *o = plane_error(t, h, coords);
+                }
+            });
+            eprintln!(
+                "level {l} ({} tris, {} shapes): shaped {shaped:.1} us, scanline {scan:.1} us",
+                range.len(),
+                shapes.shapes.len()
+            );
+        }
+    }
+
+    /// The branch-free `round_up` against its definition, `next_up` when below.
+    #[test]
+    fn round_up_is_the_f32_at_or_above() {
+        fn reference(v: f64) -> f32 {
+            let f = v as f32;
+            if f64::from(f) < v {
+                f.next_up()
+            } else {
+                f
+            }
+        }
+        let mut values = vec![
+            0.0,
+            -0.0,
+            f64::MIN_POSITIVE,
+            -f64::MIN_POSITIVE,
+            1e-46,
+            -1e-46,
+            f64::from(f32::MAX),
+            f64::from(f32::MAX) * (1.0 + 1e-12),
+            -f64::from(f32::MAX) * (1.0 + 1e-12),
+            f64::MAX,
+            f64::MIN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+        ];
+        let mut x = 0x1234_5678_9abc_def0u64;
+        for _ in 0..100_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let v = (x >> 11) as f64 / (1u64 << 53) as f64 * 2000.0 - 1000.0;
+            values.push(v);
+            values.push(v * 1e-30);
+        }
+        for v in values {
+            assert_eq!(round_up(v).to_bits(), reference(v).to_bits(), "{v:e}");
+        }
+    }
+
+    #[test]
     fn coords_divide_exactly_on_the_smallest_and_largest_grids() {
         for n in [3usize, 257, 4097] {
             let coords = Coords::new(n);
@@ -439,11 +660,13 @@ mod tests {
                     "level {l}: {}",
                     shapes.shapes.len()
                 );
-                for t in &h.tris[h.level_start[l]..h.level_start[l + 1]] {
-                    let (fast, slow) = (
-                        shapes.error(t, g.data(), coords),
-                        plane_error(t, g.data(), coords),
-                    );
+                // Every bintree det is a power of two: the plane divides by multiplying.
+                assert!(shapes.shapes.iter().all(|s| s.inv.is_some()), "level {l}");
+                let level = &h.tris[h.level_start[l]..h.level_start[l + 1]];
+                let mut own = vec![f64::NAN; level.len()];
+                shapes.errors::<LANES>(level, g.data(), |t, _, e| own[t] = e);
+                for (t, fast) in level.iter().zip(own) {
+                    let slow = plane_error(t, g.data(), coords);
                     assert_eq!(fast.to_bits(), slow.to_bits(), "{what}, level {l}: {t:?}");
                 }
             }
