@@ -29,8 +29,11 @@ fn decode_and_mesh(c: &mut Criterion) {
                     let limit = DecodeLimit::Threshold(budget / 8.0);
                     let d =
                         ezw::decode(&enc.bytes, limit, ezw::DEFAULT_MAX_SAMPLES).expect("decode");
-                    let errors = TileErrors::new(&hierarchy, &d.heights);
-                    bintree::extract(&hierarchy, &errors, &d.heights, budget * 0.75, None)
+                    // Exact wherever the tolerance it is meshed at can tell, as the server
+                    // computes them for a decode depth.
+                    let tolerance = budget * 0.75;
+                    let errors = TileErrors::exact_above(&hierarchy, &d.heights, tolerance);
+                    bintree::extract(&hierarchy, &errors, &d.heights, tolerance, None)
                 })
             });
         }
@@ -50,8 +53,8 @@ fn decode_and_mesh(c: &mut Criterion) {
                     let limit = DecodeLimit::Threshold(budget * share);
                     let d =
                         ezw::decode(&enc.bytes, limit, ezw::DEFAULT_MAX_SAMPLES).expect("decode");
-                    let errors = TileErrors::new(&hierarchy, &d.heights);
                     let tolerance = budget * (1.0 - share);
+                    let errors = TileErrors::exact_above(&hierarchy, &d.heights, tolerance);
                     bintree::extract(&hierarchy, &errors, &d.heights, tolerance, None)
                 })
             });
@@ -65,6 +68,11 @@ fn decode_and_mesh(c: &mut Criterion) {
     group.bench_function("tile_errors", |b| {
         b.iter(|| TileErrors::new(&hierarchy, &g))
     });
+    for floor in [3.0, 12.0, 48.0] {
+        group.bench_function(format!("tile_errors_above_{floor}"), |b| {
+            b.iter(|| TileErrors::exact_above(&hierarchy, &g, floor))
+        });
+    }
     let errors = TileErrors::new(&hierarchy, &g);
     for tolerance in [2.0, 16.0] {
         group.bench_function(format!("extract_tol_{tolerance}"), |b| {

@@ -37,6 +37,23 @@ impl TileErrors {
     /// evaluate each residual by one expression, so the values are those of the
     /// per-triangle pass bit for bit.
     pub fn new(hierarchy: &Hierarchy, heights: &Grid<f64>) -> Self {
+        Self::exact_above(hierarchy, heights, 0.0)
+    }
+
+    /// Values that every tolerance ≥ `floor` reads as [`Self::new`]'s: where the exact value
+    /// exceeds `floor` it is returned exactly; elsewhere a value may be lower (never above
+    /// `floor`). A decoded tile is only ever meshed at tolerances above some floor (the
+    /// server reads a stream to T/8 and meshes within 7T/8, so a decode depth fixes a lower
+    /// bound on T), and whole regions can then skip the fine levels.
+    ///
+    /// The bound: inside a triangle τ with error E_τ, the plane of a descendant σ differs
+    /// from τ's by at most E_τ (both interpolate heights, and at σ's corners τ's plane is
+    /// within E_τ of them), so E_σ ≤ 2·E_τ. Every descendant of a triangle with 2·E_τ ≤
+    /// `floor` is below any tolerance it will be read at: it is "quiet", its error is not
+    /// computed (taken as 0), and only the raise of its children's values runs, which keeps
+    /// the values of neighbouring, non-quiet diamonds propagating upwards. The test is made
+    /// every [`PRUNE_STEP`] levels.
+    pub fn exact_above(hierarchy: &Hierarchy, heights: &Grid<f64>, floor: f64) -> Self {
         let n = hierarchy.side();
         let mut value = vec![0f32; n * n];
         debug_assert_eq!((heights.rows(), heights.cols()), (n, n));
@@ -56,13 +73,25 @@ impl TileErrors {
             let (m, c1, c2) = (m as usize, (a + c) / 2, (b + c) / 2);
             value[m] = value[m].max(round_up(own)).max(value[c1]).max(value[c2]);
         };
+        let prune = Prune::new(hierarchy, h, coords, floor);
         for l in (0..splittable.saturating_sub(2)).rev() {
             let level = &hierarchy.tris[hierarchy.level_start[l]..hierarchy.level_start[l + 1]];
+            if let Some(own) = prune.own(l) {
+                // A pruning level: its errors were computed on the way down.
+                for (t, &own) in level.iter().zip(own) {
+                    raise(t, own);
+                }
+                continue;
+            }
+            let quiet = prune.quiet_at(l);
             match hierarchy.shapes.get(l).and_then(Option::as_ref) {
-                Some(shapes) => shapes.errors::<LANES>(level, h, |_, t, own| raise(t, own)),
+                Some(shapes) => {
+                    shapes.errors::<LANES>(level, h, quiet.as_ref(), |_, t, own| raise(t, own))
+                }
                 None => {
-                    for t in level {
-                        raise(t, plane_error(t, h, coords));
+                    for (i, t) in level.iter().enumerate() {
+                        let skip = quiet.as_ref().is_some_and(|q| q.get(i));
+                        raise(t, if skip { 0.0 } else { plane_error(t, h, coords) });
                     }
                 }
             }
@@ -78,6 +107,98 @@ impl TileErrors {
     /// triangles.
     pub fn max(&self) -> f32 {
         self.value.iter().copied().fold(0.0, f32::max)
+    }
+}
+
+/// Levels between the tests of [`TileErrors::exact_above`]: each test evaluates a level
+/// top-down (reused on the way up), so testing every level would order the whole pass
+/// top-down; every second level prunes nearly as much.
+const PRUNE_STEP: usize = 2;
+
+/// Which triangles of a level lie inside a quiet triangle of a pruning level above it.
+struct Quiet<'a> {
+    flags: &'a [bool],
+    /// log2 of the level gap: triangle i's ancestor is `i >> shift`.
+    shift: usize,
+}
+
+impl Quiet<'_> {
+    #[inline]
+    fn get(&self, i: usize) -> bool {
+        self.flags.get(i >> self.shift).copied().unwrap_or(false)
+    }
+}
+
+/// The pruning levels' errors (computed coarse to fine, skipping quiet regions) and quiet
+/// flags. Empty when `floor` is 0: every value is then exact.
+struct Prune {
+    /// (level, own error per triangle of it (0 where quiet from above), quiet flags)
+    levels: Vec<(usize, Vec<f64>, Vec<bool>)>,
+}
+
+impl Prune {
+    fn new(hierarchy: &Hierarchy, h: &[f64], coords: Coords, floor: f64) -> Self {
+        let mut levels: Vec<(usize, Vec<f64>, Vec<bool>)> = Vec::new();
+        let splittable = hierarchy.levels() - 1;
+        if floor.is_nan() || floor <= 0.0 {
+            return Self { levels };
+        }
+        // A hair of slack for the rounding of the residuals.
+        let quiet_below = floor / (2.0 * (1.0 + 1e-6));
+        for l in (PRUNE_STEP..splittable.saturating_sub(2)).step_by(PRUNE_STEP) {
+            let level = &hierarchy.tris[hierarchy.level_start[l]..hierarchy.level_start[l + 1]];
+            let above = levels
+                .last()
+                .filter(|(_, _, flags)| flags.contains(&true))
+                .map(|(p, _, flags)| Quiet {
+                    flags: flags.as_slice(),
+                    shift: l - p,
+                });
+            let mut own = vec![0.0; level.len()];
+            match hierarchy.shapes.get(l).and_then(Option::as_ref) {
+                Some(shapes) => shapes.errors::<LANES>(level, h, above.as_ref(), |i, _, e| {
+                    if let Some(slot) = own.get_mut(i) {
+                        *slot = e;
+                    }
+                }),
+                None => {
+                    for (i, (t, slot)) in level.iter().zip(own.iter_mut()).enumerate() {
+                        if !above.as_ref().is_some_and(|q| q.get(i)) {
+                            *slot = plane_error(t, h, coords);
+                        }
+                    }
+                }
+            }
+            let quiet = own
+                .iter()
+                .enumerate()
+                .map(|(i, &e)| above.as_ref().is_some_and(|q| q.get(i)) || e <= quiet_below)
+                .collect();
+            levels.push((l, own, quiet));
+        }
+        Self { levels }
+    }
+
+    /// The errors of `l` if it is a pruning level.
+    fn own(&self, l: usize) -> Option<&[f64]> {
+        self.levels
+            .iter()
+            .find(|(p, _, _)| *p == l)
+            .map(|(_, own, _)| own.as_slice())
+    }
+
+    /// The quiet flags that apply to level `l`: the deepest pruning level above it. None
+    /// when nothing there is quiet (a fine floor on rough ground), which spares the filter.
+    fn quiet_at(&self, l: usize) -> Option<Quiet<'_>> {
+        self.levels
+            .iter()
+            .rev()
+            .find(|(p, _, _)| *p < l)
+            .filter(|(_, _, flags)| flags.contains(&true))
+            .map(|(p, _, flags)| Quiet {
+                flags: flags.as_slice(),
+                shift: l - p,
+            })
     }
 }
 
@@ -331,12 +452,16 @@ impl Shapes {
     /// triangles), handed to `sink` with the triangle and its index in the level, shape by
     /// shape: the same expression on the same samples, residual for residual (order does
     /// not change a max).
+    ///
+    /// Triangles `quiet` names are handed over with 0 and not evaluated.
     fn errors<const L: usize>(
         &self,
         level: &[Tri],
         h: &[f64],
+        quiet: Option<&Quiet>,
         mut sink: impl FnMut(usize, &Tri, f64),
     ) {
+        let mut active = Vec::new();
         for shape in &self.shapes {
             if shape.det == 0.0 {
                 // Degenerate (never one of the bintree's): as plane_error.
@@ -345,8 +470,22 @@ impl Shapes {
                 }
                 continue;
             }
+            let tris = match quiet {
+                None => &shape.tris,
+                Some(q) => {
+                    active.clear();
+                    for &t in &shape.tris {
+                        if q.get(t as usize) {
+                            sink(t as usize, &level[t as usize], 0.0);
+                        } else {
+                            active.push(t);
+                        }
+                    }
+                    &active
+                }
+            };
             let mut products = vec![[0.0; L]; shape.width];
-            for group in shape.tris.chunks(L) {
+            for group in tris.chunks(L) {
                 // A short last group repeats its last triangle.
                 let tri: [Tri; L] =
                     std::array::from_fn(|k| level[group[k.min(group.len() - 1)] as usize]);
@@ -527,6 +666,52 @@ mod tests {
         worst
     }
 
+    /// Above the floor the pruned values are the exact ones, below it never higher; and
+    /// pruning skipped something on every real tile at a coarse floor.
+    #[test]
+    fn values_above_the_floor_are_exact_and_below_it_never_higher() {
+        let h = Hierarchy::new(257).unwrap();
+        for (what, g) in real_tiles() {
+            let exact = TileErrors::new(&h, &g);
+            for floor in [0.5, 3.0, 12.0, 48.0, 200.0] {
+                let pruned = TileErrors::exact_above(&h, &g, floor);
+                let mut lowered = 0;
+                for (m, (&e, &p)) in exact.value.iter().zip(&pruned.value).enumerate() {
+                    assert!(p <= e, "{what} floor {floor}: sample {m} {p} > exact {e}");
+                    if f64::from(e) > floor {
+                        assert_eq!(p, e, "{what} floor {floor}: sample {m}");
+                    } else if p < e {
+                        lowered += 1;
+                    }
+                }
+                if floor >= 48.0 {
+                    assert!(
+                        lowered > 1000,
+                        "{what} floor {floor}: pruned only {lowered}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// What the mesher sees: at any tolerance at or above the floor, the pruned errors give
+    /// the exact errors' mesh, triangle for triangle.
+    #[test]
+    fn meshes_at_or_above_the_floor_are_the_exact_ones() {
+        let h = Hierarchy::new(257).unwrap();
+        for (what, g) in real_tiles().into_iter().step_by(2) {
+            let exact = TileErrors::new(&h, &g);
+            for floor in [2.0, 12.0, 48.0] {
+                let pruned = TileErrors::exact_above(&h, &g, floor);
+                for tol in [floor, floor * 1.3, floor * 4.0] {
+                    let a = super::super::extract(&h, &exact, &g, tol, None);
+                    let b = super::super::extract(&h, &pruned, &g, tol, None);
+                    assert_eq!(a.triangles, b.triangles, "{what} floor {floor} tol {tol}");
+                }
+            }
+        }
+    }
+
     fn real_tiles() -> Vec<(String, Grid<f64>)> {
         let n = 257;
         let dem = crate::fixtures::n44w072();
@@ -576,7 +761,7 @@ mod tests {
             let level = &hier.tris[range.clone()];
             let shapes = Shapes::of_level(&hier, l, coords);
             let mut own = vec![0.0; level.len()];
-            let shaped = time(&mut || shapes.errors::<LANES>(level, h, |t, _, e| own[t] = e));
+            let shaped = time(&mut || shapes.errors::<LANES>(level, h, None, |t, _, e| own[t] = e));
             let scan = time(&mut || {
                 for (o, t) in own.iter_mut().zip(level) {
                     *o = plane_error(t, h, coords);
@@ -664,7 +849,7 @@ mod tests {
                 assert!(shapes.shapes.iter().all(|s| s.inv.is_some()), "level {l}");
                 let level = &h.tris[h.level_start[l]..h.level_start[l + 1]];
                 let mut own = vec![f64::NAN; level.len()];
-                shapes.errors::<LANES>(level, g.data(), |t, _, e| own[t] = e);
+                shapes.errors::<LANES>(level, g.data(), None, |t, _, e| own[t] = e);
                 for (t, fast) in level.iter().zip(own) {
                     let slow = plane_error(t, g.data(), coords);
                     assert_eq!(fast.to_bits(), slow.to_bits(), "{what}, level {l}: {t:?}");

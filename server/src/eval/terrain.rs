@@ -252,7 +252,7 @@ fn measure(
     };
     let (mesh_ms, mesh) = match (mesher, &hierarchy) {
         (Mesher::Bintree, Some(h)) => median_ms(eval.repeat, || {
-            let errors = TileErrors::new(h, &dec.heights);
+            let errors = TileErrors::exact_above(h, &dec.heights, mesh_t);
             bintree::extract(h, &errors, &dec.heights, mesh_t, None)
         }),
         (Mesher::Bintree, None) => {

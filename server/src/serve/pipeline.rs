@@ -102,7 +102,7 @@ pub fn decoded(
                 dec.heights.cols()
             );
         }
-        let errors = TileErrors::new(&d.hierarchy, &dec.heights);
+        let errors = TileErrors::exact_above(&d.hierarchy, &dec.heights, depth.mesh_floor());
         let mut prefix = rec.stream;
         prefix.truncate(dec.bytes_used);
         Ok(Arc::new(DecodedTile {

@@ -68,6 +68,16 @@ impl Depth {
         }
     }
 
+    /// The smallest mesh tolerance a request decoded to this depth is meshed at: every T
+    /// with T · share in [2^k, 2^(k+1)) meshes within T · (1 − share) ≥ 2^k (1 − share) / share
+    /// (a hair less, for rounding). The error tree is exact above it (`TileErrors::exact_above`).
+    pub fn mesh_floor(self) -> f64 {
+        match self {
+            Self::All => 0.0,
+            Self::Level(k) => mesh_tolerance(f64::from(k).exp2() / DECODE_SHARE) * (1.0 - 1e-6),
+        }
+    }
+
     pub fn limit(self) -> DecodeLimit {
         match self {
             Self::All => DecodeLimit::All,
@@ -274,6 +284,36 @@ mod tests {
         assert_eq!(Depth::for_threshold(15.9), Depth::Level(0));
         assert_eq!(Depth::for_threshold(16.0), Depth::Level(1));
         assert_eq!(Depth::for_threshold(1e-12), Depth::All);
+    }
+
+    /// The decoded tile's error tree is exact only above its depth's floor, so every T that
+    /// maps to a depth must mesh at a tolerance at or above that floor, at the edges of the
+    /// depth's range too.
+    #[test]
+    fn every_threshold_meshes_at_or_above_its_depths_floor() {
+        let mut checked = 0;
+        for k in -20..=14 {
+            let edge = f64::from(k).exp2() / DECODE_SHARE;
+            for t in [
+                edge,
+                edge.next_down(),
+                edge.next_up(),
+                edge * 1.5,
+                edge * 2.0 - edge * 1e-12,
+            ] {
+                let depth = Depth::for_threshold(t);
+                assert!(
+                    mesh_tolerance(t) >= depth.mesh_floor(),
+                    "T {t}: tolerance {} below the floor {} of {depth:?}",
+                    mesh_tolerance(t),
+                    depth.mesh_floor()
+                );
+                checked += 1;
+            }
+        }
+        assert!(checked > 100);
+        assert_eq!(Depth::All.mesh_floor(), 0.0);
+        assert!(Depth::Level(3).mesh_floor() > 0.99 * 7.0 * 8.0);
     }
 
     #[test]
