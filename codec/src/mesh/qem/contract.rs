@@ -100,6 +100,11 @@ impl State {
             // go where this pass already looked (the check is cheap there: those vertices are
             // in cache), and everywhere once they could make up a third of the list.
             fresh.clear();
+            if prefetch {
+                // In memory order (the vertices follow a Morton curve): neighbours share
+                // cache lines. Only large meshes, where it pays.
+                moved.sort_unstable();
+            }
             for (k, &a) in moved.iter().enumerate() {
                 if let Some(&ahead) = moved.get(k + PREFETCH_AHEAD).filter(|_| prefetch) {
                     self.prefetch_pair(ahead, ahead);
