@@ -111,8 +111,8 @@ impl TileErrors {
 }
 
 /// Levels between the tests of [`TileErrors::exact_above`]: each test evaluates a level
-/// top-down (reused on the way up), so testing every level would order the whole pass
-/// top-down; every second level prunes nearly as much.
+/// top-down (reused on the way up). Testing every level measured the same as every second
+/// (criterion `parts_257/tile_errors_above_*`, alternating runs, within 3 %).
 const PRUNE_STEP: usize = 2;
 
 /// Which triangles of a level lie inside a quiet triangle of a pruning level above it.
