@@ -1,8 +1,8 @@
 //! Object meshes of the data folder (`DATA/meshes/*.obj|ply|stl`) and their LODs.
 //!
 //! Meshes are read and repaired once, at start or upload. LOD structures are built on first
-//! use and kept with the mesh (the view sphere once per mesh; curvature levels once per ε);
-//! answers are cached by bytes. Uploads are size-limited, validated and written atomically
+//! use and kept with the mesh (the view sphere, the octree and the nested curvature levels
+//! once per mesh); answers are cached by bytes. Uploads are size-limited, validated and written atomically
 //! before they replace anything.
 
 use std::collections::BTreeMap;
@@ -12,6 +12,7 @@ use std::sync::{Arc, OnceLock, RwLock};
 use anyhow::{Context, Result};
 use quick_cache::sync::Cache;
 use quick_cache::Weighter;
+use zerotile_codec::mesh::curvature::{self, CurvatureOptions, Level, PAPER_LEVELS};
 use zerotile_codec::mesh::io::{self, Format, MeshLimits};
 use zerotile_codec::mesh::silhouette::ViewSphere;
 use zerotile_codec::mesh::{repair, TriMesh};
@@ -35,6 +36,7 @@ pub struct MeshEntry {
     pub source: PathBuf,
     silhouette: OnceLock<Result<ViewSphere, String>>,
     octree: OnceLock<Result<OctreeLod, String>>,
+    curvature: OnceLock<Result<Vec<Level>, String>>,
 }
 
 impl MeshEntry {
@@ -46,6 +48,7 @@ impl MeshEntry {
             source,
             silhouette: OnceLock::new(),
             octree: OnceLock::new(),
+            curvature: OnceLock::new(),
         }
     }
 
@@ -56,6 +59,19 @@ impl MeshEntry {
                 OctreeLod::build(&self.mesh, &OctreeOptions::default()).map_err(|e| e.to_string())
             })
             .as_ref()
+            .map_err(Clone::clone)
+    }
+
+    /// The nested curvature levels cut at the paper's ε, built once: one continuing
+    /// decimation gives all of them for the price of the coarsest.
+    pub fn curvature_levels(&self) -> Result<&[Level], String> {
+        self.curvature
+            .get_or_init(|| {
+                curvature::levels(&self.mesh, &PAPER_LEVELS, &CurvatureOptions::default())
+                    .map_err(|e| e.to_string())
+            })
+            .as_ref()
+            .map(Vec::as_slice)
             .map_err(Clone::clone)
     }
 

@@ -21,7 +21,7 @@ use axum::response::Response;
 use axum::Json;
 use glam::DVec3;
 use serde_json::{json, Value};
-use zerotile_codec::mesh::curvature::{self, CurvatureOptions, PAPER_LEVELS};
+use zerotile_codec::mesh::curvature::{self, CurvatureOptions};
 use zerotile_codec::mesh::io::{self, Format};
 use zerotile_codec::mesh::octree::{Roi, View as OctreeView};
 use zerotile_codec::mesh::silhouette::View;
@@ -268,13 +268,12 @@ fn compute(e: &MeshEntry, ask: &Ask) -> Result<(TriMesh, f64), ApiError> {
             Ok((m, *eps))
         }
         Ask::CurvatureLevel(k) => {
-            let cuts = PAPER_LEVELS
-                .get(..*k)
+            let levels = e.curvature_levels().map_err(bad)?;
+            let level = k
+                .checked_sub(1)
+                .and_then(|i| levels.get(i))
                 .ok_or_else(|| bad(format!("no level {k}")))?;
-            let mut levels = curvature::levels(&e.mesh, cuts, &CurvatureOptions::default())
-                .map_err(|x| bad(x.to_string()))?;
-            let last = levels.pop().ok_or_else(|| bad(format!("no level {k}")))?;
-            Ok((last.mesh, last.error))
+            Ok((level.mesh.clone(), level.error))
         }
         Ask::Silhouette { level, view } => {
             let vs = e.view_sphere().map_err(bad)?;
