@@ -2,12 +2,11 @@
 
 use std::process::Command;
 
+use zerotile_tests::{run_ok, shared_data, zerotile_bin};
+
 #[test]
 fn help_lists_the_commands() {
-    let out = Command::new(zerotile_tests::zerotile_bin())
-        .arg("--help")
-        .output()
-        .unwrap();
+    let out = Command::new(zerotile_bin()).arg("--help").output().unwrap();
     assert!(out.status.success());
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("eval"), "help did not mention eval: {text}");
@@ -21,7 +20,7 @@ fn serve_refuses_what_it_cannot_honour() {
         (vec!["--data", "s3://"], "data URL"),
         (vec!["--cpu-jobs", "0"], "--cpu-jobs 0"),
     ] {
-        let out = Command::new(zerotile_tests::zerotile_bin())
+        let out = Command::new(zerotile_bin())
             .args(["serve", "--addr", "127.0.0.1:0"])
             .args(&args)
             .output()
@@ -39,43 +38,34 @@ fn subdivide_quadruples_the_faces_and_refuses_bad_input() {
     let dir = std::env::temp_dir().join(format!("zerotile-cli-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let out = dir.join("fandisk-x4.obj");
-    let input = zerotile_tests::shared_data().join("meshes/fandisk.obj");
+    let input = shared_data().join("meshes/fandisk.obj");
     let run = |args: &[&std::ffi::OsStr]| {
-        Command::new(zerotile_tests::zerotile_bin())
+        Command::new(zerotile_bin())
             .arg("subdivide")
             .args(args)
             .output()
             .unwrap()
     };
-    let ok = run(&[
-        input.as_os_str(),
-        out.as_os_str(),
-        "--times".as_ref(),
-        "1".as_ref(),
-    ]);
-    assert!(
-        ok.status.success(),
-        "{}",
-        String::from_utf8_lossy(&ok.stderr)
+    run_ok(
+        Command::new(zerotile_bin())
+            .arg("subdivide")
+            .arg(&input)
+            .arg(&out)
+            .args(["--times", "1"]),
     );
-    let eval = Command::new(zerotile_tests::zerotile_bin())
-        .args(["eval", "mesh"])
-        .arg(&out)
-        .args([
-            "--method",
-            "qem",
-            "--faces",
-            "1000",
-            "--samples",
-            "0",
-            "--json",
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        eval.status.success(),
-        "{}",
-        String::from_utf8_lossy(&eval.stderr)
+    let eval = run_ok(
+        Command::new(zerotile_bin())
+            .args(["eval", "mesh"])
+            .arg(&out)
+            .args([
+                "--method",
+                "qem",
+                "--faces",
+                "1000",
+                "--samples",
+                "0",
+                "--json",
+            ]),
     );
     let point: serde_json::Value = serde_json::from_slice(&eval.stdout).unwrap();
     assert_eq!(point["faces_in"], 4 * 12_946, "{point}");

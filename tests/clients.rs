@@ -17,7 +17,7 @@ use std::process::Command;
 use std::time::Instant;
 
 use zerotile_tests::server::Server;
-use zerotile_tests::{shared_data, zerotile_bin};
+use zerotile_tests::{run_ok, shared_data, zerotile_bin};
 
 fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
@@ -42,16 +42,11 @@ fn missing_tools(chromium: &Path) -> Vec<String> {
 }
 
 fn run(args: &[&str], data: &Path) {
-    let out = Command::new(zerotile_bin())
-        .args(args)
-        .arg("--data")
-        .arg(data)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "zerotile {args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
+    run_ok(
+        Command::new(zerotile_bin())
+            .args(args)
+            .arg("--data")
+            .arg(data),
     );
 }
 

@@ -23,3 +23,15 @@ pub fn zerotile_bin() -> PathBuf {
     }
     dir.join(format!("zerotile{}", std::env::consts::EXE_SUFFIX))
 }
+
+/// Runs `cmd` to completion and returns its output, failing the test with the command and
+/// its stderr unless it succeeded.
+pub fn run_ok(cmd: &mut std::process::Command) -> std::process::Output {
+    let out = cmd.output().expect("the command starts");
+    assert!(
+        out.status.success(),
+        "{cmd:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}

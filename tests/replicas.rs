@@ -19,7 +19,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use zerotile_tests::server::Server;
-use zerotile_tests::zerotile_bin;
+use zerotile_tests::{run_ok, zerotile_bin};
 
 struct Nginx {
     child: Child,
@@ -140,15 +140,10 @@ fn two_replicas_behind_nginx_agree_cache_and_survive_a_kill() {
     let _ = std::fs::remove_dir_all(&dir);
     let data = dir.join("data");
     std::fs::create_dir_all(&data).unwrap();
-    let out = Command::new(zerotile_bin())
-        .args(["demo-data", "--quiet", "--data"])
-        .arg(&data)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    run_ok(
+        Command::new(zerotile_bin())
+            .args(["demo-data", "--quiet", "--data"])
+            .arg(&data),
     );
 
     let mut a = Server::start(&data);

@@ -22,7 +22,7 @@ use zerotile_codec::wavelet::Wavelet;
 use zerotile_codec::zerotree::{mesh_error, TerrainMesh};
 use zerotile_codec::Grid;
 use zerotile_tests::server::Server;
-use zerotile_tests::{qm, shared_data, zerotile_bin};
+use zerotile_tests::{qm, run_ok, shared_data, zerotile_bin};
 
 /// Top-left sample of the crop in N44W072 and its side: 2 × 2 tiles of 257 samples.
 const CROP: (usize, usize, usize) = (300, 400, 513);
@@ -68,31 +68,21 @@ fn data_dir() -> &'static Path {
             text.push('\n');
         }
         std::fs::write(&asc, text).unwrap();
-        let out = Command::new(zerotile_bin())
-            .args(["ingest", "--quiet", "--name", "crop", "--data"])
-            .arg(&dir)
-            .arg(&asc)
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
+        run_ok(
+            Command::new(zerotile_bin())
+                .args(["ingest", "--quiet", "--name", "crop", "--data"])
+                .arg(&dir)
+                .arg(&asc),
         );
         std::fs::remove_file(&asc).unwrap();
         // The whole SRTM tile on Cesium's geodetic grid.
-        let out = Command::new(zerotile_bin())
-            .args([
-                "ingest", "--quiet", "--scheme", "geodetic", "--name", "srtm", "--data",
-            ])
-            .arg(&dir)
-            .arg(shared_data().join("dem/N44W072.hgt"))
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
+        run_ok(
+            Command::new(zerotile_bin())
+                .args([
+                    "ingest", "--quiet", "--scheme", "geodetic", "--name", "srtm", "--data",
+                ])
+                .arg(&dir)
+                .arg(shared_data().join("dem/N44W072.hgt")),
         );
         write_world(&dir.join("world.ztd"), "geodetic", &[0, 1]);
         write_world(&dir.join("half.ztd"), "geodetic", &[0]);

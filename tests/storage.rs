@@ -16,7 +16,7 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use zerotile_tests::server::Server;
-use zerotile_tests::{shared_data, zerotile_bin};
+use zerotile_tests::{run_ok, shared_data, zerotile_bin};
 
 /// A `moto_server` on a free loopback port, stopped on drop.
 struct Moto {
@@ -92,18 +92,13 @@ fn s3_datasets_serve_the_same_bytes_by_range_reads() {
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("storage-s3");
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    let out = Command::new(zerotile_bin())
-        .args([
-            "ingest", "--quiet", "--scheme", "geodetic", "--name", "srtm", "--data",
-        ])
-        .arg(&dir)
-        .arg(shared_data().join("dem/N44W072.hgt"))
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    run_ok(
+        Command::new(zerotile_bin())
+            .args([
+                "ingest", "--quiet", "--scheme", "geodetic", "--name", "srtm", "--data",
+            ])
+            .arg(&dir)
+            .arg(shared_data().join("dem/N44W072.hgt")),
     );
     let file = std::fs::read(dir.join("srtm.ztd")).unwrap();
 
