@@ -60,21 +60,12 @@ pub fn reconstruct(mag: u64, known: u8) -> f64 {
 #[inline]
 pub fn reconstruct_integer(mag: u64, known: u8, shift: u8) -> f64 {
     let (known, shift) = (u32::from(known.min(63)), u32::from(shift.min(62)));
-    let extra = || {
-        if known > shift {
-            (1u64 << known) - (1u64 << shift)
-        } else {
-            0
-        }
-    };
-    if mag < 1 << 60 && known < 61 {
-        // Every real stream: 2·mag + 2^known + 2^shift stays below 2^63.
-        let q = ((mag << 1) + extra() + (1 << shift)) >> (shift + 1);
-        return (q as i64) as f64;
+    let mut twice = u128::from(mag) << 1;
+    if known > shift {
+        twice += (1u128 << known) - (1u128 << shift);
     }
-    let twice = u128::from(mag) * 2 + u128::from(extra());
     let q = (twice + (1u128 << shift)) >> (shift + 1);
-    // Below 2^64 always; callers clamp to 2^20.
+    // Below 2^64 always; callers clamp to 2^20. The signed conversion is one instruction.
     i64::try_from(q).unwrap_or(i64::MAX) as f64
 }
 

@@ -30,7 +30,7 @@ impl State {
         let mut touched = vec![0u32; self.geo.len()];
         let limit = limit_sq as f32;
         // Only where the records outgrow the caches: below that the asking is pure overhead.
-        let prefetch = self.geo.len() > PREFETCH_MIN_VERTICES;
+        let large = self.geo.len() > PREFETCH_MIN_VERTICES;
         // Entries in `ranked` whose vertices changed since (an upper estimate).
         let mut stale = 0usize;
         let mut ranked = self.collect();
@@ -49,7 +49,7 @@ impl State {
             let mut end = ranked.len();
             moved.clear();
             for (i, e) in ranked.iter().enumerate() {
-                if prefetch {
+                if large {
                     if let Some(ahead) = ranked.get(i + 2 * PREFETCH_AHEAD) {
                         self.prefetch_pair(ahead.a, ahead.b);
                     }
@@ -102,13 +102,13 @@ impl State {
             // go where this pass already looked (the check is cheap there: those vertices are
             // in cache), and everywhere once they could make up a third of the list.
             fresh.clear();
-            if prefetch {
+            if large {
                 // In memory order (the vertices follow a Morton curve): neighbours share
                 // cache lines. Only large meshes, where it pays.
                 moved.sort_unstable();
             }
             for (k, &a) in moved.iter().enumerate() {
-                if let Some(&ahead) = moved.get(k + PREFETCH_AHEAD).filter(|_| prefetch) {
+                if let Some(&ahead) = moved.get(k + PREFETCH_AHEAD).filter(|_| large) {
                     self.prefetch_pair(ahead, ahead);
                 }
                 self.collect_vertex(a, |u| touched[u as usize] != pass || u > a, &mut fresh);
