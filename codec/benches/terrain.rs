@@ -1,5 +1,6 @@
 //! Per-request work on a real 257² tile (N44W072 rows 300.., cols 500..): decode the EZW
-//! stream for an error budget T (to T/8, as `eval terrain` does) and mesh it with the
+//! stream for an error budget T (to T/8, as `eval terrain` does; heights only, as the
+//! server decodes) and mesh it with the
 //! exact-error bintree within the rest of the budget. The peer, Martini's createTile +
 //! getMesh on the same tile, runs in `../shared/bench/terrain_mesh.py` (pymartini and
 //! @mapbox/martini); compare its medians with these.
@@ -27,8 +28,8 @@ fn decode_and_mesh(c: &mut Criterion) {
             group.bench_with_input(id, &budget, |b, &budget| {
                 b.iter(|| {
                     let limit = DecodeLimit::Threshold(budget / 8.0);
-                    let d =
-                        ezw::decode(&enc.bytes, limit, ezw::DEFAULT_MAX_SAMPLES).expect("decode");
+                    let d = ezw::decode_heights(&enc.bytes, limit, ezw::DEFAULT_MAX_SAMPLES)
+                        .expect("decode");
                     // Exact wherever the tolerance it is meshed at can tell, as the server
                     // computes them for a decode depth.
                     let tolerance = budget * 0.75;
@@ -51,8 +52,8 @@ fn decode_and_mesh(c: &mut Criterion) {
             group.bench_with_input(id, &budget, |b, &budget| {
                 b.iter(|| {
                     let limit = DecodeLimit::Threshold(budget * share);
-                    let d =
-                        ezw::decode(&enc.bytes, limit, ezw::DEFAULT_MAX_SAMPLES).expect("decode");
+                    let d = ezw::decode_heights(&enc.bytes, limit, ezw::DEFAULT_MAX_SAMPLES)
+                        .expect("decode");
                     let tolerance = budget * (1.0 - share);
                     let errors = TileErrors::exact_above(&hierarchy, &d.heights, tolerance);
                     bintree::extract(&hierarchy, &errors, &d.heights, tolerance, None)

@@ -115,6 +115,26 @@ pub struct Decoded {
     pub max_error: Option<f64>,
 }
 
+/// A decode's heights without the zerotree state, for meshers that read only heights (the
+/// server's bintree): [`decode_heights`] skips the coefficient grid's copy, the significance
+/// map and their rescaling. The fields mean what [`Decoded`]'s do.
+#[derive(Clone, Debug)]
+pub struct DecodedHeights {
+    pub heights: Grid<f64>,
+    pub layout: Layout,
+    pub threshold: f64,
+    pub bytes_used: usize,
+    pub bounded: bool,
+    pub max_error: Option<f64>,
+}
+
+/// The zerotree state a decode built, in coder units ([`Decoded`]'s `significant` and
+/// `coefficients` before the step is applied).
+struct ZerotreeState {
+    significant: Grid<bool>,
+    coefficients: Grid<f64>,
+}
+
 /// Encodes `heights` (finite values, height units).
 pub fn encode(heights: &Grid<f64>, params: &EncodeParams) -> Result<Encoded, ParamError> {
     // Validate: the coder's contract is finite heights on a positive step.
@@ -311,22 +331,54 @@ pub fn decode(
     limit: DecodeLimit,
     max_samples: usize,
 ) -> Result<Decoded, DecodeError> {
-    let (mut decoded, header) = decode_centered(bytes, limit, max_samples)?;
-    for h in decoded.heights.data_mut() {
-        *h = (*h + header.offset) * header.step;
-    }
-    for c in decoded.coefficients.data_mut() {
+    let (d, tree, header) = decode_centered(bytes, limit, max_samples, true)?;
+    let d = to_height_units(d, &header);
+    let ZerotreeState {
+        significant,
+        mut coefficients,
+    } = tree.ok_or(DecodeError::Malformed(
+        "zerotree state missing (internal)".into(),
+    ))?;
+    for c in coefficients.data_mut() {
         *c *= header.step;
     }
-    Ok(decoded)
+    Ok(Decoded {
+        heights: d.heights,
+        significant,
+        coefficients,
+        layout: d.layout,
+        threshold: d.threshold,
+        bytes_used: d.bytes_used,
+        bounded: d.bounded,
+        max_error: d.max_error,
+    })
+}
+
+/// [`decode`] without the zerotree state: the same heights, bit for bit, for less work.
+pub fn decode_heights(
+    bytes: &[u8],
+    limit: DecodeLimit,
+    max_samples: usize,
+) -> Result<DecodedHeights, DecodeError> {
+    let (d, _, header) = decode_centered(bytes, limit, max_samples, false)?;
+    Ok(to_height_units(d, &header))
+}
+
+fn to_height_units(mut d: DecodedHeights, header: &Header) -> DecodedHeights {
+    for h in d.heights.data_mut() {
+        *h = (*h + header.offset) * header.step;
+    }
+    d
 }
 
 /// [`decode`] with heights left in centred coder units (what the residual pass works in).
+/// With `keep_tree`, also the zerotree state (coder units).
 fn decode_centered(
     bytes: &[u8],
     limit: DecodeLimit,
     max_samples: usize,
-) -> Result<(Decoded, Header), DecodeError> {
+    keep_tree: bool,
+) -> Result<(DecodedHeights, Option<ZerotreeState>, Header), DecodeError> {
     let prefix = match limit {
         DecodeLimit::Bytes(n) => &bytes[..n.min(bytes.len())],
         _ => bytes,
@@ -396,7 +448,14 @@ fn decode_centered(
     // Coefficients back to heights.
     let dq = Dequantiser::new(header.wavelet, &layout, header.qexp);
     let coefficients = dq.coefficients(&plan, &layout, state.found.iter().copied());
-    let mut heights = dq.heights(coefficients.clone(), &layout);
+    let (mut heights, coefficients) = if keep_tree {
+        (
+            dq.heights(coefficients.clone(), &layout),
+            Some(coefficients),
+        )
+    } else {
+        (dq.heights(coefficients, &layout), None)
+    };
     let mut max_error = at_pass_end
         .checked_sub(1)
         .and_then(|s| header.pass_error(s));
@@ -418,27 +477,35 @@ fn decode_centered(
         // A whole stream was read, trailer included.
         pos = end;
     }
-    let mut significant = Grid::new(
-        header.rows,
-        header.cols,
-        vec![false; header.rows * header.cols],
-    )
-    .map_err(|e| DecodeError::Malformed(e.to_string()))?;
-    for e in &state.found {
-        significant.data_mut()[e.idx as usize] = true;
-    }
+    let tree = match coefficients {
+        Some(coefficients) => {
+            let mut significant = Grid::new(
+                header.rows,
+                header.cols,
+                vec![false; header.rows * header.cols],
+            )
+            .map_err(|e| DecodeError::Malformed(e.to_string()))?;
+            for e in &state.found {
+                significant.data_mut()[e.idx as usize] = true;
+            }
+            Some(ZerotreeState {
+                significant,
+                coefficients,
+            })
+        }
+        None => None,
+    };
     let threshold = last_plane.map_or(f64::INFINITY, |p| header.plane_threshold(p));
     Ok((
-        Decoded {
+        DecodedHeights {
             heights,
-            significant,
-            coefficients,
             layout,
             threshold,
             bytes_used: pos,
             bounded,
             max_error,
         },
+        tree,
         header,
     ))
 }

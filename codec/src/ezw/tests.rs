@@ -77,6 +77,31 @@ fn decoding_to_a_threshold_reads_exactly_the_passes_above_it() {
     assert_eq!(by_t.threshold, mid.threshold);
 }
 
+/// The server's heights-only decode must give exactly the heights, bounds and byte counts of
+/// the full one: both wavelets, every kind of limit, cuts inside passes and the residual.
+#[test]
+fn heights_only_decode_equals_the_full_decode() {
+    let g = n44w072_crop(300, 500, 65);
+    for (wavelet, max_error) in [(Wavelet::Cdf97, None), (Wavelet::LeGall53, Some(2.0))] {
+        let mut params = EncodeParams::new(wavelet, 1.0);
+        params.max_error = max_error;
+        let enc = encode(&g, &params).unwrap();
+        let mut limits = vec![DecodeLimit::All];
+        limits.extend([0.5, 2.0, 16.0].map(DecodeLimit::Threshold));
+        limits.extend((1..8).map(|i| DecodeLimit::Bytes(enc.bytes.len() * i / 8 + 3)));
+        for limit in limits {
+            let full = decode(&enc.bytes, limit, DEFAULT_MAX_SAMPLES).unwrap();
+            let lean = decode_heights(&enc.bytes, limit, DEFAULT_MAX_SAMPLES).unwrap();
+            let label = format!("{} {limit:?}", wavelet.name());
+            assert_eq!(full.heights, lean.heights, "{label}");
+            assert_eq!(full.bytes_used, lean.bytes_used, "{label}");
+            assert_eq!(full.threshold, lean.threshold, "{label}");
+            assert_eq!(full.bounded, lean.bounded, "{label}");
+            assert_eq!(full.max_error, lean.max_error, "{label}");
+        }
+    }
+}
+
 #[test]
 fn every_byte_prefix_decodes_and_significance_only_grows() {
     let g = n44w072_crop(600, 600, 33);

@@ -90,7 +90,7 @@ pub fn decoded(
     state.cache.get_or_insert_with(&key, || {
         cancel.check()?;
         let rec = d.read_tile(id)?;
-        let dec = ezw::decode(&rec.stream, depth.limit(), ezw::DEFAULT_MAX_SAMPLES)
+        let dec = ezw::decode_heights(&rec.stream, depth.limit(), ezw::DEFAULT_MAX_SAMPLES)
             .with_context(|| format!("decoding tile {id} of {}", d.name))?;
         state.metrics.tiles_decoded.fetch_add(1, Relaxed);
         let side = d.hierarchy.side();
