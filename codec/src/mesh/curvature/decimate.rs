@@ -14,6 +14,12 @@ use crate::mesh::indexed::TriMesh;
 /// A vertex removal worked out but not applied.
 struct Removal {
     faces: Vec<[u32; 3]>,
+    /// The refill's face geometry, parallel to `faces`: applying the removal reuses it.
+    geoms: Vec<Option<FaceGeom>>,
+    /// The ring's measures after the removal: the ring's new W once it is applied. They
+    /// are what [`Decimator::measure_now`] would compute then, bit for bit (the same faces
+    /// in the same order), and the trig behind them is most of decimation's time.
+    measures: SmallVec<[(u32, Measure); 8]>,
     /// Per ring vertex, W_now − W_original = a·x + b with x = 1 / the area scale: the area
     /// scale follows N_now, so ε moves with every removal anywhere, not only with the ring.
     drift: SmallVec<[(f64, f64); 8]>,
@@ -207,12 +213,19 @@ impl Decimator {
                 }
                 continue;
             }
-            let ring = self.apply(v, r.faces, error);
+            let Removal {
+                faces,
+                geoms,
+                measures,
+                ..
+            } = r;
+            let ring = self.apply(v, faces, geoms, error);
             // Only the ring's W changed (the paper recomputes the 1-ring). Removals next to
             // the ring that were refused are not tried again this level, although their ε
             // moved too: re-trying that 2-ring tripled the fandisk's time.
             for u in ring {
-                self.push_by_curvature(&mut heap, u);
+                let known = measures.iter().find(|e| e.0 == u).map(|e| e.1);
+                self.push_measured(&mut heap, u, known);
             }
             let x = self.inverse_scale(self.live_vertices.saturating_sub(1));
             while parked.peek().is_some_and(|e: &Entry| -e.0 >= x) {
@@ -242,10 +255,15 @@ impl Decimator {
     }
 
     fn push_by_curvature(&self, heap: &mut BinaryHeap<Entry>, v: u32) {
+        self.push_measured(heap, v, None);
+    }
+
+    /// [`Self::push_by_curvature`] with `v`'s current measure when it is already known.
+    fn push_measured(&self, heap: &mut BinaryHeap<Entry>, v: u32, known: Option<Measure>) {
         if self.removed[v as usize] || self.locked[v as usize] {
             return;
         }
-        let m = self.measure_now(v);
+        let m = known.unwrap_or_else(|| self.measure_now(v));
         let scale = self.area_scale(self.live_vertices);
         let w = discrete_curvature(&m, scale, self.weighted_max, &self.weights);
         heap.push(Entry(w, v, self.version[v as usize]));
@@ -285,9 +303,15 @@ impl Decimator {
         // ε: the largest change of W on the ring against the input (eq. 9), kept as a
         // function of the area scale.
         let mut drift = SmallVec::new();
+        let mut measures = SmallVec::new();
+        let geoms: Vec<Option<FaceGeom>> = faces
+            .iter()
+            .map(|&f| FaceGeom::new(f.map(|i| self.pos[i as usize])))
+            .collect();
         let fresh: Vec<([u32; 3], FaceGeom)> = faces
             .iter()
-            .filter_map(|&f| FaceGeom::new(f.map(|i| self.pos[i as usize])).map(|g| (f, g)))
+            .zip(&geoms)
+            .filter_map(|(&f, g)| g.map(|g| (f, g)))
             .collect();
         for &u in &r.vertices {
             let around = self
@@ -312,12 +336,24 @@ impl Decimator {
                 self.weights.area * m.area,
                 bending - self.w_orig[u as usize],
             ));
+            measures.push((u, m));
         }
-        Some(Removal { faces, drift })
+        Some(Removal {
+            faces,
+            geoms,
+            measures,
+            drift,
+        })
     }
 
     /// Applies a removal; returns the ring, whose W changed (and whose versions move on).
-    fn apply(&mut self, v: u32, new_faces: Vec<[u32; 3]>, error: f64) -> Vec<u32> {
+    fn apply(
+        &mut self,
+        v: u32,
+        new_faces: Vec<[u32; 3]>,
+        geoms: Vec<Option<FaceGeom>>,
+        error: f64,
+    ) -> Vec<u32> {
         let dead: Vec<u32> = std::mem::take(&mut self.vf[v as usize]);
         let mut ring: Vec<u32> = Vec::new();
         for &f in &dead {
@@ -332,11 +368,10 @@ impl Decimator {
                 }
             }
         }
-        for f in new_faces {
+        for (f, g) in new_faces.into_iter().zip(geoms) {
             let id = self.faces.len() as u32;
             self.faces.push(f);
-            self.geom
-                .push(FaceGeom::new(f.map(|i| self.pos[i as usize])));
+            self.geom.push(g);
             self.alive.push(true);
             self.live_faces += 1;
             for u in f {

@@ -38,6 +38,9 @@ pub fn triangulate(
 
     let mut left: Vec<usize> = (0..n).collect();
     let mut out = Vec::with_capacity(n - 2);
+    // Per apex: the ear (a, c) its cost was computed for. A clip changes only its two
+    // neighbours' ears, so the rest keep their cost (the acos is half the clipping's time).
+    let mut costs: Vec<Option<(usize, usize, Option<f64>)>> = vec![None; n];
     while left.len() > 3 {
         let m = left.len();
         let mut best: Option<(f64, usize)> = None;
@@ -46,7 +49,15 @@ pub fn triangulate(
             if !is_ear(&p2, &left, a, b, c) {
                 continue;
             }
-            let Some(cost) = ear_cost(&p3, a, b, c, normal, longest, lambda_c) else {
+            let cost = match costs[b] {
+                Some((ca, cc, cost)) if (ca, cc) == (a, c) => cost,
+                _ => {
+                    let cost = ear_cost(&p3, a, b, c, normal, longest, lambda_c);
+                    costs[b] = Some((a, c, cost));
+                    cost
+                }
+            };
+            let Some(cost) = cost else {
                 continue;
             };
             if best.is_none_or(|(c0, _)| cost < c0) {
