@@ -115,7 +115,13 @@ fn crease_ends(v: u32, r: &Ring, pos: impl Fn(u32) -> DVec3, angle: f64) -> Opti
     }
     let p = pos(v);
     let normal = |i: usize| (pos(r.vertices[i]) - p).cross(pos(r.vertices[(i + 1) % k]) - p);
-    let mut ends = (0..k).filter(|&i| normal((i + k - 1) % k).angle_between(normal(i)) > angle);
+    // The angle between two normals is above `angle` when its cosine is below cos(angle):
+    // no acos per ring edge (this runs for every removal tried). A zero normal gives NaN,
+    // which is no crease either way.
+    let limit = angle.cos();
+    let sharp =
+        |a: DVec3, b: DVec3| a.dot(b) / (a.length_squared() * b.length_squared()).sqrt() < limit;
+    let mut ends = (0..k).filter(|&i| sharp(normal((i + k - 1) % k), normal(i)));
     match (ends.next(), ends.next(), ends.next()) {
         (Some(i), Some(j), None) => Some((i, j)),
         _ => None,
