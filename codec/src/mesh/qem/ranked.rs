@@ -66,6 +66,10 @@ pub(super) fn radix_sort(items: &mut Vec<Entry>, scratch: &mut Vec<Entry>) {
 /// Merges the sorted `old`, less those of its first `checked` entries that `valid` refuses, with
 /// the sorted `fresh` into `out` (older entries first among equal keys). Returns how many
 /// entries of `old` were left out.
+///
+/// Past `checked` the old entries are copied in runs between the fresh ones, each run's end
+/// found by galloping: a pass re-ranks a few thousand pairs into a list several times longer,
+/// and moving that list entry by entry, compare by compare, was 8 % of a fandisk run.
 pub(super) fn merge(
     old: &[Entry],
     fresh: &[Entry],
@@ -75,23 +79,35 @@ pub(super) fn merge(
 ) -> usize {
     out.clear();
     out.reserve(old.len() + fresh.len());
+    let (head, mut rest) = old.split_at(checked.min(old.len()));
     let mut j = 0;
-    let mut put = |e: &Entry, out: &mut Vec<Entry>| {
+    for e in head.iter().filter(|e| valid(e)) {
         while j < fresh.len() && fresh[j].key < e.key {
             out.push(fresh[j]);
             j += 1;
         }
         out.push(*e);
-    };
-    let (head, tail) = old.split_at(checked.min(old.len()));
-    for e in head.iter().filter(|e| valid(e)) {
-        put(e, out);
     }
-    for e in tail {
-        put(e, out);
+    for f in &fresh[j..] {
+        let run = leading_at_most(rest, f.key);
+        out.extend_from_slice(&rest[..run]);
+        out.push(*f);
+        rest = &rest[run..];
     }
-    out.extend_from_slice(&fresh[j..]);
+    out.extend_from_slice(rest);
     old.len() + fresh.len() - out.len()
+}
+
+/// How many entries at the start of the sorted `items` have a key ≤ `key`: galloping from the
+/// front (the runs between fresh entries are short), then a binary search.
+fn leading_at_most(items: &[Entry], key: u32) -> usize {
+    let (mut lo, mut step) = (0, 1);
+    while lo + step <= items.len() && items[lo + step - 1].key <= key {
+        lo += step;
+        step *= 2;
+    }
+    let hi = (lo + step).min(items.len());
+    lo + items[lo..hi].partition_point(|e| e.key <= key)
 }
 
 #[cfg(test)]
@@ -146,5 +162,22 @@ mod tests {
         assert_eq!(merge(&old, &fresh, &mut out, 3, |e| e.key != 5), 1);
         let keys: Vec<u32> = out.iter().map(|e| e.key).collect();
         assert_eq!(keys, vec![1, 2, 3, 3, 7, 8]);
+    }
+
+    #[test]
+    fn merge_matches_a_stable_sort_of_both_lists() {
+        // Long runs of equal keys: old entries must stay ahead of fresh ones with their key.
+        let old = entries(&(0..300u32).map(|i| i / 7 * 2).collect::<Vec<_>>());
+        let fresh: Vec<Entry> = entries(&(0..90u32).map(|i| i / 3 * 5).collect::<Vec<_>>())
+            .into_iter()
+            .map(|e| Entry { b: 1, ..e })
+            .collect();
+        for checked in [0, 40, 300] {
+            let mut out = Vec::new();
+            assert_eq!(merge(&old, &fresh, &mut out, checked, |_| true), 0);
+            let mut want = [old.clone(), fresh.clone()].concat();
+            want.sort_by_key(|e| e.key);
+            assert_eq!(out, want);
+        }
     }
 }
