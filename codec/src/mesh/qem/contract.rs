@@ -339,34 +339,34 @@ impl State {
         self.flags[bi] &= !ALIVE;
         self.stamp[ai] = self.stamp[ai].wrapping_add(1);
         self.stamp[bi] = self.stamp[bi].wrapping_add(1);
-        // a's new slice: its live faces without b, then b's live faces renamed.
+        // a's new slice: its live faces without b, then b's live faces renamed. Both slices
+        // are copied to the end first and filtered there (one bulk copy each instead of a
+        // capacity check and an index per face).
         let new_start = self.refs.len();
-        for i in 0..self.count[ai] as usize {
-            let f = self.refs[self.start[ai] as usize + i];
+        let (sa, ca) = (self.start[ai] as usize, self.count[ai] as usize);
+        let (sb, cb) = (self.start[bi] as usize, self.count[bi] as usize);
+        self.refs.extend_from_within(sa..sa + ca);
+        self.refs.extend_from_within(sb..sb + cb);
+        let mut keep = new_start;
+        for i in new_start..self.refs.len() {
+            let f = self.refs[i];
             let t = &mut self.faces[f as usize];
             if t[0] == DEAD {
                 continue;
             }
-            if t.contains(&b) {
-                *t = [DEAD; 3];
-                self.live_faces -= 1;
-            } else {
-                self.refs.push(f);
-            }
-        }
-        for i in 0..self.count[bi] as usize {
-            let f = self.refs[self.start[bi] as usize + i];
-            let t = &mut self.faces[f as usize];
-            if t[0] == DEAD {
-                continue;
-            }
-            for c in t.iter_mut() {
-                if *c == b {
-                    *c = a;
+            if i < new_start + ca {
+                if t.contains(&b) {
+                    *t = [DEAD; 3];
+                    self.live_faces -= 1;
+                    continue;
                 }
+            } else {
+                *t = t.map(|c| if c == b { a } else { c });
             }
-            self.refs.push(f);
+            self.refs[keep] = f;
+            keep += 1;
         }
+        self.refs.truncate(keep);
         if self.flags[ai] & AGGREGATED != 0 {
             self.drop_duplicates(new_start);
         }

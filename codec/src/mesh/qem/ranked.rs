@@ -40,20 +40,23 @@ pub(super) fn radix_sort(items: &mut Vec<Entry>, scratch: &mut Vec<Entry>) {
         items.sort_by_key(|e| e.key);
         return;
     }
-    let mut counts = vec![0usize; BUCKETS + 1];
-    scratch.clear();
-    scratch.resize(items.len(), Entry::default());
-    for shift in [LOW_BITS, LOW_BITS + BITS] {
-        counts.fill(0);
-        for e in items.iter() {
-            counts[((e.key >> shift) as usize & (BUCKETS - 1)) + 1] += 1;
-        }
+    // Both digits' counts in one sweep (a digit's counts do not depend on the order).
+    let mut counts = [[0usize; BUCKETS]; 2];
+    for e in items.iter() {
+        counts[0][(e.key >> LOW_BITS) as usize & (BUCKETS - 1)] += 1;
+        counts[1][(e.key >> (LOW_BITS + BITS)) as usize & (BUCKETS - 1)] += 1;
+    }
+    for (counts, shift) in counts.iter_mut().zip([LOW_BITS, LOW_BITS + BITS]) {
         if counts.contains(&items.len()) {
             continue;
         }
-        for i in 0..BUCKETS {
-            counts[i + 1] += counts[i];
+        // Each digit's first slot.
+        let mut at = 0;
+        for c in counts.iter_mut() {
+            (*c, at) = (at, at + *c);
         }
+        scratch.clear();
+        scratch.resize(items.len(), Entry::default());
         for e in items.iter() {
             let d = (e.key >> shift) as usize & (BUCKETS - 1);
             scratch[counts[d]] = *e;

@@ -306,16 +306,6 @@ impl State {
         }
     }
 
-    /// The contraction target and its error (mean squared distance) for the pair (a, b).
-    #[inline]
-    pub(super) fn evaluate(&self, a: u32, b: u32) -> (f64, DVec3) {
-        let q = self.geo[a as usize].q + self.geo[b as usize].q;
-        let (p, e) = q.minimize(self.geo[a as usize].pos, self.geo[b as usize].pos);
-        let e = if q.w > 0.0 { e / q.w } else { e };
-        // Only overflowing coordinates give NaN; rank those last.
-        (if e.is_nan() { f64::INFINITY } else { e }, p)
-    }
-
     /// The contraction target alone (the error is already in the ranked entry).
     #[inline]
     pub(super) fn target(&self, a: u32, b: u32) -> DVec3 {
@@ -328,8 +318,13 @@ impl State {
         if (self.flags[a as usize] | self.flags[b as usize]) & LOCKED != 0 {
             return None;
         }
-        let len_sq = (self.geo[a as usize].pos - self.geo[b as usize].pos).length_squared();
-        let key = self.evaluate(a, b).0 + TIE_BREAK * len_sq;
+        let (ga, gb) = (&self.geo[a as usize], &self.geo[b as usize]);
+        let q = ga.q + gb.q;
+        let (_, e) = q.minimize(ga.pos, gb.pos);
+        let e = if q.w > 0.0 { e / q.w } else { e };
+        // Only overflowing coordinates give NaN; rank those last.
+        let e = if e.is_nan() { f64::INFINITY } else { e };
+        let key = e + TIE_BREAK * (ga.pos - gb.pos).length_squared();
         Some(Entry {
             // Non-negative floats order like their bits; 14 mantissa bits (errors within 6·10⁻⁵
             // of each other tie and keep their order) let the sort take two radix passes.
