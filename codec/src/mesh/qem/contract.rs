@@ -188,6 +188,7 @@ impl State {
     /// faces are loaded once instead of twice).
     fn link_condition(&mut self, a: u32, b: u32, p: DVec3) -> (Result<usize, ()>, bool) {
         let mut folds = false;
+        let (pa, pb) = (self.geo[a as usize].pos, self.geo[b as usize].pos);
         // Faces on the edge, their far corners, and a's neighbours.
         let g = self.next_generation();
         let mut on_edge = 0usize;
@@ -211,7 +212,7 @@ impl State {
                 }
                 on_edge += 1;
             } else if !folds {
-                folds = self.face_turns_too_far(f, t, a, p);
+                folds = self.face_turns_too_far(f, t, a, pa, p);
             }
             for u in t {
                 self.mark[u as usize] = g;
@@ -231,7 +232,7 @@ impl State {
             }
             b_caps |= caps_possible && t.contains(&far[0]) && t.contains(&far[1]);
             if !folds && !t.contains(&a) {
-                folds = self.face_turns_too_far(f, t, b, p);
+                folds = self.face_turns_too_far(f, t, b, pb, p);
             }
             for u in t {
                 let m = &mut self.mark[u as usize];
@@ -284,15 +285,17 @@ impl State {
     /// than the allowed angle, collapses it to no area, or leaves it facing away from its
     /// input orientation (small turns add up).
     fn turns_too_far(&self, v: u32, other: u32, p: DVec3) -> bool {
+        let pv = self.geo[v as usize].pos;
         self.ring(v).iter().any(|&f| {
             let t = self.faces[f as usize];
-            t[0] != DEAD && !t.contains(&other) && self.face_turns_too_far(f, t, v, p)
+            t[0] != DEAD && !t.contains(&other) && self.face_turns_too_far(f, t, v, pv, p)
         })
     }
 
-    /// [`Self::turns_too_far`] for one live face `f` = `t` of `v`.
-    #[inline]
-    fn face_turns_too_far(&self, f: u32, t: [u32; 3], v: u32, p: DVec3) -> bool {
+    /// [`Self::turns_too_far`] for one live face `f` = `t` of `v` (at `pv`). Always inlined:
+    /// as a call per face it passed `p` through memory.
+    #[inline(always)]
+    fn face_turns_too_far(&self, f: u32, t: [u32; 3], v: u32, pv: DVec3, p: DVec3) -> bool {
         // Rotate so v is first: the normal is (b − v) × (c − v) before and after.
         let (b, c) = if t[0] == v {
             (t[1], t[2])
@@ -301,7 +304,6 @@ impl State {
         } else {
             (t[0], t[1])
         };
-        let pv = self.geo[v as usize].pos;
         let (pb, pc) = (self.geo[b as usize].pos, self.geo[c as usize].pos);
         let before = (pb - pv).cross(pc - pv);
         let after = (pb - p).cross(pc - p);

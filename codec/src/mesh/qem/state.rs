@@ -320,7 +320,9 @@ impl State {
         }
         let (ga, gb) = (&self.geo[a as usize], &self.geo[b as usize]);
         let q = ga.q + gb.q;
-        let (_, e) = q.minimize(ga.pos, gb.pos);
+        let (_, e) = q
+            .solve(ga.pos, gb.pos)
+            .unwrap_or_else(|| Quadric::segment_fallback(&ga.q, &gb.q, ga.pos, gb.pos));
         let e = if q.w > 0.0 { e / q.w } else { e };
         // Only overflowing coordinates give NaN; rank those last.
         let e = if e.is_nan() { f64::INFINITY } else { e };
