@@ -126,9 +126,10 @@ impl State {
             let purge = 3 * stale > ranked.len();
             let (stamp, flags) = (&self.stamp, &self.flags);
             let checked = if purge { ranked.len() } else { end };
-            let dropped = merge(&ranked, &fresh, &mut scratch, checked, |e| {
-                flags[e.a as usize] & flags[e.b as usize] & ALIVE != 0
-                    && stamp[e.a as usize].wrapping_add(stamp[e.b as usize]) == e.stamp
+            // `&`, not `&&`: no branch (see `merge`).
+            let dropped = merge(&mut ranked, &fresh, &mut scratch, checked, |e| {
+                (flags[e.a as usize] & flags[e.b as usize] & ALIVE != 0)
+                    & (stamp[e.a as usize].wrapping_add(stamp[e.b as usize]) == e.stamp)
             });
             stale = if purge {
                 0
