@@ -350,24 +350,22 @@ impl State {
         let (sb, cb) = (self.start[bi] as usize, self.count[bi] as usize);
         self.refs.extend_from_within(sa..sa + ca);
         self.refs.extend_from_within(sb..sb + cb);
-        let mut keep = new_start;
+        // Without branches: which faces die (a's faces on the edge) and which are already
+        // dead is a coin toss per face to the predictor. Renaming b leaves a's other faces
+        // and dead faces as they are, and b's faces on the edge died among a's.
+        let (mut keep, from_b) = (new_start, new_start + ca);
         for i in new_start..self.refs.len() {
             let f = self.refs[i];
-            let t = &mut self.faces[f as usize];
-            if t[0] == DEAD {
-                continue;
-            }
-            if i < new_start + ca {
-                if t.contains(&b) {
-                    *t = [DEAD; 3];
-                    self.live_faces -= 1;
-                    continue;
-                }
+            let t = self.faces[f as usize];
+            let dies = (i < from_b) & ((t[0] == b) | (t[1] == b) | (t[2] == b));
+            self.faces[f as usize] = if dies {
+                [DEAD; 3]
             } else {
-                *t = t.map(|c| if c == b { a } else { c });
-            }
+                t.map(|c| if c == b { a } else { c })
+            };
+            self.live_faces -= usize::from(dies);
             self.refs[keep] = f;
-            keep += 1;
+            keep += usize::from(!dies & (t[0] != DEAD));
         }
         self.refs.truncate(keep);
         if self.flags[ai] & AGGREGATED != 0 {
