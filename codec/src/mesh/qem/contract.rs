@@ -235,12 +235,12 @@ impl State {
             if !folds && !t.contains(&a) {
                 folds = self.face_turns_too_far(f, t, b, pb, p);
             }
+            // Without a branch: whether a corner is a's neighbour is unpredictable.
             for u in t {
                 let m = &mut self.mark[u as usize];
-                if *m == g {
-                    *m = g + 1;
-                    common += 1;
-                }
+                let hit = *m == g;
+                *m += u32::from(hit);
+                common += usize::from(hit);
             }
         }
         if (self.flags[a as usize] | self.flags[b as usize]) & AGGREGATED != 0 {

@@ -63,6 +63,8 @@ pub(super) struct State {
     /// Scratch marks for neighbour sets, valid where equal to the current generation.
     pub(super) mark: Vec<u32>,
     generation: u32,
+    /// Scratch for [`Self::collect_vertex`]: a vertex's neighbours.
+    nbrs: Vec<u32>,
     pub(super) live_faces: usize,
     /// Non-edge partners per vertex (empty unless aggregating).
     pub(super) partners: Vec<Vec<u32>>,
@@ -188,6 +190,7 @@ impl State {
             refs,
             mark: vec![0; n],
             generation: 0,
+            nbrs: Vec::new(),
             partners: Vec::new(),
             cos_turn: options.max_normal_turn_deg.to_radians().cos(),
             tiny_sq: (1e-9 * diagonal).powi(2),
@@ -359,20 +362,30 @@ impl State {
             self.start[v as usize] as usize,
             self.count[v as usize] as usize,
         );
+        // The neighbours first, each once, without a branch on whether it was seen (half the
+        // corners were, at random); then their pairs.
+        let mut nbrs = std::mem::take(&mut self.nbrs);
+        nbrs.clear();
+        nbrs.resize(3 * c, 0);
+        let mut n = 0;
         for i in s..s + c {
             let t = self.faces[self.refs[i] as usize];
             if t[0] == DEAD {
                 continue;
             }
             for u in t {
-                if self.mark[u as usize] != g {
-                    self.mark[u as usize] = g;
-                    if take(u) {
-                        out.extend(self.entry(v, u));
-                    }
-                }
+                let m = &mut self.mark[u as usize];
+                nbrs[n] = u;
+                n += usize::from(*m != g);
+                *m = g;
             }
         }
+        for &u in &nbrs[..n] {
+            if take(u) {
+                out.extend(self.entry(v, u));
+            }
+        }
+        self.nbrs = nbrs;
         if let Some(ps) = self.partners.get(v as usize) {
             for &u in ps {
                 if self.flags[u as usize] & ALIVE != 0 && self.mark[u as usize] != g && take(u) {
