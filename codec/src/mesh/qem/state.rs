@@ -312,11 +312,16 @@ impl State {
     /// The contraction target alone (the error is already in the ranked entry).
     #[inline]
     pub(super) fn target(&self, a: u32, b: u32) -> DVec3 {
-        let q = self.geo[a as usize].q + self.geo[b as usize].q;
-        q.optimize(self.geo[a as usize].pos, self.geo[b as usize].pos)
+        let (ga, gb) = (&self.geo[a as usize], &self.geo[b as usize]);
+        (ga.q + gb.q).solve(ga.pos, gb.pos).map_or_else(
+            || Quadric::segment_fallback(&ga.q, &gb.q, ga.pos, gb.pos).0,
+            |(p, _)| p,
+        )
     }
 
-    /// The pair (a, b) ranked now, unless a vertex is locked.
+    /// The pair (a, b) ranked now, unless a vertex is locked. Always inlined into its two
+    /// callers (measured: fandisk 978 −2 %, the bunny within noise).
+    #[inline(always)]
     fn entry(&self, a: u32, b: u32) -> Option<Entry> {
         if (self.flags[a as usize] | self.flags[b as usize]) & LOCKED != 0 {
             return None;
