@@ -74,12 +74,21 @@ impl State {
                     end = i;
                     break;
                 }
-                let Ok(removed) = self.link_condition(a, b) else {
+                // The optimum first: the link condition's walk over both face fans tests it
+                // for folds on the way (the link condition almost never refuses).
+                let p = self.target(a, b);
+                let (link, folds) = self.link_condition(a, b, p);
+                let Ok(removed) = link else {
                     self.report.rejected_topology += 1;
                     continue;
                 };
                 let err = f64::from(e.error());
-                let Some(p) = self.placement(a, b, self.target(a, b), err) else {
+                let placed = if folds {
+                    self.endpoint_placement(a, b, err)
+                } else {
+                    Some(p)
+                };
+                let Some(p) = placed else {
                     self.report.rejected_flip += 1;
                     continue;
                 };
@@ -117,9 +126,10 @@ impl State {
             let purge = 3 * stale > ranked.len();
             let (stamp, flags) = (&self.stamp, &self.flags);
             let checked = if purge { ranked.len() } else { end };
-            let dropped = merge(&ranked, &fresh, &mut scratch, checked, |e| {
-                flags[e.a as usize] & flags[e.b as usize] & ALIVE != 0
-                    && stamp[e.a as usize].wrapping_add(stamp[e.b as usize]) == e.stamp
+            // `&`, not `&&`: no branch (see `merge`).
+            let dropped = merge(&mut ranked, &fresh, &mut scratch, checked, |e| {
+                (flags[e.a as usize] & flags[e.b as usize] & ALIVE != 0)
+                    & (stamp[e.a as usize].wrapping_add(stamp[e.b as usize]) == e.stamp)
             });
             stale = if purge {
                 0
@@ -174,8 +184,12 @@ impl State {
     /// The link condition for contracting (a, b): the only common neighbours of a and b are
     /// the far corners of the faces on the edge, an interior edge does not join two boundary
     /// vertices, and no tetrahedron-like cap folds shut. Returns how many faces the
-    /// contraction removes (0 for a non-edge pair).
-    fn link_condition(&mut self, a: u32, b: u32) -> Result<usize, ()> {
+    /// contraction removes (0 for a non-edge pair), and whether moving a and b to `p` turns a
+    /// surviving face too far ([`Self::turns_too_far`] for both ends, in the same walk: the
+    /// faces are loaded once instead of twice).
+    fn link_condition(&mut self, a: u32, b: u32, p: DVec3) -> (Result<usize, ()>, bool) {
+        let mut folds = false;
+        let (pa, pb) = (self.geo[a as usize].pos, self.geo[b as usize].pos);
         // Faces on the edge, their far corners, and a's neighbours.
         let g = self.next_generation();
         let mut on_edge = 0usize;
@@ -198,6 +212,8 @@ impl State {
                     far[on_edge] = t[0] ^ t[1] ^ t[2] ^ a ^ b;
                 }
                 on_edge += 1;
+            } else if !folds {
+                folds = self.face_turns_too_far(f, t, a, pa, p);
             }
             for u in t {
                 self.mark[u as usize] = g;
@@ -208,37 +224,42 @@ impl State {
         self.mark[b as usize] = 0;
         let mut common = 0usize;
         let mut b_caps = false;
+        // A face of b holding both (distinct) far corners is b-far-far: it cannot hold a.
+        let caps_possible = on_edge == 2 && far[0] != far[1];
         for &f in &self.refs[sb..sb + cb] {
             let t = self.faces[f as usize];
             if t[0] == DEAD {
                 continue;
             }
-            b_caps |= on_edge == 2 && !t.contains(&a) && t.contains(&far[0]) && t.contains(&far[1]);
+            b_caps |= caps_possible && t.contains(&far[0]) && t.contains(&far[1]);
+            if !folds && !t.contains(&a) {
+                folds = self.face_turns_too_far(f, t, b, pb, p);
+            }
+            // Without a branch: whether a corner is a's neighbour is unpredictable.
             for u in t {
                 let m = &mut self.mark[u as usize];
-                if *m == g {
-                    *m = g + 1;
-                    common += 1;
-                }
+                let hit = *m == g;
+                *m += u32::from(hit);
+                common += usize::from(hit);
             }
         }
         if (self.flags[a as usize] | self.flags[b as usize]) & AGGREGATED != 0 {
             // Already non-manifold here: any pair may contract (paper §3).
-            return Ok(on_edge);
+            return (Ok(on_edge), folds);
         }
         if on_edge == 0 {
             // Aggregation: only parts that do not touch near the pair merge.
-            return if common == 0 { Ok(0) } else { Err(()) };
+            return (if common == 0 { Ok(0) } else { Err(()) }, folds);
         }
         let both_boundary = self.flags[a as usize] & self.flags[b as usize] & BOUNDARY != 0;
         if on_edge > 2 || common != on_edge || (on_edge == 2 && both_boundary) {
-            return Err(());
+            return (Err(()), folds);
         }
         // Faces a-c-d and b-c-d both present would become one face twice.
         if on_edge == 2 && (far[0] == far[1] || (b_caps && self.has_face_with(a, b, far))) {
-            return Err(());
+            return (Err(()), folds);
         }
-        Ok(on_edge)
+        (Ok(on_edge), folds)
     }
 
     /// Whether `v` has a live face without `other` that holds both far corners.
@@ -249,14 +270,11 @@ impl State {
         })
     }
 
-    /// Where to put the contracted vertex: `p` unless that turns a surviving face too far, else
+    /// Where to put the contracted vertex when the optimum turns a surviving face too far:
     /// whichever endpoint is as good (in flat regions the regularised optimum is the midpoint,
-    /// which can fold a thin fan where an endpoint does not); `None` when every choice folds.
-    fn placement(&self, a: u32, b: u32, p: DVec3, err: f64) -> Option<DVec3> {
+    /// which can fold a thin fan where an endpoint does not); `None` when both fold too.
+    fn endpoint_placement(&self, a: u32, b: u32, err: f64) -> Option<DVec3> {
         let fits = |p: DVec3| !self.turns_too_far(a, b, p) && !self.turns_too_far(b, a, p);
-        if fits(p) {
-            return Some(p);
-        }
         let q = self.geo[a as usize].q + self.geo[b as usize].q;
         let tolerance = err * 1.001 + self.tiny_sq;
         [self.geo[a as usize].pos, self.geo[b as usize].pos]
@@ -268,48 +286,43 @@ impl State {
     /// than the allowed angle, collapses it to no area, or leaves it facing away from its
     /// input orientation (small turns add up).
     fn turns_too_far(&self, v: u32, other: u32, p: DVec3) -> bool {
-        const NEXT: [usize; 3] = [1, 2, 0];
         let pv = self.geo[v as usize].pos;
-        let cos2 = self.cos_turn * self.cos_turn;
-        for &f in self.ring(v) {
+        self.ring(v).iter().any(|&f| {
             let t = self.faces[f as usize];
-            if t[0] == DEAD {
-                continue;
-            }
-            // Rotate so v is first: the normal is (b − v) × (c − v) before and after.
-            let i = if t[0] == v {
-                0
-            } else if t[1] == v {
-                1
-            } else {
-                2
-            };
-            let (b, c) = (t[NEXT[i]], t[NEXT[NEXT[i]]]);
-            if b == other || c == other {
-                continue;
-            }
-            let (pb, pc) = (self.geo[b as usize].pos, self.geo[c as usize].pos);
-            let before = (pb - pv).cross(pc - pv);
-            let after = (pb - p).cross(pc - p);
-            let (lb, la) = (before.length_squared(), after.length_squared());
-            if lb == 0.0 {
-                // A face that had no area cannot flip.
-                continue;
-            }
-            // cos(turn) ≤ cos_turn, compared squared to stay clear of square roots.
-            let d = before.dot(after);
-            let bound = cos2 * lb * la;
-            let too_far = if self.cos_turn >= 0.0 {
-                d <= 0.0 || d * d <= bound
-            } else {
-                d < 0.0 && d * d >= bound
-            };
-            // Nor may it end up facing away from what it was in the input.
-            if too_far || la == 0.0 || after.dot(self.normal_in[f as usize].as_dvec3()) <= 0.0 {
-                return true;
-            }
+            t[0] != DEAD && !t.contains(&other) && self.face_turns_too_far(f, t, v, pv, p)
+        })
+    }
+
+    /// [`Self::turns_too_far`] for one live face `f` = `t` of `v` (at `pv`). Always inlined:
+    /// as a call per face it passed `p` through memory.
+    #[inline(always)]
+    fn face_turns_too_far(&self, f: u32, t: [u32; 3], v: u32, pv: DVec3, p: DVec3) -> bool {
+        // Rotate so v is first: the normal is (b − v) × (c − v) before and after.
+        let (b, c) = if t[0] == v {
+            (t[1], t[2])
+        } else if t[1] == v {
+            (t[2], t[0])
+        } else {
+            (t[0], t[1])
+        };
+        let (pb, pc) = (self.geo[b as usize].pos, self.geo[c as usize].pos);
+        let before = (pb - pv).cross(pc - pv);
+        let after = (pb - p).cross(pc - p);
+        let (lb, la) = (before.length_squared(), after.length_squared());
+        if lb == 0.0 {
+            // A face that had no area cannot flip.
+            return false;
         }
-        false
+        // cos(turn) ≤ cos_turn, compared squared to stay clear of square roots.
+        let d = before.dot(after);
+        let bound = self.cos_turn * self.cos_turn * lb * la;
+        let too_far = if self.cos_turn >= 0.0 {
+            d <= 0.0 || d * d <= bound
+        } else {
+            d < 0.0 && d * d >= bound
+        };
+        // Nor may it end up facing away from what it was in the input.
+        too_far || la == 0.0 || after.dot(self.normal_in[f as usize].as_dvec3()) <= 0.0
     }
 
     /// Contracts b into a at p: faces on the edge die, b's other faces take a, and a's face
@@ -329,34 +342,32 @@ impl State {
         self.flags[bi] &= !ALIVE;
         self.stamp[ai] = self.stamp[ai].wrapping_add(1);
         self.stamp[bi] = self.stamp[bi].wrapping_add(1);
-        // a's new slice: its live faces without b, then b's live faces renamed.
+        // a's new slice: its live faces without b, then b's live faces renamed. Both slices
+        // are copied to the end first and filtered there (one bulk copy each instead of a
+        // capacity check and an index per face).
         let new_start = self.refs.len();
-        for i in 0..self.count[ai] as usize {
-            let f = self.refs[self.start[ai] as usize + i];
-            let t = &mut self.faces[f as usize];
-            if t[0] == DEAD {
-                continue;
-            }
-            if t.contains(&b) {
-                *t = [DEAD; 3];
-                self.live_faces -= 1;
+        let (sa, ca) = (self.start[ai] as usize, self.count[ai] as usize);
+        let (sb, cb) = (self.start[bi] as usize, self.count[bi] as usize);
+        self.refs.extend_from_within(sa..sa + ca);
+        self.refs.extend_from_within(sb..sb + cb);
+        // Without branches: which faces die (a's faces on the edge) and which are already
+        // dead is a coin toss per face to the predictor. Renaming b leaves a's other faces
+        // and dead faces as they are, and b's faces on the edge died among a's.
+        let (mut keep, from_b) = (new_start, new_start + ca);
+        for i in new_start..self.refs.len() {
+            let f = self.refs[i];
+            let t = self.faces[f as usize];
+            let dies = (i < from_b) & ((t[0] == b) | (t[1] == b) | (t[2] == b));
+            self.faces[f as usize] = if dies {
+                [DEAD; 3]
             } else {
-                self.refs.push(f);
-            }
+                t.map(|c| if c == b { a } else { c })
+            };
+            self.live_faces -= usize::from(dies);
+            self.refs[keep] = f;
+            keep += usize::from(!dies & (t[0] != DEAD));
         }
-        for i in 0..self.count[bi] as usize {
-            let f = self.refs[self.start[bi] as usize + i];
-            let t = &mut self.faces[f as usize];
-            if t[0] == DEAD {
-                continue;
-            }
-            for c in t.iter_mut() {
-                if *c == b {
-                    *c = a;
-                }
-            }
-            self.refs.push(f);
-        }
+        self.refs.truncate(keep);
         if self.flags[ai] & AGGREGATED != 0 {
             self.drop_duplicates(new_start);
         }

@@ -88,6 +88,15 @@ impl Quadric {
     /// through the stack (callgrind: 2.4 % fewer instructions in `simplify` inlined).
     #[inline(always)]
     pub fn minimize(&self, p: DVec3, q: DVec3) -> (DVec3, f64) {
+        self.solve(p, q)
+            .unwrap_or_else(|| Self::segment_fallback(self, &Self::default(), p, q))
+    }
+
+    /// The regularised solve of [`Self::minimize`] alone: `None` where the paper's fallback
+    /// applies. The ranking sums two quadrics into registers and calls this; keeping the
+    /// fallback out of line spares it storing the sum for a path taken a few times a mesh.
+    #[inline(always)]
+    pub fn solve(&self, p: DVec3, q: DVec3) -> Option<(DVec3, f64)> {
         const REGULARISE: f64 = 1e-3;
         let m = 0.5 * (p + q);
         let [xx, xy, xz, yy, yz, zz] = self.a;
@@ -114,11 +123,19 @@ impl Quadric {
             // Also false for NaN: a solution that is not a number falls through.
             if (v - m).length_squared() <= 4.0 * (q - p).length_squared() {
                 let e = v.dot(lm + self.b) - lambda * v.length_squared() + self.c;
-                return (v, e.max(0.0));
+                return Some((v, e.max(0.0)));
             }
         }
-        let v = self.best_of_segment(p, q);
-        (v, self.eval(v).max(0.0))
+        None
+    }
+
+    /// The fallback of [`Self::minimize`] for the quadric `a + b`, with Q at the result.
+    #[cold]
+    #[inline(never)]
+    pub fn segment_fallback(a: &Self, b: &Self, p: DVec3, q: DVec3) -> (DVec3, f64) {
+        let sum = *a + *b;
+        let v = sum.best_of_segment(p, q);
+        (v, sum.eval(v).max(0.0))
     }
 
     /// The paper's fallback: the endpoint or midpoint with the smallest error.

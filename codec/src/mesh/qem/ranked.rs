@@ -40,20 +40,23 @@ pub(super) fn radix_sort(items: &mut Vec<Entry>, scratch: &mut Vec<Entry>) {
         items.sort_by_key(|e| e.key);
         return;
     }
-    let mut counts = vec![0usize; BUCKETS + 1];
-    scratch.clear();
-    scratch.resize(items.len(), Entry::default());
-    for shift in [LOW_BITS, LOW_BITS + BITS] {
-        counts.fill(0);
-        for e in items.iter() {
-            counts[((e.key >> shift) as usize & (BUCKETS - 1)) + 1] += 1;
-        }
+    // Both digits' counts in one sweep (a digit's counts do not depend on the order).
+    let mut counts = [[0usize; BUCKETS]; 2];
+    for e in items.iter() {
+        counts[0][(e.key >> LOW_BITS) as usize & (BUCKETS - 1)] += 1;
+        counts[1][(e.key >> (LOW_BITS + BITS)) as usize & (BUCKETS - 1)] += 1;
+    }
+    for (counts, shift) in counts.iter_mut().zip([LOW_BITS, LOW_BITS + BITS]) {
         if counts.contains(&items.len()) {
             continue;
         }
-        for i in 0..BUCKETS {
-            counts[i + 1] += counts[i];
+        // Each digit's first slot.
+        let mut at = 0;
+        for c in counts.iter_mut() {
+            (*c, at) = (at, at + *c);
         }
+        scratch.clear();
+        scratch.resize(items.len(), Entry::default());
         for e in items.iter() {
             let d = (e.key >> shift) as usize & (BUCKETS - 1);
             scratch[counts[d]] = *e;
@@ -65,33 +68,59 @@ pub(super) fn radix_sort(items: &mut Vec<Entry>, scratch: &mut Vec<Entry>) {
 
 /// Merges the sorted `old`, less those of its first `checked` entries that `valid` refuses, with
 /// the sorted `fresh` into `out` (older entries first among equal keys). Returns how many
-/// entries of `old` were left out.
+/// entries of `old` were left out; `old`'s first `checked` entries are scratch afterwards.
+///
+/// The checked part is compacted in place without a branch per entry (whether a pair is still
+/// valid is a coin toss to the branch predictor), then both parts are copied in runs between
+/// the fresh entries, each run's end found by galloping: a pass re-ranks a few thousand pairs
+/// into a list several times longer, and moving it entry by entry, compare by compare, took
+/// 8 % of a fandisk run.
 pub(super) fn merge(
-    old: &[Entry],
+    old: &mut [Entry],
     fresh: &[Entry],
     out: &mut Vec<Entry>,
     checked: usize,
     valid: impl Fn(&Entry) -> bool,
 ) -> usize {
+    let checked = checked.min(old.len());
+    let mut kept = 0;
+    for i in 0..checked {
+        let e = old[i];
+        old[kept] = e;
+        kept += usize::from(valid(&e));
+    }
     out.clear();
-    out.reserve(old.len() + fresh.len());
+    out.reserve(kept + old.len() - checked + fresh.len());
     let mut j = 0;
-    let mut put = |e: &Entry, out: &mut Vec<Entry>| {
-        while j < fresh.len() && fresh[j].key < e.key {
-            out.push(fresh[j]);
+    for part in [&old[..kept], &old[checked..]] {
+        let mut rest = part;
+        while let Some(f) = fresh.get(j) {
+            let run = leading_at_most(rest, f.key);
+            out.extend_from_slice(&rest[..run]);
+            rest = &rest[run..];
+            if rest.is_empty() {
+                // The fresh entry may still belong after entries of the next part.
+                break;
+            }
+            out.push(*f);
             j += 1;
         }
-        out.push(*e);
-    };
-    let (head, tail) = old.split_at(checked.min(old.len()));
-    for e in head.iter().filter(|e| valid(e)) {
-        put(e, out);
-    }
-    for e in tail {
-        put(e, out);
+        out.extend_from_slice(rest);
     }
     out.extend_from_slice(&fresh[j..]);
     old.len() + fresh.len() - out.len()
+}
+
+/// How many entries at the start of the sorted `items` have a key ≤ `key`: galloping from the
+/// front (the runs between fresh entries are short), then a binary search.
+fn leading_at_most(items: &[Entry], key: u32) -> usize {
+    let (mut lo, mut step) = (0, 1);
+    while lo + step <= items.len() && items[lo + step - 1].key <= key {
+        lo += step;
+        step *= 2;
+    }
+    let hi = (lo + step).min(items.len());
+    lo + items[lo..hi].partition_point(|e| e.key <= key)
 }
 
 #[cfg(test)]
@@ -140,11 +169,32 @@ mod tests {
 
     #[test]
     fn merge_interleaves_and_filters() {
-        let old = entries(&[1, 3, 5, 7]);
+        let mut old = entries(&[1, 3, 5, 7]);
         let fresh = entries(&[2, 3, 8]);
         let mut out = Vec::new();
-        assert_eq!(merge(&old, &fresh, &mut out, 3, |e| e.key != 5), 1);
+        assert_eq!(merge(&mut old, &fresh, &mut out, 3, |e| e.key != 5), 1);
         let keys: Vec<u32> = out.iter().map(|e| e.key).collect();
         assert_eq!(keys, vec![1, 2, 3, 3, 7, 8]);
+    }
+
+    #[test]
+    fn merge_matches_a_stable_sort_of_both_lists() {
+        // Long runs of equal keys: old entries must stay ahead of fresh ones with their key.
+        let old = entries(&(0..300u32).map(|i| i / 7 * 2).collect::<Vec<_>>());
+        let fresh: Vec<Entry> = entries(&(0..90u32).map(|i| i / 3 * 5).collect::<Vec<_>>())
+            .into_iter()
+            .map(|e| Entry { b: 1, ..e })
+            .collect();
+        for checked in [0, 40, 300] {
+            let mut out = Vec::new();
+            let mut want = [old.clone(), fresh.clone()].concat();
+            want.retain(|e| e.a % 5 != 0 || e.b == 1 || e.a as usize >= checked);
+            want.sort_by_key(|e| e.key);
+            let dropped = merge(&mut old.clone(), &fresh, &mut out, checked, |e| {
+                e.a % 5 != 0
+            });
+            assert_eq!(dropped, old.len() + fresh.len() - want.len());
+            assert_eq!(out, want);
+        }
     }
 }

@@ -63,6 +63,8 @@ pub(super) struct State {
     /// Scratch marks for neighbour sets, valid where equal to the current generation.
     pub(super) mark: Vec<u32>,
     generation: u32,
+    /// Scratch for [`Self::collect_vertex`]: a vertex's neighbours.
+    nbrs: Vec<u32>,
     pub(super) live_faces: usize,
     /// Non-edge partners per vertex (empty unless aggregating).
     pub(super) partners: Vec<Vec<u32>>,
@@ -188,6 +190,7 @@ impl State {
             refs,
             mark: vec![0; n],
             generation: 0,
+            nbrs: Vec::new(),
             partners: Vec::new(),
             cos_turn: options.max_normal_turn_deg.to_radians().cos(),
             tiny_sq: (1e-9 * diagonal).powi(2),
@@ -306,30 +309,32 @@ impl State {
         }
     }
 
-    /// The contraction target and its error (mean squared distance) for the pair (a, b).
-    #[inline]
-    pub(super) fn evaluate(&self, a: u32, b: u32) -> (f64, DVec3) {
-        let q = self.geo[a as usize].q + self.geo[b as usize].q;
-        let (p, e) = q.minimize(self.geo[a as usize].pos, self.geo[b as usize].pos);
-        let e = if q.w > 0.0 { e / q.w } else { e };
-        // Only overflowing coordinates give NaN; rank those last.
-        (if e.is_nan() { f64::INFINITY } else { e }, p)
-    }
-
     /// The contraction target alone (the error is already in the ranked entry).
     #[inline]
     pub(super) fn target(&self, a: u32, b: u32) -> DVec3 {
-        let q = self.geo[a as usize].q + self.geo[b as usize].q;
-        q.optimize(self.geo[a as usize].pos, self.geo[b as usize].pos)
+        let (ga, gb) = (&self.geo[a as usize], &self.geo[b as usize]);
+        (ga.q + gb.q).solve(ga.pos, gb.pos).map_or_else(
+            || Quadric::segment_fallback(&ga.q, &gb.q, ga.pos, gb.pos).0,
+            |(p, _)| p,
+        )
     }
 
-    /// The pair (a, b) ranked now, unless a vertex is locked.
+    /// The pair (a, b) ranked now, unless a vertex is locked. Always inlined into its two
+    /// callers (measured: fandisk 978 −2 %, the bunny within noise).
+    #[inline(always)]
     fn entry(&self, a: u32, b: u32) -> Option<Entry> {
         if (self.flags[a as usize] | self.flags[b as usize]) & LOCKED != 0 {
             return None;
         }
-        let len_sq = (self.geo[a as usize].pos - self.geo[b as usize].pos).length_squared();
-        let key = self.evaluate(a, b).0 + TIE_BREAK * len_sq;
+        let (ga, gb) = (&self.geo[a as usize], &self.geo[b as usize]);
+        let q = ga.q + gb.q;
+        let (_, e) = q
+            .solve(ga.pos, gb.pos)
+            .unwrap_or_else(|| Quadric::segment_fallback(&ga.q, &gb.q, ga.pos, gb.pos));
+        let e = if q.w > 0.0 { e / q.w } else { e };
+        // Only overflowing coordinates give NaN; rank those last.
+        let e = if e.is_nan() { f64::INFINITY } else { e };
+        let key = e + TIE_BREAK * (ga.pos - gb.pos).length_squared();
         Some(Entry {
             // Non-negative floats order like their bits; 14 mantissa bits (errors within 6·10⁻⁵
             // of each other tie and keep their order) let the sort take two radix passes.
@@ -362,20 +367,30 @@ impl State {
             self.start[v as usize] as usize,
             self.count[v as usize] as usize,
         );
+        // The neighbours first, each once, without a branch on whether it was seen (half the
+        // corners were, at random); then their pairs.
+        let mut nbrs = std::mem::take(&mut self.nbrs);
+        nbrs.clear();
+        nbrs.resize(3 * c, 0);
+        let mut n = 0;
         for i in s..s + c {
             let t = self.faces[self.refs[i] as usize];
             if t[0] == DEAD {
                 continue;
             }
             for u in t {
-                if self.mark[u as usize] != g {
-                    self.mark[u as usize] = g;
-                    if take(u) {
-                        out.extend(self.entry(v, u));
-                    }
-                }
+                let m = &mut self.mark[u as usize];
+                nbrs[n] = u;
+                n += usize::from(*m != g);
+                *m = g;
             }
         }
+        for &u in &nbrs[..n] {
+            if take(u) {
+                out.extend(self.entry(v, u));
+            }
+        }
+        self.nbrs = nbrs;
         if let Some(ps) = self.partners.get(v as usize) {
             for &u in ps {
                 if self.flags[u as usize] & ALIVE != 0 && self.mark[u as usize] != g && take(u) {
