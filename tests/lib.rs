@@ -1,10 +1,13 @@
 //! Shared helpers for the end-to-end tests: where the binary and the shared fixtures are.
 #![allow(
     clippy::expect_used,
-    reason = "test support: without its own executable path the run cannot go on"
+    clippy::panic,
+    reason = "test support: without a current binary the run cannot go on"
 )]
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+use std::time::SystemTime;
 
 pub mod qm;
 pub mod server;
@@ -15,13 +18,63 @@ pub fn shared_data() -> PathBuf {
 }
 
 /// The `zerotile` binary built for this test profile.
+///
+/// Cargo builds it only when the server package is in the run (`cargo test --workspace`, as
+/// CI does); `cargo test -p zerotile-tests` alone runs whatever binary an earlier build
+/// left. So a binary that is missing or older than the server's and codec's sources stops
+/// the test with what to run, instead of failing it on behaviour the sources no longer have.
 pub fn zerotile_bin() -> PathBuf {
-    let mut dir = std::env::current_exe().expect("test executable path");
+    static CHECKED: OnceLock<Result<PathBuf, String>> = OnceLock::new();
+    match CHECKED.get_or_init(check_bin) {
+        Ok(path) => path.clone(),
+        Err(why) => panic!("{why}"),
+    }
+}
+
+fn check_bin() -> Result<PathBuf, String> {
+    let mut dir = std::env::current_exe().map_err(|e| format!("test executable path: {e}"))?;
     dir.pop();
     if dir.ends_with("deps") {
         dir.pop();
     }
-    dir.join(format!("zerotile{}", std::env::consts::EXE_SUFFIX))
+    let bin = dir.join(format!("zerotile{}", std::env::consts::EXE_SUFFIX));
+    let fix = "build it with the tests: `cargo test --workspace --profile ci`";
+    let built =
+        modified(&bin).ok_or_else(|| format!("no zerotile binary at {}: {fix}", bin.display()))?;
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+    let newest = ["server/src", "codec/src"]
+        .iter()
+        .filter_map(|d| newest_in(&root.join(d)))
+        .max();
+    match newest {
+        Some(source) if source > built => Err(format!(
+            "{} is older than the server's or codec's sources: {fix}",
+            bin.display()
+        )),
+        _ => Ok(bin),
+    }
+}
+
+fn modified(path: &Path) -> Option<SystemTime> {
+    std::fs::metadata(path).and_then(|m| m.modified()).ok()
+}
+
+/// The latest modification time of a Rust source under `dir` (the notes beside the code,
+/// `*.md`, do not rebuild the binary, so they do not count).
+fn newest_in(dir: &Path) -> Option<SystemTime> {
+    let mut newest = None;
+    for entry in std::fs::read_dir(dir).ok()?.flatten() {
+        let path = entry.path();
+        let time = if path.is_dir() {
+            newest_in(&path)
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            modified(&path)
+        } else {
+            None
+        };
+        newest = newest.max(time);
+    }
+    newest
 }
 
 /// Runs `cmd` to completion and returns its output, failing the test with the command and
