@@ -10,7 +10,9 @@ use libfuzzer_sys::fuzz_target;
 use zerotile_codec::container::{Container, Limits, TileRecord};
 
 fuzz_target!(|input: &[u8]| {
-    let Some((&mode, data)) = input.split_first() else { return };
+    let Some((&mode, data)) = input.split_first() else {
+        return;
+    };
     let mut data = data.to_vec();
     if mode & 1 == 1 && data.len() >= 24 {
         let header_len = u32::from_le_bytes([data[8], data[9], data[10], data[11]]) as usize;

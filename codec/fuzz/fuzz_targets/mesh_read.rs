@@ -7,7 +7,9 @@ use zerotile_codec::mesh::io::{read_bytes, Format, MeshLimits};
 use zerotile_codec::mesh::repair;
 
 fuzz_target!(|data: &[u8]| {
-    let Some((&pick, rest)) = data.split_first() else { return };
+    let Some((&pick, rest)) = data.split_first() else {
+        return;
+    };
     let format = match pick % 5 {
         0 => Some(Format::Obj),
         1 => Some(Format::Ply),

@@ -332,7 +332,7 @@ fn get_errors(
         let v = code
             .checked_sub(1)
             .and_then(|z| prev[s % 3].checked_add(unzigzag(z)))
-            .filter(|v| v.abs() <= i64::from(bound::Q_LIMIT))
+            .filter(|v| v.unsigned_abs() <= u64::from(bound::Q_LIMIT.unsigned_abs()))
             .ok_or_else(|| DecodeError::Malformed(format!("segment {s} error bound")))?;
         *q = v as i32;
         prev[s % 3] = v;
