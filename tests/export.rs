@@ -10,7 +10,7 @@ use std::process::Command;
 use zerotile_codec::container::{Container, Limits};
 use zerotile_codec::formats::quantized_mesh;
 use zerotile_tests::server::Server;
-use zerotile_tests::{shared_data, zerotile_bin};
+use zerotile_tests::{assert_success, shared_data, zerotile_bin};
 
 fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("zerotile-export-{}-{name}", std::process::id()));
@@ -55,22 +55,14 @@ fn a_static_tree_holds_what_the_server_serves() {
         ],
         &dir,
     );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
     let out = zerotile(
         &[
             "export", "n44", "--out", "static", "--zoom", "8-10", "--quiet",
         ],
         &dir,
     );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
 
     // Every tile of zooms 8–10 is there and decodes; layer.json points at them.
     let tiles = files(&dir.join("static"), "terrain");

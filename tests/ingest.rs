@@ -9,7 +9,7 @@ use std::process::Command;
 
 use zerotile_codec::container::{Container, Limits, TileId, TileRecord};
 use zerotile_codec::ezw::{self, DecodeLimit};
-use zerotile_tests::{shared_data, zerotile_bin};
+use zerotile_tests::{assert_success, shared_data, zerotile_bin};
 
 fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("zerotile-e2e-{}-{name}", std::process::id()));
@@ -33,11 +33,7 @@ fn ingest_builds_a_pyramid_whose_tiles_decode_to_the_source() {
     let data = scratch("pyramid");
     let hgt = shared_data().join("dem/N44W072.hgt");
     let out = ingest(&hgt, "n44", &data, &["--precision", "0.5"]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
 
     let bytes = std::fs::read(data.join("n44.ztd")).unwrap();
     let c = Container::parse(&bytes, &Limits::default()).unwrap();
@@ -74,7 +70,7 @@ fn ingest_builds_a_pyramid_whose_tiles_decode_to_the_source() {
 fn a_failed_ingest_leaves_the_previous_dataset_intact() {
     let data = scratch("atomic");
     let good = shared_data().join("dem/terra_elev.tif");
-    assert!(ingest(&good, "lux", &data, &[]).status.success());
+    assert_success(&ingest(&good, "lux", &data, &[]));
     let before = std::fs::read(data.join("lux.ztd")).unwrap();
 
     let bad = data.join("broken.hgt");
@@ -147,11 +143,7 @@ fn geodetic_ingest_places_srtm_on_cesiums_grid() {
         &data,
         &["--scheme", "geodetic", "--wavelet", "53"],
     );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
     let bytes = std::fs::read(data.join("n44.ztd")).unwrap();
     let c = Container::parse(&bytes, &Limits::default()).unwrap();
     let m = &c.metadata;
@@ -202,11 +194,7 @@ fn mercator_ingest_uses_xyz_rows_from_the_north() {
         &data,
         &["--scheme", "mercator", "--max-zoom", "9", "--wavelet", "53"],
     );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
     let bytes = std::fs::read(data.join("n44m.ztd")).unwrap();
     let c = Container::parse(&bytes, &Limits::default()).unwrap();
     assert_eq!(
@@ -277,7 +265,7 @@ fn world_schemes_refuse_sources_they_cannot_place() {
 fn a_killed_ingest_leaves_the_previous_dataset_intact_and_served() {
     let data = scratch("killed");
     let small = shared_data().join("dem/terra_elev.tif");
-    assert!(ingest(&small, "keep", &data, &[]).status.success());
+    assert_success(&ingest(&small, "keep", &data, &[]));
     let before = std::fs::read(data.join("keep.ztd")).unwrap();
 
     // A long ingest under the same name (max-error mode, 226 geodetic tiles: ~3.6 s on an

@@ -77,6 +77,15 @@ fn newest_in(dir: &Path) -> Option<SystemTime> {
     newest
 }
 
+/// Fails the test with the command's stderr unless it succeeded.
+pub fn assert_success(out: &std::process::Output) {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
 /// Runs `cmd` to completion and returns its output, failing the test with the command and
 /// its stderr unless it succeeded.
 pub fn run_ok(cmd: &mut std::process::Command) -> std::process::Output {
