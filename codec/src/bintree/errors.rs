@@ -84,17 +84,9 @@ impl TileErrors {
                 continue;
             }
             let quiet = prune.quiet_at(l);
-            match hierarchy.shapes.get(l).and_then(Option::as_ref) {
-                Some(shapes) => {
-                    shapes.errors::<LANES>(level, h, quiet.as_ref(), |_, t, own| raise(t, own))
-                }
-                None => {
-                    for (i, t) in level.iter().enumerate() {
-                        let skip = quiet.as_ref().is_some_and(|q| q.get(i));
-                        raise(t, if skip { 0.0 } else { plane_error(t, h, coords) });
-                    }
-                }
-            }
+            level_errors(hierarchy, l, h, coords, quiet.as_ref(), |_, t, own| {
+                raise(t, own)
+            });
         }
         Self { n, value }
     }
@@ -147,28 +139,13 @@ impl Prune {
         let quiet_below = floor / (2.0 * (1.0 + 1e-6));
         for l in (PRUNE_STEP..splittable.saturating_sub(2)).step_by(PRUNE_STEP) {
             let level = &hierarchy.tris[hierarchy.level_start[l]..hierarchy.level_start[l + 1]];
-            let above = levels
-                .last()
-                .filter(|(_, _, flags)| flags.contains(&true))
-                .map(|(p, _, flags)| Quiet {
-                    flags: flags.as_slice(),
-                    shift: l - p,
-                });
+            let above = quiet_in(&levels, l);
             let mut own = vec![0.0; level.len()];
-            match hierarchy.shapes.get(l).and_then(Option::as_ref) {
-                Some(shapes) => shapes.errors::<LANES>(level, h, above.as_ref(), |i, _, e| {
-                    if let Some(slot) = own.get_mut(i) {
-                        *slot = e;
-                    }
-                }),
-                None => {
-                    for (i, (t, slot)) in level.iter().zip(own.iter_mut()).enumerate() {
-                        if !above.as_ref().is_some_and(|q| q.get(i)) {
-                            *slot = plane_error(t, h, coords);
-                        }
-                    }
+            level_errors(hierarchy, l, h, coords, above.as_ref(), |i, _, e| {
+                if let Some(slot) = own.get_mut(i) {
+                    *slot = e;
                 }
-            }
+            });
             let quiet = own
                 .iter()
                 .enumerate()
@@ -187,18 +164,46 @@ impl Prune {
             .map(|(_, own, _)| own.as_slice())
     }
 
-    /// The quiet flags that apply to level `l`: the deepest pruning level above it. None
-    /// when nothing there is quiet (a fine floor on rough ground), which spares the filter.
+    /// The quiet flags that apply to level `l`.
     fn quiet_at(&self, l: usize) -> Option<Quiet<'_>> {
-        self.levels
-            .iter()
-            .rev()
-            .find(|(p, _, _)| *p < l)
-            .filter(|(_, _, flags)| flags.contains(&true))
-            .map(|(p, _, flags)| Quiet {
-                flags: flags.as_slice(),
-                shift: l - p,
-            })
+        quiet_in(&self.levels, l)
+    }
+}
+
+/// The quiet flags of the deepest pruning level of `levels` above `l`. None when nothing
+/// there is quiet (a fine floor on rough ground), which spares the filter.
+fn quiet_in(levels: &[(usize, Vec<f64>, Vec<bool>)], l: usize) -> Option<Quiet<'_>> {
+    levels
+        .iter()
+        .rev()
+        .find(|(p, _, _)| *p < l)
+        .filter(|(_, _, flags)| flags.contains(&true))
+        .map(|(p, _, flags)| Quiet {
+            flags: flags.as_slice(),
+            shift: l - p,
+        })
+}
+
+/// The own error of every triangle of level `l`, handed to `sink` with its index in the
+/// level: through the level's shapes where it has them, else by scanline; 0, unevaluated,
+/// for the triangles `quiet` names.
+fn level_errors(
+    hierarchy: &Hierarchy,
+    l: usize,
+    h: &[f64],
+    coords: Coords,
+    quiet: Option<&Quiet>,
+    mut sink: impl FnMut(usize, &Tri, f64),
+) {
+    let level = &hierarchy.tris[hierarchy.level_start[l]..hierarchy.level_start[l + 1]];
+    match hierarchy.shapes.get(l).and_then(Option::as_ref) {
+        Some(shapes) => shapes.errors::<LANES>(level, h, quiet, sink),
+        None => {
+            for (i, t) in level.iter().enumerate() {
+                let skip = quiet.is_some_and(|q| q.get(i));
+                sink(i, t, if skip { 0.0 } else { plane_error(t, h, coords) });
+            }
+        }
     }
 }
 
@@ -730,49 +735,6 @@ mod tests {
             tiles.push((format!("raw {row},{col}"), g));
         }
         tiles
-    }
-
-    #[test]
-    #[ignore]
-    fn level_times() {
-        let n = 257;
-        let hier = Hierarchy::new(n).unwrap();
-        let g = crate::fixtures::n44w072().crop(300, 500, n, n).unwrap();
-        let h = g.data();
-        let coords = Coords::new(n);
-        let splittable = hier.levels() - 1;
-        let reps = 50;
-        let time = |f: &mut dyn FnMut()| {
-            (0..7)
-                .map(|_| {
-                    let t0 = std::time::Instant::now();
-                    for _ in 0..reps {
-                        f();
-                    }
-                    t0.elapsed().as_secs_f64() * 1e6 / reps as f64
-                })
-                .fold(f64::MAX, f64::min)
-        };
-        let mut value = vec![0f32; n * n];
-        let us = time(&mut || finest_two_levels(h, n, &mut value));
-        eprintln!("finest two: {us:.1} us");
-        for l in (0..splittable.saturating_sub(2)).rev() {
-            let range = hier.level_start[l]..hier.level_start[l + 1];
-            let level = &hier.tris[range.clone()];
-            let shapes = Shapes::of_level(&hier, l, coords);
-            let mut own = vec![0.0; level.len()];
-            let shaped = time(&mut || shapes.errors::<LANES>(level, h, None, |t, _, e| own[t] = e));
-            let scan = time(&mut || {
-                for (o, t) in own.iter_mut().zip(level) {
-                    *o = plane_error(t, h, coords);
-                }
-            });
-            eprintln!(
-                "level {l} ({} tris, {} shapes): shaped {shaped:.1} us, scanline {scan:.1} us",
-                range.len(),
-                shapes.shapes.len()
-            );
-        }
     }
 
     /// The branch-free `round_up` against its definition, `next_up` when below.
