@@ -26,7 +26,7 @@ pub use stream::{Header, PassKind};
 
 use passes::{DecodeIo, EncodeIo, Truth};
 use reconstruct::{Dequantiser, INT53_LIMIT};
-use state::{Plan, State};
+use state::{Known, Plan, State};
 use tree::Tree;
 
 /// Default bound on decoded grid size (samples); a header asking for more is refused.
@@ -126,13 +126,6 @@ pub struct DecodedHeights {
     pub bytes_used: usize,
     pub bounded: bool,
     pub max_error: Option<f64>,
-}
-
-/// The zerotree state a decode built, in coder units ([`Decoded`]'s `significant` and
-/// `coefficients` before the step is applied).
-struct ZerotreeState {
-    significant: Grid<bool>,
-    coefficients: Grid<f64>,
 }
 
 /// Encodes `heights` (finite values, height units).
@@ -269,7 +262,7 @@ pub fn encode(heights: &Grid<f64>, params: &EncodeParams) -> Result<Encoded, Par
                 (c, Some(&(prop, _))) if c % 3 == 2 => prop,
                 (_, Some(&(_, clean))) => clean,
             };
-            let entries = state.found[..found].iter().map(|e| state::Known {
+            let entries = state.found[..found].iter().map(|e| Known {
                 mag: e.mag >> k << k,
                 known: k as u8,
                 ..*e
@@ -331,14 +324,22 @@ pub fn decode(
     limit: DecodeLimit,
     max_samples: usize,
 ) -> Result<Decoded, DecodeError> {
-    let (d, tree, header) = decode_centered(bytes, limit, max_samples, true)?;
+    // The zerotree state, taken before the coefficients become heights.
+    let tree = |found: &[Known], coefficients: &Grid<f64>| {
+        let mut significant = Grid::new(
+            coefficients.rows(),
+            coefficients.cols(),
+            vec![false; coefficients.len()],
+        )
+        .map_err(|e| DecodeError::Malformed(e.to_string()))?;
+        for e in found {
+            significant.data_mut()[e.idx as usize] = true;
+        }
+        Ok((significant, coefficients.clone()))
+    };
+    let (d, (significant, mut coefficients), header) =
+        decode_centered(bytes, limit, max_samples, tree)?;
     let d = to_height_units(d, &header);
-    let ZerotreeState {
-        significant,
-        mut coefficients,
-    } = tree.ok_or(DecodeError::Malformed(
-        "zerotree state missing (internal)".into(),
-    ))?;
     for c in coefficients.data_mut() {
         *c *= header.step;
     }
@@ -360,7 +361,7 @@ pub fn decode_heights(
     limit: DecodeLimit,
     max_samples: usize,
 ) -> Result<DecodedHeights, DecodeError> {
-    let (d, _, header) = decode_centered(bytes, limit, max_samples, false)?;
+    let (d, (), header) = decode_centered(bytes, limit, max_samples, |_, _| Ok(()))?;
     Ok(to_height_units(d, &header))
 }
 
@@ -371,14 +372,15 @@ fn to_height_units(mut d: DecodedHeights, header: &Header) -> DecodedHeights {
     d
 }
 
-/// [`decode`] with heights left in centred coder units (what the residual pass works in).
-/// With `keep_tree`, also the zerotree state (coder units).
-fn decode_centered(
+/// [`decode`] with heights left in centred coder units (what the residual pass works in),
+/// and whatever `keep` takes from the significant coefficients and their grid (coder units)
+/// before the grid becomes the heights.
+fn decode_centered<T>(
     bytes: &[u8],
     limit: DecodeLimit,
     max_samples: usize,
-    keep_tree: bool,
-) -> Result<(DecodedHeights, Option<ZerotreeState>, Header), DecodeError> {
+    keep: impl FnOnce(&[Known], &Grid<f64>) -> Result<T, DecodeError>,
+) -> Result<(DecodedHeights, T, Header), DecodeError> {
     let prefix = match limit {
         DecodeLimit::Bytes(n) => &bytes[..n.min(bytes.len())],
         _ => bytes,
@@ -448,14 +450,8 @@ fn decode_centered(
     // Coefficients back to heights.
     let dq = Dequantiser::new(header.wavelet, &layout, header.qexp);
     let coefficients = dq.coefficients(&plan, &layout, state.found.iter().copied());
-    let (mut heights, coefficients) = if keep_tree {
-        (
-            dq.heights(coefficients.clone(), &layout),
-            Some(coefficients),
-        )
-    } else {
-        (dq.heights(coefficients, &layout), None)
-    };
+    let kept = keep(&state.found, &coefficients)?;
+    let mut heights = dq.heights(coefficients, &layout);
     let mut max_error = at_pass_end
         .checked_sub(1)
         .and_then(|s| header.pass_error(s));
@@ -477,24 +473,6 @@ fn decode_centered(
         // A whole stream was read, trailer included.
         pos = end;
     }
-    let tree = match coefficients {
-        Some(coefficients) => {
-            let mut significant = Grid::new(
-                header.rows,
-                header.cols,
-                vec![false; header.rows * header.cols],
-            )
-            .map_err(|e| DecodeError::Malformed(e.to_string()))?;
-            for e in &state.found {
-                significant.data_mut()[e.idx as usize] = true;
-            }
-            Some(ZerotreeState {
-                significant,
-                coefficients,
-            })
-        }
-        None => None,
-    };
     let threshold = last_plane.map_or(f64::INFINITY, |p| header.plane_threshold(p));
     Ok((
         DecodedHeights {
@@ -505,7 +483,7 @@ fn decode_centered(
             bounded,
             max_error,
         },
-        tree,
+        kept,
         header,
     ))
 }
