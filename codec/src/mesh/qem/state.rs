@@ -309,14 +309,23 @@ impl State {
         }
     }
 
+    /// The pair's summed quadric, the point that minimises it and the value there: the
+    /// regularised solve inline, the paper's fallback out of line (it keeps the sum out of
+    /// memory on the common path).
+    #[inline(always)]
+    fn optimum(&self, a: u32, b: u32) -> (Quadric, DVec3, f64) {
+        let (ga, gb) = (&self.geo[a as usize], &self.geo[b as usize]);
+        let q = ga.q + gb.q;
+        let (p, e) = q
+            .solve(ga.pos, gb.pos)
+            .unwrap_or_else(|| Quadric::segment_fallback(&ga.q, &gb.q, ga.pos, gb.pos));
+        (q, p, e)
+    }
+
     /// The contraction target alone (the error is already in the ranked entry).
     #[inline]
     pub(super) fn target(&self, a: u32, b: u32) -> DVec3 {
-        let (ga, gb) = (&self.geo[a as usize], &self.geo[b as usize]);
-        (ga.q + gb.q).solve(ga.pos, gb.pos).map_or_else(
-            || Quadric::segment_fallback(&ga.q, &gb.q, ga.pos, gb.pos).0,
-            |(p, _)| p,
-        )
+        self.optimum(a, b).1
     }
 
     /// The pair (a, b) ranked now, unless a vertex is locked. Always inlined into its two
@@ -326,15 +335,12 @@ impl State {
         if (self.flags[a as usize] | self.flags[b as usize]) & LOCKED != 0 {
             return None;
         }
-        let (ga, gb) = (&self.geo[a as usize], &self.geo[b as usize]);
-        let q = ga.q + gb.q;
-        let (_, e) = q
-            .solve(ga.pos, gb.pos)
-            .unwrap_or_else(|| Quadric::segment_fallback(&ga.q, &gb.q, ga.pos, gb.pos));
+        let (q, _, e) = self.optimum(a, b);
         let e = if q.w > 0.0 { e / q.w } else { e };
         // Only overflowing coordinates give NaN; rank those last.
         let e = if e.is_nan() { f64::INFINITY } else { e };
-        let key = e + TIE_BREAK * (ga.pos - gb.pos).length_squared();
+        let len_sq = (self.geo[a as usize].pos - self.geo[b as usize].pos).length_squared();
+        let key = e + TIE_BREAK * len_sq;
         Some(Entry {
             // Non-negative floats order like their bits; 14 mantissa bits (errors within 6·10⁻⁵
             // of each other tie and keep their order) let the sort take two radix passes.
