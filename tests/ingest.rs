@@ -9,7 +9,7 @@ use std::process::Command;
 
 use zerotile_codec::container::{Container, Limits, TileId, TileRecord};
 use zerotile_codec::ezw::{self, DecodeLimit};
-use zerotile_tests::{assert_success, shared_data, zerotile_bin};
+use zerotile_tests::{assert_success, ingest_command, shared_data, zerotile_bin};
 
 fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("zerotile-e2e-{}-{name}", std::process::id()));
@@ -18,14 +18,7 @@ fn scratch(name: &str) -> PathBuf {
 }
 
 fn ingest(input: &Path, name: &str, data: &Path, extra: &[&str]) -> std::process::Output {
-    Command::new(zerotile_bin())
-        .arg("ingest")
-        .arg(input)
-        .args(["--name", name, "--quiet", "--data"])
-        .arg(data)
-        .args(extra)
-        .output()
-        .unwrap()
+    ingest_command(input, name, data, extra).output().unwrap()
 }
 
 #[test]

@@ -6,6 +6,7 @@
 )]
 
 use std::path::{Path, PathBuf};
+use std::process::Command;
 use std::sync::OnceLock;
 use std::time::SystemTime;
 
@@ -75,6 +76,17 @@ fn newest_in(dir: &Path) -> Option<SystemTime> {
         newest = newest.max(time);
     }
     newest
+}
+
+/// `zerotile ingest INPUT --name NAME --quiet --data DATA EXTRA…`, not yet run.
+pub fn ingest_command(input: &Path, name: &str, data: &Path, extra: &[&str]) -> Command {
+    let mut cmd = Command::new(zerotile_bin());
+    cmd.arg("ingest")
+        .arg(input)
+        .args(["--name", name, "--quiet", "--data"])
+        .arg(data)
+        .args(extra);
+    cmd
 }
 
 /// Fails the test with the command's stderr unless it succeeded.

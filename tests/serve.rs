@@ -22,7 +22,7 @@ use zerotile_codec::wavelet::Wavelet;
 use zerotile_codec::zerotree::{mesh_error, TerrainMesh};
 use zerotile_codec::Grid;
 use zerotile_tests::server::Server;
-use zerotile_tests::{qm, run_ok, shared_data, zerotile_bin};
+use zerotile_tests::{ingest_command, qm, run_ok, shared_data, zerotile_bin};
 
 /// Top-left sample of the crop in N44W072 and its side: 2 × 2 tiles of 257 samples.
 const CROP: (usize, usize, usize) = (300, 400, 513);
@@ -68,22 +68,16 @@ fn data_dir() -> &'static Path {
             text.push('\n');
         }
         std::fs::write(&asc, text).unwrap();
-        run_ok(
-            Command::new(zerotile_bin())
-                .args(["ingest", "--quiet", "--name", "crop", "--data"])
-                .arg(&dir)
-                .arg(&asc),
-        );
+        run_ok(&mut ingest_command(&asc, "crop", &dir, &[]));
         std::fs::remove_file(&asc).unwrap();
         // The whole SRTM tile on Cesium's geodetic grid.
-        run_ok(
-            Command::new(zerotile_bin())
-                .args([
-                    "ingest", "--quiet", "--scheme", "geodetic", "--name", "srtm", "--data",
-                ])
-                .arg(&dir)
-                .arg(shared_data().join("dem/N44W072.hgt")),
-        );
+        let hgt = shared_data().join("dem/N44W072.hgt");
+        run_ok(&mut ingest_command(
+            &hgt,
+            "srtm",
+            &dir,
+            &["--scheme", "geodetic"],
+        ));
         write_world(&dir.join("world.ztd"), "geodetic", &[0, 1]);
         write_world(&dir.join("half.ztd"), "geodetic", &[0]);
         write_world(&dir.join("merc.ztd"), "mercator", &[0]);

@@ -16,7 +16,7 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use zerotile_tests::server::Server;
-use zerotile_tests::{run_ok, shared_data, zerotile_bin};
+use zerotile_tests::{ingest_command, run_ok, shared_data, zerotile_bin};
 
 /// A `moto_server` on a free loopback port, stopped on drop.
 struct Moto {
@@ -92,14 +92,13 @@ fn s3_datasets_serve_the_same_bytes_by_range_reads() {
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("storage-s3");
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    run_ok(
-        Command::new(zerotile_bin())
-            .args([
-                "ingest", "--quiet", "--scheme", "geodetic", "--name", "srtm", "--data",
-            ])
-            .arg(&dir)
-            .arg(shared_data().join("dem/N44W072.hgt")),
-    );
+    let hgt = shared_data().join("dem/N44W072.hgt");
+    run_ok(&mut ingest_command(
+        &hgt,
+        "srtm",
+        &dir,
+        &["--scheme", "geodetic"],
+    ));
     let file = std::fs::read(dir.join("srtm.ztd")).unwrap();
 
     // The bucket: the dataset, a truncated copy (skipped, not fatal) and an unrelated object.
