@@ -158,9 +158,9 @@ pub struct ViewPlane {
     /// Footprint area and terrain area: square metres (square samples for a local grid).
     pub a_v: f64,
     pub a_t: f64,
-    /// The footprint's corners in the query's own coordinates: longitude and latitude
-    /// degrees, or column and row.
-    pub footprint: [[f64; 2]; 4],
+    /// The footprint, a convex polygon in the query's own coordinates: longitude and
+    /// latitude degrees, or column and row.
+    pub footprint: Vec<[f64; 2]>,
 }
 
 /// The view plane of the camera in the query (see docs/api.md for the model).
@@ -221,7 +221,7 @@ pub fn view_plane(d: &Dataset, q: &HashMap<String, String>) -> Result<ViewPlane,
         fov_deg,
         aspect,
     };
-    // Rays past the horizon stop at the terrain's own diagonal.
+    // The view past the horizon stops at the terrain's own diagonal.
     let far = (2.0 * a_t).sqrt().max(1.0);
     let points =
         footprint(&cam, far).map_err(|e| ApiError::bad_request("bad_view", e.to_string()))?;
@@ -231,7 +231,7 @@ pub fn view_plane(d: &Dataset, q: &HashMap<String, String>) -> Result<ViewPlane,
         ratio: a_v / a_t,
         a_v,
         a_t,
-        footprint: points.map(|p| from_plane(p.x, p.y)),
+        footprint: points.iter().map(|p| from_plane(p.x, p.y)).collect(),
     })
 }
 
@@ -241,12 +241,28 @@ pub fn number(name: &str, s: &str, lo: f64, hi: f64) -> Result<f64, ApiError> {
         ApiError::bad_request("bad_number", format!("{name} must be a number, got {s:?}"))
     })?;
     if !v.is_finite() || v < lo || v > hi {
+        // A lower bound of the smallest positive f64 is "above 0" to a reader.
+        let low = if lo == f64::MIN_POSITIVE {
+            "(0".to_owned()
+        } else {
+            format!("[{}", short(lo))
+        };
         return Err(ApiError::bad_request(
             "out_of_range",
-            format!("{name} must be finite and in [{lo}, {hi}], got {s}"),
+            format!("{name} must be in {low}, {}], got {s}", short(hi)),
         ));
     }
     Ok(v)
+}
+
+/// `v` as the shortest text that reads back as `v`, in exponent form where the plain decimal
+/// would run to dozens of digits (a threshold of 1e-300 is valid, and goes into headers).
+pub fn short(v: f64) -> String {
+    if v != 0.0 && v.is_finite() && !(1e-6..1e15).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        v.to_string()
+    }
 }
 
 /// `x,y,z`, each finite and within [`MAX_COORDINATE`].
@@ -324,5 +340,22 @@ mod tests {
         assert!(number("t", "1e300", 0.0, 1.0).is_err());
         assert!(number("t", "x", 0.0, 1.0).is_err());
         assert_eq!(number("t", "0.5", 0.0, 1.0), Ok(0.5));
+    }
+
+    #[test]
+    fn ranges_and_numbers_read_short() {
+        let message = |r: Result<f64, ApiError>| r.unwrap_err().to_string();
+        let fov = message(number("fov", "0", f64::MIN_POSITIVE, 179.0));
+        assert!(fov.contains("fov must be in (0, 179], got 0"), "{fov}");
+        let t = message(number("threshold", "-1", 0.0, MAX_THRESHOLD));
+        assert!(t.contains("in [0, 100000]"), "{t}");
+        assert_eq!(short(1e-300), "1e-300");
+        assert_eq!(short(2.0), "2");
+        assert_eq!(short(0.125), "0.125");
+        assert_eq!(short(0.0), "0");
+        for v in [1e-300, 3.7e-7, 0.1, 148.25, 1e20, 12_345.678] {
+            assert_eq!(short(v).parse::<f64>(), Ok(v));
+            assert!(short(v).len() < 24, "{}", short(v));
+        }
     }
 }

@@ -2,12 +2,13 @@
 //! plane, and its area A_v against the terrain plane's area A_t.
 //!
 //! Model (documented in docs/api.md): the terrain plane is the horizontal plane through the
-//! target point. The four corner rays of a symmetric frustum (vertical field of view `fov`,
-//! width/height `aspect`, no roll: the camera's right vector stays horizontal) are cut with
-//! that plane; a ray that never meets it, or meets it farther than `far` from the eye's
-//! foot, is stopped at horizontal distance `far` along its own heading. A_v is the area of
-//! the quadrilateral through the four points. All lengths are in one horizontal unit (the
-//! caller converts degrees or grid samples to metres first).
+//! target. A symmetric frustum (vertical field of view `fov`, width/height `aspect`, no roll:
+//! the camera's right vector stays horizontal) is cut with that plane and the cut is clipped
+//! to the disk of radius `far` around the eye's foot (a regular [`DISK_SIDES`]-gon), which
+//! bounds the part of the view past the horizon. The footprint is that convex polygon and
+//! A_v its area. A wider or taller frustum holds the narrower one, so its footprint holds the
+//! narrower one's: A_v never falls as `fov` or `aspect` grow. All lengths are in one
+//! horizontal unit (the caller converts degrees or grid samples to metres first).
 
 use glam::{DVec2, DVec3};
 
@@ -31,9 +32,18 @@ pub struct Camera {
     pub aspect: f64,
 }
 
-/// The frustum's footprint on the plane z = target.z, as four points (counter-clockwise
-/// seen from above), each no farther than `far` from the eye's foot.
-pub fn footprint(cam: &Camera, far: f64) -> Result<[DVec2; 4], ViewError> {
+/// Sides of the polygon standing in for the disk of radius `far`: its area is within 0.2 %
+/// of the disk's.
+pub const DISK_SIDES: usize = 64;
+
+/// The frustum's footprint on the plane z = target.z, clipped to `far` around the eye's foot:
+/// a convex polygon, counter-clockwise seen from above.
+///
+/// Each side plane of the frustum passes through the eye, so on the terrain plane it is a
+/// half-plane; the footprint is the disk cut by the four. (Stopping each corner ray at `far`
+/// instead, as this did before, collapsed a wide view to a thin strip: with a large aspect
+/// all four rays head nearly sideways.)
+pub fn footprint(cam: &Camera, far: f64) -> Result<Vec<DVec2>, ViewError> {
     // Camera frame: forward, a horizontal right, and up completing it.
     let forward = (cam.target - cam.eye)
         .try_normalize()
@@ -45,27 +55,44 @@ pub fn footprint(cam: &Camera, far: f64) -> Result<[DVec2; 4], ViewError> {
     let right = forward.cross(DVec3::Z).try_normalize().unwrap_or(DVec3::X);
     let up = right.cross(forward);
 
-    // Corner rays, cut with the plane or stopped at `far`.
     let th = (cam.fov_deg.to_radians() / 2.0).tan();
     let tw = th * cam.aspect;
+    let corners = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+        .map(|(sx, sy)| forward + right * (sx * tw) + up * (sy * th));
     let foot = cam.eye.truncate();
-    let corner = |sx: f64, sy: f64| {
-        let d = forward + right * (sx * tw) + up * (sy * th);
-        let heading = d.truncate();
-        let along = if d.z < 0.0 {
-            heading.length() * height / -d.z
-        } else {
-            f64::INFINITY
-        };
-        let dir = heading.try_normalize().unwrap_or(DVec2::ZERO);
-        foot + dir * along.min(far)
-    };
-    Ok([
-        corner(-1.0, -1.0),
-        corner(1.0, -1.0),
-        corner(1.0, 1.0),
-        corner(-1.0, 1.0),
-    ])
+    let mut polygon: Vec<DVec2> = (0..DISK_SIDES)
+        .map(|i| {
+            let a = std::f64::consts::TAU * i as f64 / DISK_SIDES as f64;
+            foot + DVec2::new(a.cos(), a.sin()) * far
+        })
+        .collect();
+    let next = corners.iter().cycle().skip(1);
+    for (&c, &d) in corners.iter().zip(next) {
+        // The side plane through the eye and two neighbouring corner rays, its normal
+        // pointing into the frustum; on the terrain plane (z = -height relative to the eye)
+        // it keeps the points p with n.xy · (p - foot) ≥ n.z · height.
+        let n = c.cross(d);
+        let n = if n.dot(forward) < 0.0 { -n } else { n };
+        let keep = |p: DVec2| n.truncate().dot(p - foot) - n.z * height;
+        polygon = clip(&polygon, keep);
+    }
+    Ok(polygon)
+}
+
+/// Sutherland–Hodgman: the part of convex `polygon` where `side` ≥ 0 (`side` linear).
+fn clip(polygon: &[DVec2], side: impl Fn(DVec2) -> f64) -> Vec<DVec2> {
+    let mut out = Vec::with_capacity(polygon.len() + 1);
+    let after = polygon.iter().skip(1).chain(polygon.first());
+    for (&a, &b) in polygon.iter().zip(after) {
+        let (sa, sb) = (side(a), side(b));
+        if sa >= 0.0 {
+            out.push(a);
+        }
+        if (sa >= 0.0) != (sb >= 0.0) {
+            out.push(a + (b - a) * (sa / (sa - sb)));
+        }
+    }
+    out
 }
 
 /// Area of a simple polygon (shoelace formula), ≥ 0.
@@ -115,6 +142,54 @@ mod tests {
         let f = footprint(&cam, 1000.0).unwrap();
         assert!(f.iter().all(|p| p.length() <= 1000.0 + 1e-9));
         assert!(polygon_area(&f) > 0.0);
+    }
+
+    #[test]
+    fn a_wider_view_never_sees_less() {
+        // An oblique camera (the audit's: a large aspect used to collapse the footprint to a
+        // strip, A_v 3.8 M → 11 k).
+        let area = |fov_deg: f64, aspect: f64| {
+            let cam = Camera {
+                eye: DVec3::new(600.0, -900.0, 2000.0),
+                target: DVec3::new(600.0, -600.0, 300.0),
+                fov_deg,
+                aspect,
+            };
+            polygon_area(&footprint(&cam, 5000.0).unwrap())
+        };
+        let mut last = 0.0;
+        for fov in [1.0, 10.0, 30.0, 60.0, 90.0, 120.0, 150.0, 179.0] {
+            let mut row = 0.0;
+            for aspect in [0.001, 0.1, 1.0, 2.0, 10.0, 1000.0] {
+                let a = area(fov, aspect);
+                assert!(a >= row, "fov {fov} aspect {aspect}: {a} < {row}");
+                row = a;
+            }
+            let a = area(fov, 1.0);
+            assert!(a >= last, "fov {fov}: {a} < {last}");
+            last = a;
+        }
+        // Past the horizon the view is the disk's: the widest view sees all of it.
+        let disk = std::f64::consts::PI * 5000.0 * 5000.0;
+        assert!(area(179.0, 1000.0) > 0.49 * disk, "{}", area(179.0, 1000.0));
+    }
+
+    #[test]
+    fn the_footprint_holds_the_target() {
+        let cam = Camera {
+            eye: DVec3::new(10.0, 20.0, 300.0),
+            target: DVec3::new(200.0, -50.0, 0.0),
+            fov_deg: 40.0,
+            aspect: 1.6,
+        };
+        let f = footprint(&cam, 1e4).unwrap();
+        let t = DVec2::new(200.0, -50.0);
+        // Convex and counter-clockwise: the target is left of every edge.
+        let after = f.iter().skip(1).chain(f.first());
+        assert!(f
+            .iter()
+            .zip(after)
+            .all(|(&a, &b)| (b - a).perp_dot(t - a) > 0.0));
     }
 
     #[test]

@@ -232,7 +232,7 @@ fn cache_headers(
     h.insert(ETAG, header(etag)?);
     let cache = format!("public, max-age={}", state.config.tile_max_age);
     h.insert(CACHE_CONTROL, header(&cache)?);
-    h.insert("x-threshold", header(&t.to_string())?);
+    h.insert("x-threshold", header(&threshold::short(t))?);
     match variant {
         Variant::Terrain { .. } => {
             h.insert(VARY, HeaderValue::from_static("Accept, Accept-Encoding"));
@@ -286,15 +286,15 @@ fn parse_address(d: &Dataset, z: &str, x: &str, y_ext: &str) -> ApiResult<(TileI
             format!("unknown tile format {ext:?}: use terrain, png, json, bin, obj, glb or ezw"),
         )
     })?;
-    let bad = |what: &str, s: &str| {
+    let bad = |what: &str, s: &str, max: u32| {
         ApiError::bad_request(
             "bad_tile_address",
-            format!("{what} must be a non-negative integer, got {s:?}"),
+            format!("{what} must be an integer from 0 to {max}, got {s:?}"),
         )
     };
-    let z: u8 = z.parse().map_err(|_| bad("z", z))?;
-    let x: u32 = x.parse().map_err(|_| bad("x", x))?;
-    let y: u32 = y.parse().map_err(|_| bad("y", y))?;
+    let z: u8 = z.parse().map_err(|_| bad("z", z, u8::MAX.into()))?;
+    let x: u32 = x.parse().map_err(|_| bad("x", x, u32::MAX))?;
+    let y: u32 = y.parse().map_err(|_| bad("y", y, u32::MAX))?;
     let id = TileId { z, x, y };
     let m = d.metadata();
     if z < m.min_zoom || z > m.max_zoom {
@@ -343,7 +343,8 @@ fn variant(
                     return Err(ApiError::bad_request(
                         "bad_encoding",
                         format!(
-                            "encoding must be terrain-rgb (default) or terrarium, got {other:?}"
+                            "encoding must be terrain-rgb (the default; also called mapbox) or \
+                             terrarium, got {other:?}"
                         ),
                     ))
                 }

@@ -24,7 +24,7 @@ use super::meta::dataset;
 use crate::serve::dataset::Dataset;
 use crate::serve::error::{ApiError, ApiResult};
 use crate::serve::state::AppState;
-use crate::serve::threshold::{eq4, view_plane, ViewPlane};
+use crate::serve::threshold::{self, eq4, view_plane, ViewPlane};
 use crate::serve::{pipeline, render};
 
 /// Most tiles one view request meshes: the zoom is chosen so the footprint fits.
@@ -116,7 +116,7 @@ pub async fn view(
         ("x-a-v", plane.a_v),
         ("x-a-t", plane.a_t),
     ] {
-        h.insert(k, header(&v.to_string())?);
+        h.insert(k, header(&threshold::short(v))?);
     }
     h.insert("x-triangles", header(&triangles.to_string())?);
     h.insert("x-zoom", header(&zoom.to_string())?);
