@@ -163,7 +163,11 @@ pub fn range(headers: &HeaderMap, len: u64) -> RangeAsk {
         return RangeAsk::Full;
     };
     let (a, b) = (a.trim(), b.trim());
-    let parse = |s: &str| s.parse::<u64>().ok();
+    // RFC 9110 positions are digits of any length: one past u64 is past every body.
+    let parse = |s: &str| {
+        (!s.is_empty() && s.bytes().all(|c| c.is_ascii_digit()))
+            .then(|| s.parse::<u64>().unwrap_or(u64::MAX))
+    };
     match (a.is_empty(), b.is_empty()) {
         // Suffix: the last n bytes.
         (true, false) => match parse(b) {
@@ -251,6 +255,20 @@ mod tests {
         assert_eq!(r("bytes=100-", 100), RangeAsk::Unsatisfiable);
         assert_eq!(r("bytes=0-1,5-6", 100), RangeAsk::Full);
         assert_eq!(r("items=0-1", 100), RangeAsk::Full);
+        // Positions too long for u64 are still positions, not garbage.
+        assert_eq!(
+            r("bytes=99999999999999999999999-", 100),
+            RangeAsk::Unsatisfiable
+        );
+        assert_eq!(
+            r("bytes=10-99999999999999999999999", 100),
+            RangeAsk::Part { start: 10, end: 99 }
+        );
+        assert_eq!(
+            r("bytes=-99999999999999999999999", 100),
+            RangeAsk::Part { start: 0, end: 99 }
+        );
+        assert_eq!(r("bytes=+5-9", 100), RangeAsk::Full);
     }
 
     #[test]
