@@ -168,3 +168,66 @@ fn a_failed_export_leaves_the_previous_tree_and_says_why() {
     assert_eq!(stray, 0);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `--out` is replaced whole, so only an empty folder or an earlier export may be: a folder
+/// of the user's files and a plain file are refused untouched, with exit 1.
+#[test]
+fn export_refuses_to_replace_what_is_not_an_export() {
+    let dir = scratch("refuse");
+    let tif = shared_data().join("dem/terra_elev.tif");
+    let tif = tif.to_str().unwrap();
+    assert_success(&zerotile(
+        &[
+            "ingest", tif, "--name", "lux", "--scheme", "geodetic", "--quiet",
+        ],
+        &dir,
+    ));
+    let export = |out: &str| {
+        zerotile(
+            &[
+                "export", "lux", "--format", "png", "--zoom", "3", "--out", out, "--quiet",
+            ],
+            &dir,
+        )
+    };
+
+    std::fs::create_dir_all(dir.join("precious")).unwrap();
+    std::fs::write(dir.join("precious/notes.txt"), "mine").unwrap();
+    std::fs::write(dir.join("plain"), "also mine").unwrap();
+    for (out, says) in [
+        ("precious", "not an earlier zerotile export"),
+        ("plain", "is a file"),
+    ] {
+        let r = export(out);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(1), "{out}: {err}");
+        assert!(err.contains(out) && err.contains(says), "{out}: {err}");
+    }
+    assert_eq!(
+        std::fs::read_to_string(dir.join("precious/notes.txt")).unwrap(),
+        "mine"
+    );
+    assert_eq!(std::fs::read_dir(dir.join("precious")).unwrap().count(), 1);
+    assert_eq!(
+        std::fs::read_to_string(dir.join("plain")).unwrap(),
+        "also mine"
+    );
+
+    // An empty folder is replaced, and so is an earlier export, which says it is one.
+    std::fs::create_dir_all(dir.join("empty")).unwrap();
+    assert_success(&export("empty"));
+    assert!(!files(&dir.join("empty"), "png").is_empty());
+    assert!(dir.join("empty/.zerotile-export").is_file());
+    std::fs::write(dir.join("empty/3/stale.png"), "old").unwrap();
+    assert_success(&export("empty"));
+    assert!(!dir.join("empty/3/stale.png").exists());
+    assert!(!files(&dir.join("empty"), "png").is_empty());
+
+    let stray = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter_map(Result::ok)
+        .filter(|e| e.file_name().to_string_lossy().starts_with('.'))
+        .count();
+    assert_eq!(stray, 0);
+    let _ = std::fs::remove_dir_all(&dir);
+}

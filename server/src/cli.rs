@@ -52,7 +52,8 @@ pub struct ExportArgs {
     /// Tile format: terrain (Cesium quantized-mesh), png (terrain-RGB, 512²) or json (mesh).
     #[arg(long, default_value = "terrain")]
     pub format: String,
-    /// Output folder; replaced atomically when the export is complete.
+    /// Output folder: new, empty or an earlier export (any other folder or a file is refused);
+    /// replaced atomically when the export is complete.
     #[arg(long)]
     pub out: PathBuf,
     /// Zooms to export: A-B or Z (default: all).

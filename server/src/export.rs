@@ -3,7 +3,9 @@
 //! default threshold.
 //!
 //! Written into a temporary folder beside `--out` and swapped in at the end: a failed export
-//! leaves an existing `--out` as it was.
+//! leaves an existing `--out` as it was. Only an empty folder or an earlier export (which
+//! holds [`MARKER`]) is replaced: the swap deletes what `--out` held, so anything else there
+//! is the user's and is refused.
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
@@ -20,6 +22,10 @@ use crate::serve::pipeline::Cancel;
 use crate::serve::routes::meta::layer;
 use crate::serve::routes::tiles::{render_tile, TileFormat, Variant};
 use crate::serve::{threshold, AppState, Catalog, Config};
+
+/// The file every export writes at its root, so that a later export knows the folder is
+/// one it may replace.
+pub const MARKER: &str = ".zerotile-export";
 
 /// What to export.
 #[derive(Clone, Debug)]
@@ -59,7 +65,43 @@ pub fn parse_zooms(s: &str) -> Result<(u8, u8), String> {
     Ok((a, b))
 }
 
+/// Errors unless `out` may be replaced by an export: absent, an empty folder or an earlier
+/// export. Refusing before any work keeps a user's files (or a file named like the folder)
+/// from being swapped away.
+fn check_out(out: &Path) -> Result<()> {
+    let meta = match std::fs::symlink_metadata(out) {
+        Ok(m) => m,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+        Err(e) => return Err(e).with_context(|| format!("--out {}", out.display())),
+    };
+    if meta.file_type().is_symlink() {
+        bail!(
+            "--out {}: is a symbolic link; give the folder itself or a new path",
+            out.display()
+        );
+    }
+    if !meta.is_dir() {
+        bail!(
+            "--out {}: is a file, not a folder; give a new or empty folder",
+            out.display()
+        );
+    }
+    if out.join(MARKER).is_file() {
+        return Ok(());
+    }
+    let mut entries = std::fs::read_dir(out).with_context(|| format!("--out {}", out.display()))?;
+    if entries.next().is_some() {
+        bail!(
+            "--out {}: the folder has files and is not an earlier zerotile export (no {MARKER}); \
+             give a new or empty folder, an export replaces everything in it",
+            out.display()
+        );
+    }
+    Ok(())
+}
+
 pub fn run(job: &Export) -> Result<Exported> {
+    check_out(&job.out)?;
     let (format, ext) = match job.format.as_str() {
         "terrain" => (TileFormat::Terrain, "terrain"),
         "png" => (TileFormat::Png, "png"),
@@ -171,6 +213,10 @@ pub fn run(job: &Export) -> Result<Exported> {
             let bytes = serde_json::to_vec_pretty(&value)?;
             std::fs::write(tmp.join("layer.json"), &bytes)?;
         }
+        std::fs::write(
+            tmp.join(MARKER),
+            format!("zerotile export of {} as {ext}\n", d.name),
+        )?;
         Ok(n)
     });
     let exported = match result {
@@ -180,7 +226,12 @@ pub fn run(job: &Export) -> Result<Exported> {
             return Err(e);
         }
     };
-    // Swap: the old tree moves aside only once the new one is complete.
+    // Swap: the old tree moves aside only once the new one is complete. Checked again: the
+    // render took a while and `--out` may have been filled meanwhile.
+    if let Err(e) = check_out(&job.out) {
+        let _ = std::fs::remove_dir_all(&tmp);
+        return Err(e);
+    }
     let old = parent.join(format!(".{name}.old-{}", std::process::id()));
     let had_old = job.out.exists();
     if had_old {
