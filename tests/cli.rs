@@ -83,3 +83,39 @@ fn subdivide_quadruples_the_faces_and_refuses_bad_input() {
     assert!(String::from_utf8_lossy(&gone.stderr).contains("missing.obj"));
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A `--bpp` rate too small to hold the stream header is refused with the smallest usable
+/// rate, which then works.
+#[test]
+fn eval_terrain_names_the_smallest_usable_rate() {
+    let hgt = shared_data().join("dem/N44W072.hgt");
+    let eval = |bpp: &str| {
+        Command::new(zerotile_bin())
+            .args(["eval", "terrain"])
+            .arg(&hgt)
+            .args(["--crop", "0,0,65", "--repeat", "1", "--json", "--bpp", bpp])
+            .output()
+            .unwrap()
+    };
+    let out = eval("0.5,0");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("--bpp 0:") && err.contains("smallest usable rate"),
+        "{err}"
+    );
+    assert!(!err.contains("truncated"), "{err}");
+    let smallest = err
+        .split("for this window, ")
+        .nth(1)
+        .and_then(|s| s.split(' ').next())
+        .unwrap();
+    let ok = eval(smallest);
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    let point: serde_json::Value = serde_json::from_slice(&ok.stdout).unwrap();
+    assert_eq!(point["mode"], "bpp", "{point}");
+}

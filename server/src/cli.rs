@@ -194,7 +194,8 @@ pub struct TerrainArgs {
     /// Decode to these EZW thresholds (height units), comma-separated.
     #[arg(long, value_name = "T,..")]
     pub threshold: Option<String>,
-    /// Truncate the embedded stream at these bits per sample.
+    /// Truncate the embedded stream at these bits per sample (the header included, so a rate
+    /// must be at least the header's: a smaller one is refused with the smallest usable rate).
     #[arg(long, value_name = "B,..")]
     pub bpp: Option<String>,
     /// Guarantee |error| ≤ E height units with the residual pass.

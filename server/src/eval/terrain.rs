@@ -133,11 +133,14 @@ pub fn run(eval: &TerrainEval) -> Result<Vec<Point>> {
             let (encode_ms, enc) = median_ms(eval.repeat, || ezw::encode(&heights, &params));
             let enc = enc?;
             let threshold_mode = matches!(eval.sweep, Sweep::Threshold(_));
+            if !threshold_mode {
+                check_rates(ts, enc.header_len, heights.len())?;
+            }
             for &p in ts {
                 let limit = if threshold_mode {
                     DecodeLimit::Threshold(p)
                 } else {
-                    DecodeLimit::Bytes(((p * heights.len() as f64) / 8.0).floor() as usize)
+                    DecodeLimit::Bytes(rate_bytes(p, heights.len()))
                 };
                 let mode = if threshold_mode { "threshold" } else { "bpp" };
                 points.push(measure(
@@ -205,6 +208,26 @@ pub fn run(eval: &TerrainEval) -> Result<Vec<Point>> {
         }
     }
     Ok(points)
+}
+
+/// The stream prefix, in bytes, that `bpp` bits per sample buy over `samples` samples.
+fn rate_bytes(bpp: f64, samples: usize) -> usize {
+    ((bpp * samples as f64) / 8.0).floor() as usize
+}
+
+/// Errors unless every `--bpp` rate keeps the whole stream header (`header_len` bytes over
+/// `samples`): a shorter prefix decodes to nothing, so no point can be measured there.
+fn check_rates(rates: &[f64], header_len: usize, samples: usize) -> Result<()> {
+    // Rounded up to 4 decimals so that the rate printed is itself usable.
+    let smallest = (header_len as f64 * 8.0 / samples.max(1) as f64 * 1e4).ceil() / 1e4;
+    if let Some(p) = rates.iter().find(|&&p| rate_bytes(p, samples) < header_len) {
+        bail!(
+            "--bpp {p}: below the smallest usable rate for this window, {smallest} bits/sample \
+             (the stream's {header_len}-byte header over {samples} samples); a prefix without \
+             the whole header holds no data to decode"
+        );
+    }
+    Ok(())
 }
 
 #[allow(clippy::too_many_arguments)] // one call site per sweep kind; a struct would only rename them
