@@ -87,7 +87,6 @@ fn bad_names_and_schemes_are_refused_with_a_message() {
     let hgt = shared_data().join("dem/terra_elev.tif");
     for (name, extra, needle) in [
         ("../escape", &[][..], "dataset name"),
-        ("ok", &["--scheme", "utm"][..], "--scheme utm"),
         ("ok", &["--precision", "0"][..], "--precision"),
     ] {
         let out = ingest(&hgt, name, &data, extra);
@@ -95,6 +94,11 @@ fn bad_names_and_schemes_are_refused_with_a_message() {
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(err.contains(needle), "{name} {extra:?}: {err}");
     }
+    // An unknown scheme is a usage error, as clap reports any bad value: exit 2.
+    let out = ingest(&hgt, "ok", &data, &["--scheme", "utm"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("'utm'") && err.contains("--scheme"), "{err}");
     assert!(!data.join("ok.ztd").exists());
 }
 

@@ -108,7 +108,7 @@ pub struct IngestArgs {
     /// Tiling: local (the source grid as is), geodetic (EPSG:4326, Cesium quantized-mesh
     /// TMS) or mercator (EPSG:3857, XYZ as MapLibre uses); the last two need a source in
     /// EPSG:4326 or EPSG:3857.
-    #[arg(long, default_value = "local")]
+    #[arg(long, default_value = "local", value_parser = ["local", "geodetic", "mercator"])]
     pub scheme: String,
     /// Deepest zoom of a geodetic or mercator pyramid (default: the first zoom as fine as
     /// the source).
