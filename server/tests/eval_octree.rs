@@ -60,13 +60,31 @@ fn an_error_bound_or_a_missing_level_is_refused() {
     assert!(!eval(&["--level", "99", "--samples", "0"]).status.success());
 }
 
+/// The coarsest non-empty level answers a smaller budget, with a note on stderr so that
+/// --faces does not look ignored.
 #[test]
 fn a_budget_below_every_level_gets_the_coarsest_non_empty_level() {
-    let p = json(&eval(&["--faces", "100", "--samples", "0"]));
+    let out = eval(&["--faces", "100", "--samples", "0"]);
+    let p = json(&out);
     let levels = p["detail"]["levels"].as_array().expect("levels");
     let coarsest = levels
         .iter()
         .find(|l| l["faces"].as_u64() > Some(0))
         .expect("a non-empty level");
     assert_eq!(p["faces"], coarsest["faces"], "{p}");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains(&format!(
+            "--faces 100: the coarsest octree level of this mesh has {} faces",
+            coarsest["faces"]
+        )),
+        "{err}"
+    );
+    // Within the budget there is no note.
+    let out = eval(&["--faces", "9000", "--samples", "0"]);
+    assert!(
+        out.stderr.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
