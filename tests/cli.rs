@@ -119,3 +119,66 @@ fn eval_terrain_names_the_smallest_usable_rate() {
     let point: serde_json::Value = serde_json::from_slice(&ok.stdout).unwrap();
     assert_eq!(point["mode"], "bpp", "{point}");
 }
+
+/// Flags that would be ignored are refused: --encoding and --key on inputs whose reader does
+/// not use them (exit 1, as other refused combinations) and --repeat outside 1–100 (a usage
+/// error, exit 2).
+#[test]
+fn flags_that_would_be_ignored_are_refused() {
+    let hgt = shared_data().join("dem/N44W072.hgt");
+    let tif = shared_data().join("dem/terra_elev.tif");
+    let fandisk = shared_data().join("meshes/fandisk.obj");
+    let hgt = hgt.to_str().unwrap();
+    let tif = tif.to_str().unwrap();
+    let fandisk = fandisk.to_str().unwrap();
+    let cases: [(&[&str], i32, &str); 6] = [
+        (
+            &["ingest", hgt, "--name", "x", "--encoding", "terrarium"],
+            1,
+            "--encoding terrarium: applies to .png",
+        ),
+        (
+            &["ingest", tif, "--name", "x", "--key", "x"],
+            1,
+            "--key x: applies to .npz",
+        ),
+        (
+            &["eval", "terrain", hgt, "--lossless", "--encoding", "gray"],
+            1,
+            "--encoding gray",
+        ),
+        (
+            &["eval", "terrain", hgt, "--lossless", "--repeat", "0"],
+            2,
+            "--repeat",
+        ),
+        (
+            &[
+                "eval", "mesh", fandisk, "--method", "qem", "--faces", "9", "--repeat", "0",
+            ],
+            2,
+            "--repeat",
+        ),
+        (
+            &[
+                "eval", "mesh", fandisk, "--method", "qem", "--faces", "9", "--repeat", "101",
+            ],
+            2,
+            "--repeat",
+        ),
+    ];
+    let dir = std::env::temp_dir().join(format!("zerotile-cli-flags-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for (args, code, says) in cases {
+        let out = Command::new(zerotile_bin())
+            .args(args)
+            .current_dir(&dir)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(code), "{args:?}: {err}");
+        assert!(err.contains(says), "{args:?}: {err}");
+    }
+    assert!(!dir.join("data").exists(), "a refused ingest wrote data");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -214,8 +214,8 @@ pub struct TerrainArgs {
     /// paper's quadtree from the decoder's significance map).
     #[arg(long, value_enum)]
     pub mesher: Option<terrain::Mesher>,
-    /// Timed runs per measurement (medians are reported).
-    #[arg(long, default_value_t = 3)]
+    /// Timed runs per measurement, 1–100 (medians are reported).
+    #[arg(long, default_value_t = 3, value_parser = eval::parse_repeat())]
     pub repeat: usize,
     /// Bintree, threshold mode: read the stream to T × this share (default: the server's,
     /// 0.125), mesh with the rest. For measuring other shares; must be in (0, 1).
@@ -245,7 +245,39 @@ pub fn run() -> ExitCode {
     }
 }
 
+/// Errors when `--encoding` or `--key` is given for an input whose reader does not use it:
+/// the readers ignore options that do not apply, which would hide a mistaken file or flag.
+fn check_reader_flags(
+    input: &std::path::Path,
+    encoding: Option<Encoding>,
+    key: Option<&str>,
+) -> anyhow::Result<()> {
+    let ext = input
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .unwrap_or_default();
+    if let Some(e) = encoding {
+        if ext != "png" {
+            anyhow::bail!(
+                "--encoding {e}: applies to .png inputs only; {} is not a PNG",
+                input.display()
+            );
+        }
+    }
+    if let Some(k) = key {
+        if ext != "npz" {
+            anyhow::bail!(
+                "--key {k}: applies to .npz inputs only; {} is not an .npz",
+                input.display()
+            );
+        }
+    }
+    Ok(())
+}
+
 fn ingest(a: IngestArgs) -> anyhow::Result<()> {
+    check_reader_flags(&a.input, a.encoding, a.key.as_deref())?;
     let job = crate::ingest::Ingest {
         input: a.input,
         name: a.name,
@@ -384,6 +416,7 @@ fn serve(a: ServeArgs) -> anyhow::Result<()> {
 }
 
 fn eval_terrain(a: TerrainArgs) -> anyhow::Result<()> {
+    check_reader_flags(&a.input, a.encoding, a.key.as_deref())?;
     let sweep = if let Some(t) = &a.threshold {
         terrain::Sweep::Threshold(eval::parse_list("--threshold", t).map_err(anyhow::Error::msg)?)
     } else if let Some(b) = &a.bpp {
@@ -414,7 +447,7 @@ fn eval_terrain(a: TerrainArgs) -> anyhow::Result<()> {
         wavelet: a.wavelet,
         step: a.step,
         sweep,
-        repeat: a.repeat.clamp(1, 100),
+        repeat: a.repeat,
         eight_bit: a.eight_bit,
         mesher: a.mesher,
         decode_share,

@@ -59,8 +59,8 @@ pub struct MeshArgs {
     /// Print one JSON object instead of a table.
     #[arg(long)]
     pub json: bool,
-    /// Timed runs (the median is reported).
-    #[arg(long, default_value_t = DEFAULT_REPEAT)]
+    /// Timed runs, 1–100 (the median is reported).
+    #[arg(long, default_value_t = DEFAULT_REPEAT, value_parser = super::parse_repeat())]
     pub repeat: usize,
     /// Metro samples per direction for the distances (0: skip them).
     #[arg(long, default_value_t = DEFAULT_SAMPLES)]
@@ -112,7 +112,6 @@ pub fn run(args: &MeshArgs) -> Result<()> {
     // Read and repair: the simplifiers take a clean manifold.
     let input = load(&args.input, args.weld)?;
     // Simplify, timed over a few runs.
-    let repeat = args.repeat.clamp(1, 100);
     let view = match (&args.eye, &args.target) {
         (Some(e), Some(t)) => {
             if args.method != Method::Silhouette {
@@ -125,7 +124,7 @@ pub fn run(args: &MeshArgs) -> Result<()> {
         }
         _ => None,
     };
-    let (ms, result) = median_ms(repeat, || simplify(&input, args.method, param, view));
+    let (ms, result) = median_ms(args.repeat, || simplify(&input, args.method, param, view));
     let (output, detail) = result?;
     // The octree answers a budget below its coarsest level with that level (the benchmark
     // compares it at such targets): say so, or --faces would look ignored.

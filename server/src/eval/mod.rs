@@ -23,6 +23,12 @@ pub fn median_ms<T>(repeat: usize, mut f: impl FnMut() -> T) -> (f64, T) {
     }
 }
 
+/// `--repeat`: 1–100 timed runs, refused outside that range (clap's usage error) rather
+/// than clamped, so the count run is the count asked for.
+pub fn parse_repeat() -> clap::builder::RangedU64ValueParser<usize> {
+    clap::builder::RangedU64ValueParser::new().range(1..=100)
+}
+
 /// Parses "a,b,c" into numbers, naming the flag in the error.
 pub fn parse_list(flag: &str, s: &str) -> Result<Vec<f64>, String> {
     s.split(',')
