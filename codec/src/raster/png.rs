@@ -59,11 +59,19 @@ pub(super) fn read(path: &Path, opts: &ReadOptions) -> Result<Heightmap, RasterE
                 format!("a gray PNG cannot hold {encoding} heights; read it as gray (no encoding)"),
             ))
         }
-        (DynamicImage::ImageRgb8(_) | DynamicImage::ImageRgba8(_), None | Some(Encoding::Gray)) => {
+        (DynamicImage::ImageRgb8(_) | DynamicImage::ImageRgba8(_), None) => {
             return Err(RasterError::parameter(
                 path,
                 "a colour PNG encodes heights in its RGB channels: \
                  pass the encoding (--encoding terrain-rgb|terrarium)",
+            ))
+        }
+        // Gray was asked for by name: "pass the encoding" would read as if it had not been.
+        (DynamicImage::ImageRgb8(_) | DynamicImage::ImageRgba8(_), Some(Encoding::Gray)) => {
+            return Err(RasterError::parameter(
+                path,
+                "a colour (RGB) PNG, which gray cannot read: its heights are in the RGB \
+                 channels, which terrain-rgb and terrarium read (--encoding terrain-rgb|terrarium)",
             ))
         }
         (DynamicImage::ImageRgb8(img), Some(encoding)) => (
@@ -156,6 +164,19 @@ mod tests {
                 "{message}"
             );
         }
+    }
+
+    #[test]
+    fn gray_asked_of_a_colour_png_says_it_is_colour() {
+        let path = shared_data("dem/fuji.png");
+        let message = read(&path, &opts(Some(Encoding::Gray)))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            message.contains("colour") && message.contains("gray cannot read"),
+            "{message}"
+        );
+        assert!(!message.contains("pass the encoding"), "{message}");
     }
 
     #[test]
