@@ -182,3 +182,67 @@ fn flags_that_would_be_ignored_are_refused() {
     assert!(!dir.join("data").exists(), "a refused ingest wrote data");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Errors name what was wrong, once: the mesh file's i/o cause is not repeated, healthcheck
+/// names the address it could not reach, ingest says a --data that is a file is one, and
+/// --help gives subdivide's step range.
+#[test]
+fn messages_name_what_was_wrong_once() {
+    let dir = std::env::temp_dir().join(format!("zerotile-cli-msg-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let zerotile = |args: &[&str]| {
+        Command::new(zerotile_bin())
+            .args(args)
+            .current_dir(&dir)
+            .output()
+            .unwrap()
+    };
+
+    let out = zerotile(&[
+        "eval",
+        "mesh",
+        "missing.obj",
+        "--method",
+        "qem",
+        "--faces",
+        "9",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("missing.obj"), "{err}");
+    assert_eq!(err.matches("(os error").count(), 1, "{err}");
+
+    // A port nothing listens on: bound, then released.
+    let addr = std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .to_string();
+    let out = zerotile(&["healthcheck", "--addr", &addr]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains(&addr), "{err}");
+
+    std::fs::write(dir.join("afile"), "x").unwrap();
+    let tif = shared_data().join("dem/terra_elev.tif");
+    let out = zerotile(&[
+        "ingest",
+        tif.to_str().unwrap(),
+        "--name",
+        "x",
+        "--data",
+        "afile",
+        "--quiet",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("--data afile: is a file, not a folder"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read_to_string(dir.join("afile")).unwrap(), "x");
+
+    let out = zerotile(&["subdivide", "--help"]);
+    assert!(String::from_utf8_lossy(&out.stdout).contains("1–4"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}

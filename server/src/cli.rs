@@ -77,7 +77,7 @@ pub struct SubdivideArgs {
     pub input: PathBuf,
     /// Output mesh (.obj, .ply, .glb or .json), written atomically.
     pub output: PathBuf,
-    /// Loop steps, each 4× the faces.
+    /// Loop steps, each 4× the faces: 1–4.
     #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=4))]
     pub times: u8,
 }
@@ -333,19 +333,25 @@ fn export(a: ExportArgs) -> anyhow::Result<()> {
 }
 
 fn healthcheck(addr: &str) -> anyhow::Result<()> {
+    use anyhow::Context;
     use std::io::{Read, Write};
     use std::net::ToSocketAddrs;
     use std::time::Duration;
     let timeout = Duration::from_secs(3);
+    // Each step names the address: a bare "Connection refused" does not say which server.
     let target = addr
-        .to_socket_addrs()?
+        .to_socket_addrs()
+        .with_context(|| format!("--addr {addr}"))?
         .next()
-        .ok_or_else(|| anyhow::anyhow!("{addr}: no address"))?;
-    let mut s = std::net::TcpStream::connect_timeout(&target, timeout)?;
+        .ok_or_else(|| anyhow::anyhow!("--addr {addr}: no address"))?;
+    let mut s = std::net::TcpStream::connect_timeout(&target, timeout)
+        .with_context(|| format!("connecting to {addr}"))?;
     s.set_read_timeout(Some(timeout))?;
-    s.write_all(format!("GET /healthz HTTP/1.0\r\nHost: {addr}\r\n\r\n").as_bytes())?;
+    s.write_all(format!("GET /healthz HTTP/1.0\r\nHost: {addr}\r\n\r\n").as_bytes())
+        .with_context(|| format!("asking {addr} for /healthz"))?;
     let mut head = [0u8; 12];
-    s.read_exact(&mut head)?;
+    s.read_exact(&mut head)
+        .with_context(|| format!("reading {addr}'s answer to /healthz"))?;
     if &head[9..12] != b"200" {
         anyhow::bail!(
             "{addr}: /healthz answered {}",

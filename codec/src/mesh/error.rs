@@ -31,8 +31,16 @@ pub enum MeshError {
     /// Writing would produce a file the format cannot express (e.g. a GLB above 4 GiB).
     #[error("cannot encode {format}: {what}")]
     Encode { format: &'static str, what: String },
+    /// Reading or writing a mesh file failed. The cause is part of the message, not a
+    /// `source`, so a chained report (anyhow's `{:#}`) does not say it twice.
     #[error("mesh i/o: {0}")]
-    Io(#[from] std::io::Error),
+    Io(std::io::Error),
+}
+
+impl From<std::io::Error> for MeshError {
+    fn from(e: std::io::Error) -> Self {
+        Self::Io(e)
+    }
 }
 
 /// Mesh content no repair can fix: geometry that is not numbers, faces that point nowhere.

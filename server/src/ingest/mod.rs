@@ -81,6 +81,14 @@ fn check(job: &Ingest) -> Result<&str> {
         "local" | "geodetic" | "mercator" => job.scheme.as_str(),
         other => bail!("--scheme {other}: use geodetic, mercator or local"),
     };
+    // Caught here, not when the finished dataset is written: create_dir_all would only say
+    // "File exists", after all the encoding.
+    if job.data.exists() && !job.data.is_dir() {
+        bail!(
+            "--data {}: is a file, not a folder; give the folder the dataset goes in",
+            job.data.display()
+        );
+    }
     if job.max_zoom.is_some() && scheme == "local" {
         bail!("--max-zoom applies to geodetic and mercator; a local pyramid ends at the source's resolution");
     }
