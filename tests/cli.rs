@@ -246,3 +246,33 @@ fn messages_name_what_was_wrong_once() {
     assert!(String::from_utf8_lossy(&out.stdout).contains("1–4"));
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A lossless point is exact: PSNR is infinite, `null` in JSON (which has no infinity) and
+/// `inf` in the table, not the ~330 dB the f64 residue of the height products would give.
+#[test]
+fn lossless_psnr_is_infinite() {
+    // Terrain-RGB: 0.1 m steps, which f64 cannot hold exactly.
+    let png = shared_data().join("dem/fuji.png");
+    let eval = |json: bool| {
+        let mut cmd = Command::new(zerotile_bin());
+        cmd.args(["eval", "terrain"]).arg(&png).args([
+            "--encoding",
+            "terrain-rgb",
+            "--crop",
+            "100,100,65",
+            "--repeat",
+            "1",
+            "--lossless",
+        ]);
+        if json {
+            cmd.arg("--json");
+        }
+        run_ok(&mut cmd)
+    };
+    let point: serde_json::Value = serde_json::from_slice(&eval(true).stdout).unwrap();
+    assert!(point["psnr_db"].is_null(), "{point}");
+    assert_eq!(point["rmse"], 0.0, "{point}");
+    let table = String::from_utf8_lossy(&eval(false).stdout).into_owned();
+    let row = table.lines().last().unwrap();
+    assert!(row.split_whitespace().any(|w| w == "inf"), "{table}");
+}

@@ -204,6 +204,20 @@ pub fn run(eval: &TerrainEval) -> Result<Vec<Point>> {
                     point.max_abs_err
                 );
             }
+            // Exact, so report it as exact: the f64 residue (~1e-13) would print as a
+            // ~330 dB PSNR that means nothing. The mesh is exact too when it keeps every
+            // sample, as it does at the lossless threshold.
+            let mut point = Point {
+                max_abs_err: 0.0,
+                rmse: 0.0,
+                psnr_db: None,
+                ..point
+            };
+            if point.mesh_max_abs_err <= step * 1e-6 {
+                point.mesh_max_abs_err = 0.0;
+                point.mesh_rmse = 0.0;
+                point.mesh_psnr_db = None;
+            }
             points.push(point);
         }
     }
@@ -329,7 +343,7 @@ pub fn errors(a: &Grid<f64>, b: &Grid<f64>) -> (f64, f64) {
     (max, (sum / a.len().max(1) as f64).sqrt())
 }
 
-/// 20·log10(peak / RMSE); `None` when lossless.
+/// 20·log10(peak / RMSE); `None` when exact (infinite: JSON has no infinity).
 pub fn psnr(peak: f64, rmse: f64) -> Option<f64> {
     (rmse > 0.0).then(|| 20.0 * (peak / rmse).log10())
 }
@@ -354,7 +368,7 @@ pub fn print_table(points: &[Point], full_triangles: Option<usize>) {
         "dec+mesh"
     );
     for p in points {
-        let f = |v: Option<f64>| v.map_or("lossless".to_string(), |v| format!("{v:.2}"));
+        let f = |v: Option<f64>| v.map_or("inf".to_string(), |v| format!("{v:.2}"));
         let remain = full_triangles.map_or(String::from("-"), |n| {
             format!("{:.1}%", 100.0 * p.mesh_triangles as f64 / n as f64)
         });
