@@ -29,6 +29,13 @@ pub struct Built {
 /// Builds the default terrain dataset unless `data` already holds a dataset, and the default
 /// meshes unless `data/meshes` already holds meshes; `force` rebuilds both.
 pub fn ensure(data: &Path, force: bool, progress: bool) -> Result<Built> {
+    // Else the dataset write would only say "File exists", after the terrain is encoded.
+    if data.exists() && !data.is_dir() {
+        anyhow::bail!(
+            "--data {}: is a file, not a folder; give the folder the default data goes in",
+            data.display()
+        );
+    }
     let mut built = Built::default();
     let has = |dir: &Path, exts: &[&str]| -> bool {
         std::fs::read_dir(dir).is_ok_and(|rd| {
@@ -74,6 +81,16 @@ mod tests {
     use super::*;
     use zerotile_codec::container::{Container, Limits};
     use zerotile_codec::mesh::io::{read_path, MeshLimits};
+
+    #[test]
+    fn a_file_for_the_data_folder_is_refused_by_name() {
+        let file = std::env::temp_dir().join(format!("zerotile-demo-file-{}", std::process::id()));
+        std::fs::write(&file, b"mine").unwrap();
+        let err = format!("{:#}", ensure(&file, false, false).unwrap_err());
+        assert!(err.contains("is a file, not a folder"), "{err}");
+        assert_eq!(std::fs::read(&file).unwrap(), b"mine");
+        std::fs::remove_file(&file).unwrap();
+    }
 
     #[test]
     fn builds_once_then_leaves_the_folder_alone() {
