@@ -76,11 +76,8 @@ pub fn app(state: AppState) -> Router {
         .route("/v1/meshes", get(routes::meshes::list))
         .route(
             "/v1/meshes/{name}",
-            get(routes::meshes::describe)
-                .post(routes::meshes::upload)
-                .layer(axum::extract::DefaultBodyLimit::max(
-                    meshes::MAX_UPLOAD_BYTES,
-                )),
+            // The upload reads and limits its own body (`read_upload`).
+            get(routes::meshes::describe).post(routes::meshes::upload),
         )
         .route("/v1/meshes/{name}/{method}", get(routes::meshes::lod))
         .fallback(error::not_found)

@@ -412,3 +412,105 @@ async fn dropping_a_request_stops_its_decode_work() {
         "{decoded} of the 5 tiles decoded after the client left"
     );
 }
+
+/// Serves `app` on a free local port, for tests that need a real connection (a body that
+/// stalls or breaks off cannot be made with `oneshot`).
+async fn serve_locally(app: Router) -> std::net::SocketAddr {
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let addr = listener.local_addr().unwrap();
+    tokio::spawn(async move { axum::serve(listener, app).await });
+    addr
+}
+
+/// Writes `head` then `body` raw, half-closes the socket if `close`, and reads the status and
+/// JSON body of the answer, failing after 10 s.
+async fn raw_exchange(
+    addr: std::net::SocketAddr,
+    head: &str,
+    body: &[u8],
+    close: bool,
+) -> (u16, serde_json::Value, std::time::Duration) {
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+    let started = std::time::Instant::now();
+    let mut s = tokio::net::TcpStream::connect(addr).await.unwrap();
+    s.write_all(head.as_bytes()).await.unwrap();
+    s.write_all(body).await.unwrap();
+    if close {
+        s.shutdown().await.unwrap();
+    }
+    let mut out = Vec::new();
+    let mut buf = [0u8; 4096];
+    let answer = tokio::time::timeout(std::time::Duration::from_secs(10), async {
+        // The answer is whole once its JSON body is: hyper need not close the socket.
+        loop {
+            let n = s.read(&mut buf).await.unwrap();
+            out.extend_from_slice(&buf[..n]);
+            let text = String::from_utf8_lossy(&out);
+            if n == 0 || text.contains("\r\n\r\n{") && text.ends_with('}') {
+                break;
+            }
+        }
+    })
+    .await;
+    assert!(answer.is_ok(), "no answer within 10 s");
+    let text = String::from_utf8_lossy(&out).into_owned();
+    let status = text[9..12].parse().unwrap();
+    let json = &text[text.find("\r\n\r\n").unwrap() + 4..];
+    (
+        status,
+        serde_json::from_str(json).unwrap(),
+        started.elapsed(),
+    )
+}
+
+#[tokio::test]
+async fn an_upload_declaring_more_than_the_limit_is_refused_at_once() {
+    let addr = serve_locally(router("upload-declared")).await;
+    // A small body under a huge declared length: nothing more will come, so waiting for it
+    // ran into the request timeout (503 after 30 s).
+    let head = "POST /v1/meshes/g6 HTTP/1.1\r\nhost: x\r\ncontent-type: model/obj\r\n\
+                content-length: 999999999999\r\n\r\n";
+    let (status, json, took) = raw_exchange(addr, head, b"v 0 0 0\n", false).await;
+    assert_eq!((status, json["error"].as_str()), (413, Some("too_large")));
+    assert!(json["message"].as_str().unwrap().contains("999999999999"));
+    assert!(took.as_secs() < 5, "{took:?}");
+}
+
+#[tokio::test]
+async fn an_upload_that_breaks_off_is_the_clients_fault() {
+    let addr = serve_locally(router("upload-short")).await;
+    let head = "POST /v1/meshes/g6 HTTP/1.1\r\nhost: x\r\ncontent-type: model/obj\r\n\
+                content-length: 100\r\n\r\n";
+    let (status, json, _) = raw_exchange(addr, head, b"v 0 0 0\n", true).await;
+    assert_eq!(
+        (status, json["error"].as_str()),
+        (400, Some("incomplete_body"))
+    );
+    assert!(
+        json["message"].as_str().unwrap().contains("8 of 100"),
+        "{json}"
+    );
+}
+
+#[tokio::test]
+async fn an_upload_that_stalls_is_a_408_not_a_503() {
+    // The upload's own reader with a short deadline: the route's is 20 s.
+    let app = Router::new().route(
+        "/up",
+        axum::routing::post(|h: axum::http::HeaderMap, b: Body| async move {
+            super::routes::meshes::read_upload(&h, b, std::time::Duration::from_millis(200))
+                .await
+                .map(|b| b.len().to_string())
+        }),
+    );
+    let addr = serve_locally(app).await;
+    let head = "POST /up HTTP/1.1\r\nhost: x\r\ncontent-length: 100\r\n\r\n";
+    let (status, json, _) = raw_exchange(addr, head, b"v 0 0 0\n", false).await;
+    assert_eq!((status, json["error"].as_str()), (408, Some("timeout")));
+    assert!(
+        json["message"].as_str().unwrap().contains("8 of 100"),
+        "{json}"
+    );
+    // The route's deadline is under the request timeout, so a stall never becomes its 503.
+    assert!(super::routes::meshes::UPLOAD_READ_TIMEOUT < super::REQUEST_TIMEOUT);
+}

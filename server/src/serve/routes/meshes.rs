@@ -12,10 +12,10 @@ use std::collections::HashMap;
 use std::hash::{Hash, Hasher};
 use std::sync::Arc;
 
-use axum::body::{Body, Bytes};
+use axum::body::{Body, Bytes, HttpBody};
 use axum::extract::rejection::{PathRejection, QueryRejection};
 use axum::extract::{Path, Query, State};
-use axum::http::header::{CACHE_CONTROL, CONTENT_TYPE, ETAG};
+use axum::http::header::{CACHE_CONTROL, CONTENT_LENGTH, CONTENT_TYPE, ETAG};
 use axum::http::{HeaderMap, HeaderValue, StatusCode};
 use axum::response::Response;
 use axum::Json;
@@ -28,7 +28,7 @@ use zerotile_codec::mesh::silhouette::View;
 use zerotile_codec::mesh::{qem, QemOptions, TriMesh};
 
 use crate::serve::error::{ApiError, ApiResult};
-use crate::serve::meshes::{MeshAnswer, MeshEntry};
+use crate::serve::meshes::{MeshAnswer, MeshEntry, MAX_UPLOAD_BYTES};
 use crate::serve::negotiate;
 use crate::serve::state::AppState;
 use crate::serve::threshold::{number, vec3};
@@ -397,13 +397,140 @@ pub async fn lod(
     Ok(res)
 }
 
+/// How long an upload's body may take to arrive: less than the request timeout, so a
+/// client that stalls or declares more than it sends gets its own 408 rather than the
+/// timeout's 503, which says "the server failed, retry".
+pub const UPLOAD_READ_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(20);
+
+/// The next frame of a body (its data, `None` for trailers), `None` at its end.
+async fn next_frame(body: &mut Body) -> Option<Result<Option<Bytes>, axum::Error>> {
+    std::future::poll_fn(|cx| std::pin::Pin::new(&mut *body).poll_frame(cx))
+        .await
+        .map(|frame| frame.map(|f| f.into_data().ok()))
+}
+
+/// Reads and drops what is left of a refused body, for at most [`UPLOAD_READ_TIMEOUT`], after
+/// the answer has gone: hyper closes a connection whose request body nobody reads, and a
+/// client still sending would get a broken pipe instead of the answer.
+fn drain(mut body: Body) {
+    tokio::spawn(async move {
+        let _ = tokio::time::timeout(UPLOAD_READ_TIMEOUT, async {
+            while let Some(Ok(_)) = next_frame(&mut body).await {}
+        })
+        .await;
+    });
+}
+
+/// An upload body, read here rather than by an extractor: a `Content-Length` over
+/// [`MAX_UPLOAD_BYTES`] is refused before a byte is read (the body-limit layer only counts
+/// what arrives, so a short body under a huge declared length waited for the timeout); a
+/// body that stops arriving or ends short is the client's fault (408, 400), not a 503.
+pub async fn read_upload(
+    headers: &HeaderMap,
+    mut body: Body,
+    deadline: std::time::Duration,
+) -> ApiResult<Bytes> {
+    let too_large = |what: String| {
+        ApiError::new(
+            StatusCode::PAYLOAD_TOO_LARGE,
+            "too_large",
+            format!("{what}; an upload may be at most {MAX_UPLOAD_BYTES} bytes (64 MiB)"),
+        )
+    };
+    // hyper has already refused a Content-Length that is not a number.
+    let declared: Option<u64> = headers
+        .get(CONTENT_LENGTH)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|s| s.trim().parse().ok());
+    if let Some(n) = declared.filter(|&n| n > MAX_UPLOAD_BYTES as u64) {
+        drain(body);
+        return Err(too_large(format!("the body declares {n} bytes")));
+    }
+    let of = || declared.map_or("unknown".to_string(), |n| n.to_string());
+    let mut got = bytes::BytesMut::new();
+    let read = async {
+        while let Some(frame) = next_frame(&mut body).await {
+            let frame = frame.map_err(|e| {
+                ApiError::bad_request(
+                    "incomplete_body",
+                    format!(
+                        "the body broke off after {} of {} bytes: {e}",
+                        got.len(),
+                        of()
+                    ),
+                )
+            })?;
+            if let Some(data) = frame {
+                if got.len() + data.len() > MAX_UPLOAD_BYTES {
+                    return Err(too_large("the body is larger".to_string()));
+                }
+                got.extend_from_slice(&data);
+            }
+        }
+        Ok(())
+    };
+    let outcome = tokio::time::timeout(deadline, read).await;
+    match outcome {
+        Ok(Ok(())) => Ok(got.freeze()),
+        Ok(Err(e)) => {
+            if e.status == StatusCode::PAYLOAD_TOO_LARGE {
+                drain(body);
+            }
+            Err(e)
+        }
+        Err(_) => Err(ApiError::new(
+            StatusCode::REQUEST_TIMEOUT,
+            "timeout",
+            format!(
+                "the body did not arrive within {} s ({} of {} bytes received)",
+                deadline.as_secs_f64(),
+                got.len(),
+                of()
+            ),
+        )),
+    }
+}
+
 /// `POST /v1/meshes/{name}`: the body is the mesh.
 pub async fn upload(
     State(state): State<AppState>,
     path: Result<Path<String>, PathRejection>,
     headers: HeaderMap,
-    body: Bytes,
+    body: Body,
 ) -> ApiResult<(StatusCode, Json<Value>)> {
+    let (name, format) = match upload_target(path, &headers) {
+        Ok(t) => t,
+        Err(e) => {
+            drain(body);
+            return Err(e);
+        }
+    };
+    let body = read_upload(&headers, body, UPLOAD_READ_TIMEOUT).await?;
+    if body.is_empty() {
+        return Err(ApiError::bad_request(
+            "empty_body",
+            "the body must hold the mesh",
+        ));
+    }
+    let job_state = state.clone();
+    let entry = tokio::task::spawn_blocking(move || job_state.meshes.upload(&name, &body, format))
+        .await
+        .map_err(ApiError::internal)?
+        .map_err(|e| {
+            ApiError::new(
+                StatusCode::UNPROCESSABLE_ENTITY,
+                "invalid_mesh",
+                format!("{e:#}"),
+            )
+        })?;
+    Ok((StatusCode::CREATED, Json(summary(&entry))))
+}
+
+/// The name and format of an upload, checked before its body is read.
+fn upload_target(
+    path: Result<Path<String>, PathRejection>,
+    headers: &HeaderMap,
+) -> ApiResult<(String, Option<Format>)> {
     let Path(name) = path?;
     crate::ingest::check_name(&name)
         .map_err(|e| ApiError::bad_request("bad_name", e.to_string()))?;
@@ -433,24 +560,7 @@ pub async fn upload(
             ))
         }
     };
-    if body.is_empty() {
-        return Err(ApiError::bad_request(
-            "empty_body",
-            "the body must hold the mesh",
-        ));
-    }
-    let job_state = state.clone();
-    let entry = tokio::task::spawn_blocking(move || job_state.meshes.upload(&name, &body, format))
-        .await
-        .map_err(ApiError::internal)?
-        .map_err(|e| {
-            ApiError::new(
-                StatusCode::UNPROCESSABLE_ENTITY,
-                "invalid_mesh",
-                format!("{e:#}"),
-            )
-        })?;
-    Ok((StatusCode::CREATED, Json(summary(&entry))))
+    Ok((name, format))
 }
 
 fn value(s: &str) -> ApiResult<HeaderValue> {
