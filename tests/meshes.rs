@@ -233,6 +233,15 @@ fn uploads_are_validated_limited_and_never_replace_a_mesh_with_a_bad_one() {
     );
     assert_eq!(s.get("/v1/meshes/fandisk", &[]).json()["faces"], 12946);
 
+    // Faces but no surface (three copies of one point): nothing to simplify or view.
+    s.post(
+        "/v1/meshes/g10",
+        "model/obj",
+        b"v 1 2 3\nv 1 2 3\nv 1 2 3\nf 1 2 3\n",
+    )
+    .error(422, "invalid_mesh");
+    assert!(!data.join("meshes/g10.obj").exists());
+
     s.post("/v1/meshes/cow2", "image/png", b"\x89PNG")
         .error(415, "unsupported_media_type");
     s.post("/v1/meshes/..%2Fescape", "model/obj", &cow)

@@ -195,11 +195,7 @@ impl MeshCatalog {
         if self.dir.as_os_str().is_empty() {
             anyhow::bail!("this server has no mesh folder to store uploads in");
         }
-        let mesh = io::read_bytes(bytes, format, &limits())?;
-        let (mesh, _report) = repair(&mesh)?;
-        if mesh.faces.is_empty() {
-            anyhow::bail!("the mesh has no valid faces");
-        }
+        let mesh = repaired(&io::read_bytes(bytes, format, &limits())?)?;
         let format = format
             .or_else(|| Format::sniff(bytes))
             .unwrap_or(Format::Obj);
@@ -230,6 +226,61 @@ impl MeshCatalog {
 fn load(path: &Path) -> Result<TriMesh> {
     let mesh =
         io::read_path(path, &limits()).with_context(|| format!("reading {}", path.display()))?;
-    let (clean, _) = repair(&mesh)?;
+    repaired(&mesh)
+}
+
+/// The repaired mesh, or why it cannot be served. Repair keeps faces whose three distinct
+/// vertices sit on one line or point, so a mesh can come out with faces yet no surface: it
+/// has no extent to simplify or view (QEM's error, a fraction of the diagonal, has nothing
+/// to measure against), so it is refused like an empty one.
+fn repaired(mesh: &TriMesh) -> Result<TriMesh> {
+    let (clean, _) = repair(mesh)?;
+    if clean.faces.is_empty() {
+        anyhow::bail!("the mesh has no valid faces");
+    }
+    if !clean.face_areas().iter().any(|&a| a > 0.0) {
+        anyhow::bail!(
+            "the mesh has no valid faces: all {} have zero area (their corners coincide or \
+             lie on one line)",
+            clean.faces.len()
+        );
+    }
     Ok(clean)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One face over three distinct vertices at the same point: it survives repair (no
+    /// repeated index) but has no area.
+    const FLAT: &[u8] = b"v 1 2 3\nv 1 2 3\nv 1 2 3\nf 1 2 3\n";
+    const TRI: &[u8] = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+
+    fn scratch(tag: &str) -> PathBuf {
+        let dir =
+            std::env::temp_dir().join(format!("zerotile-meshcat-{}-{tag}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(dir.join(MESH_DIR)).unwrap();
+        dir
+    }
+
+    #[test]
+    fn a_mesh_without_area_is_refused_on_upload_and_skipped_at_start() {
+        let dir = scratch("area");
+        std::fs::write(dir.join(MESH_DIR).join("flat.obj"), FLAT).unwrap();
+        std::fs::write(dir.join(MESH_DIR).join("tri.obj"), TRI).unwrap();
+        let cat = MeshCatalog::open(&dir, 1 << 20);
+        let names: Vec<String> = cat.list().iter().map(|e| e.name.clone()).collect();
+        assert_eq!(names, ["tri"]);
+
+        let Err(err) = cat.upload("g10", FLAT, Some(Format::Obj)) else {
+            panic!("a mesh without area was accepted");
+        };
+        assert!(format!("{err:#}").contains("zero area"), "{err:#}");
+        assert!(cat.get("g10").is_none());
+        assert!(!dir.join(MESH_DIR).join("g10.obj").exists());
+        assert!(cat.upload("g10", TRI, Some(Format::Obj)).is_ok());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }
