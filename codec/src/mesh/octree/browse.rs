@@ -54,7 +54,12 @@ impl View {
             return Err(bad(
                 "view",
                 "finite eye, target and up",
-                format!("{self:?}"),
+                format!(
+                    "eye {}, target {}, up {}",
+                    xyz(self.eye),
+                    xyz(self.target),
+                    xyz(self.up)
+                ),
             ));
         }
         let forward = (self.target - self.eye).normalize_or_zero();
@@ -62,7 +67,7 @@ impl View {
             return Err(bad(
                 "view target",
                 "distinct from the eye",
-                format!("{:?}", self.target),
+                xyz(self.target),
             ));
         }
         let right = forward.cross(self.up).normalize_or_zero();
@@ -70,7 +75,7 @@ impl View {
             return Err(bad(
                 "view up",
                 "not parallel to the view direction",
-                format!("{:?}", self.up),
+                xyz(self.up),
             ));
         }
         if !(self.fov_y_deg > 0.0 && self.fov_y_deg < 180.0) {
@@ -139,10 +144,24 @@ impl Roi {
             Err(ParamError::OutOfRange {
                 name: "roi",
                 expected: "finite NDC corners with x0 < x1 and y0 < y1",
-                got: format!("{self:?}"),
+                got: self.to_string(),
             })
         }
     }
+}
+
+/// As the `roi` query parameter spells it, `x0,y0,x1,y1`: error messages quote it back to the
+/// people who typed it.
+impl std::fmt::Display for Roi {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{},{},{},{}", self.x0, self.y0, self.x1, self.y1)
+    }
+}
+
+/// A point as `x,y,z`, the way `eye` and `target` are typed, for error messages (glam's
+/// `Debug` would print `DVec3(0.0, 0.0, 5.0)`).
+fn xyz(v: DVec3) -> String {
+    format!("{},{},{}", v.x, v.y, v.z)
 }
 
 /// An orthonormal camera frame with the projection's focal scales.

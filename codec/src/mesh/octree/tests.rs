@@ -358,8 +358,17 @@ fn bad_parameters_are_errors() {
     let lod = build(&mesh);
     assert!(lod.level(lod.max_level() + 1).is_err());
     let view = front_view(&mesh);
-    let same = View::looking_at(view.eye, view.eye, 30.0, 1.0);
-    assert!(lod.browse(2, &same, &Roi::FULL).is_err());
+    let same = View::looking_at(
+        DVec3::new(0.0, 0.0, 5.0),
+        DVec3::new(0.0, 0.0, 5.0),
+        30.0,
+        1.0,
+    );
+    let Err(e) = lod.browse(2, &same, &Roi::FULL) else {
+        panic!("eye = target browses");
+    };
+    // Messages quote values as they are typed in a query, not as Rust debug text.
+    assert!(e.to_string().ends_with("got 0,0,5"), "{e}");
     let wide = View {
         fov_y_deg: 180.0,
         ..view
@@ -370,7 +379,10 @@ fn bad_parameters_are_errors() {
         x1: -0.5,
         ..Roi::FULL
     };
-    assert!(lod.browse(2, &view, &inverted).is_err());
+    let Err(e) = lod.browse(2, &view, &inverted) else {
+        panic!("an inverted roi browses");
+    };
+    assert!(e.to_string().ends_with("got 0.5,-1,-0.5,1"), "{e}");
     assert!(lod.browse(lod.max_level() + 1, &view, &Roi::FULL).is_err());
 }
 
