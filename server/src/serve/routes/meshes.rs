@@ -215,6 +215,9 @@ fn parse_ask(method: &str, q: &HashMap<String, String>, mesh: &TriMesh) -> ApiRe
                     for (slot, p) in rect.iter_mut().zip(&parts) {
                         *slot = number("roi", p, -1.0, 1.0)?;
                     }
+                    // Narrower than the terrain view's (0, 179] and [0.001, 1000] (documented
+                    // in docs/api.md): browsing divides by tan(fov / 2), which the terrain's
+                    // lower bound (the smallest positive f64) rounds to zero.
                     let fov = number("fov", get("fov").unwrap_or("45"), 1.0, 170.0)?;
                     let aspect = number("aspect", get("aspect").unwrap_or("1"), 0.05, 20.0)?;
                     Some((
