@@ -108,12 +108,13 @@ pub async fn not_found() -> ApiError {
     ApiError::not_found("not_found", "no such route; see docs/api.md")
 }
 
-/// Known routes with the wrong method.
-pub async fn method_not_allowed() -> ApiError {
+/// Known routes with the wrong method. Routes answer different methods and axum adds their
+/// `Allow` header after this runs, so the message points to it rather than naming them.
+pub async fn method_not_allowed(method: axum::http::Method) -> ApiError {
     ApiError::new(
         StatusCode::METHOD_NOT_ALLOWED,
         "method_not_allowed",
-        "this route answers GET (and HEAD) only",
+        format!("this route does not answer {method}; its Allow header lists the methods it does"),
     )
 }
 

@@ -514,3 +514,21 @@ async fn an_upload_that_stalls_is_a_408_not_a_503() {
     // The route's deadline is under the request timeout, so a stall never becomes its 503.
     assert!(super::routes::meshes::UPLOAD_READ_TIMEOUT < super::REQUEST_TIMEOUT);
 }
+
+#[tokio::test]
+async fn a_wrong_method_is_told_to_see_allow_not_a_fixed_list() {
+    let app = router("allow");
+    for (uri, allowed) in [("/v1/meshes/x", "GET,HEAD,POST"), ("/healthz", "GET,HEAD")] {
+        let (s, h, body) = send(&app, Method::PUT, uri, &[]).await;
+        assert_eq!(s, StatusCode::METHOD_NOT_ALLOWED, "{uri}");
+        assert_eq!(h[header::ALLOW], allowed, "{uri}");
+        let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
+        assert_eq!(v["error"], "method_not_allowed");
+        // The old fixed "GET (and HEAD) only" contradicted Allow on the upload route.
+        assert_eq!(
+            v["message"],
+            "this route does not answer PUT; its Allow header lists the methods it does",
+            "{uri}"
+        );
+    }
+}
