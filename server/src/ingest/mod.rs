@@ -63,13 +63,19 @@ struct Plan {
 
 /// Dataset names become file names: keep them to a safe alphabet.
 pub fn check_name(name: &str) -> Result<()> {
+    check_name_of("dataset", name)
+}
+
+/// [`check_name`] for names of other things (`kind`: "mesh"), which follow the same rule
+/// and are file names too; the message says which name was wrong.
+pub fn check_name_of(kind: &str, name: &str) -> Result<()> {
     let ok = !name.is_empty()
         && name.len() <= 64
         && name
             .chars()
             .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_');
     if !ok {
-        bail!("dataset name {name:?}: use 1–64 characters from A–Z, a–z, 0–9, '-' and '_'");
+        bail!("{kind} name {name:?}: use 1–64 characters from A–Z, a–z, 0–9, '-' and '_'");
     }
     Ok(())
 }

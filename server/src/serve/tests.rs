@@ -532,3 +532,19 @@ async fn a_wrong_method_is_told_to_see_allow_not_a_fixed_list() {
         );
     }
 }
+
+#[tokio::test]
+async fn a_bad_mesh_name_is_called_a_mesh_name() {
+    let app = router("mesh-name");
+    let (s, _, body) = send(&app, Method::POST, "/v1/meshes/a.b", &[]).await;
+    assert_eq!(s, StatusCode::BAD_REQUEST);
+    let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
+    assert_eq!(v["error"], "bad_name");
+    assert!(
+        v["message"]
+            .as_str()
+            .unwrap()
+            .starts_with("mesh name \"a.b\""),
+        "{v}"
+    );
+}

@@ -535,7 +535,7 @@ fn upload_target(
     headers: &HeaderMap,
 ) -> ApiResult<(String, Option<Format>)> {
     let Path(name) = path?;
-    crate::ingest::check_name(&name)
+    crate::ingest::check_name_of("mesh", &name)
         .map_err(|e| ApiError::bad_request("bad_name", e.to_string()))?;
     let ct = headers
         .get(CONTENT_TYPE)
