@@ -242,6 +242,10 @@ fn uploads_are_validated_limited_and_never_replace_a_mesh_with_a_bad_one() {
     .error(422, "invalid_mesh");
     assert!(!data.join("meshes/g10.obj").exists());
 
+    // Documented: text/plain is read as OBJ.
+    let r = s.post("/v1/meshes/plain", "text/plain", &cow);
+    assert_eq!(r.status, 201, "{}", String::from_utf8_lossy(&r.body));
+    assert!(data.join("meshes/plain.obj").exists());
     s.post("/v1/meshes/cow2", "image/png", b"\x89PNG")
         .error(415, "unsupported_media_type");
     s.post("/v1/meshes/..%2Fescape", "model/obj", &cow)

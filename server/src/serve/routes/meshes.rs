@@ -548,6 +548,7 @@ fn upload_target(
                 .to_ascii_lowercase()
         });
     let format = match ct.as_deref() {
+        // OBJ is the one text format, and text/plain is how many clients label a text file.
         Some("model/obj" | "text/plain") => Some(Format::Obj),
         Some("application/ply" | "model/ply" | "application/x-ply") => Some(Format::Ply),
         Some("model/stl" | "application/sla" | "application/vnd.ms-pki.stl") => Some(Format::Stl),
