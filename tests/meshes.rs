@@ -155,6 +155,12 @@ fn bad_asks_get_specific_json_errors() {
         ("/v1/meshes/fandisk/marching", 404, "unknown_method"),
         ("/v1/meshes/fandisk/qem?faces=abc", 400, "bad_number"),
         ("/v1/meshes/fandisk/qem?faces=-3", 400, "out_of_range"),
+        ("/v1/meshes/fandisk/qem?faces=1.5", 400, "out_of_range"),
+        (
+            "/v1/meshes/fandisk/silhouette?level=1.5",
+            400,
+            "out_of_range",
+        ),
         ("/v1/meshes/fandisk/qem?faces=1e9", 400, "out_of_range"),
         (
             "/v1/meshes/fandisk/qem?faces=10&ratio=0.5",

@@ -132,13 +132,7 @@ fn parse_ask(method: &str, q: &HashMap<String, String>, mesh: &TriMesh) -> ApiRe
             match (get("error"), get("level")) {
                 (Some(e), None) => Ok(Ask::Curvature(number("error", e, 0.0, 10.0)?)),
                 (None, l) => {
-                    let k = number("level", l.unwrap_or("1"), 1.0, 3.0)?;
-                    if k.fract() != 0.0 {
-                        return Err(ApiError::bad_request(
-                            "out_of_range",
-                            "level must be 1, 2 or 3",
-                        ));
-                    }
+                    let k = integer("level", l.unwrap_or("1"), 1.0, 3.0)?;
                     Ok(Ask::CurvatureLevel(k as usize))
                 }
                 _ => Err(ApiError::bad_request(
@@ -150,7 +144,7 @@ fn parse_ask(method: &str, q: &HashMap<String, String>, mesh: &TriMesh) -> ApiRe
         "silhouette" => {
             only(&["level", "eye", "target"])?;
             let level = get("level")
-                .map(|l| number("level", l, 0.0, 7.0))
+                .map(|l| integer("level", l, 0.0, 7.0))
                 .transpose()?
                 .map(|l| l as u8);
             let view = match (get("eye"), get("target")) {
@@ -179,7 +173,7 @@ fn parse_ask(method: &str, q: &HashMap<String, String>, mesh: &TriMesh) -> ApiRe
             let n = mesh.face_count() as f64;
             match (get("faces"), get("ratio"), get("error")) {
                 (Some(f), None, None) => {
-                    Ok(Ask::QemFaces(number("faces", f, 1.0, n.max(1.0))? as usize))
+                    Ok(Ask::QemFaces(integer("faces", f, 1.0, n.max(1.0))? as usize))
                 }
                 (None, Some(r), None) => {
                     let r = number("ratio", r, 0.0, 1.0)?;
@@ -194,13 +188,7 @@ fn parse_ask(method: &str, q: &HashMap<String, String>, mesh: &TriMesh) -> ApiRe
         }
         "octree" => {
             only(&["level", "roi", "eye", "target", "fov", "aspect"])?;
-            let level = number("level", get("level").unwrap_or("2"), 0.0, 32.0)?;
-            if level.fract() != 0.0 {
-                return Err(ApiError::bad_request(
-                    "out_of_range",
-                    "level must be an integer",
-                ));
-            }
+            let level = integer("level", get("level").unwrap_or("2"), 0.0, 32.0)?;
             let roi = match (get("roi"), get("eye"), get("target")) {
                 (None, None, None) => None,
                 (Some(r), Some(e), Some(t)) => {
@@ -245,6 +233,19 @@ fn parse_ask(method: &str, q: &HashMap<String, String>, mesh: &TriMesh) -> ApiRe
             format!("no LOD method {other:?}; use one of {METHODS:?}"),
         )),
     }
+}
+
+/// A count or level: [`number`] that is also whole, so `faces=1.5` is refused rather than
+/// silently cut to 1.
+fn integer(name: &str, s: &str, lo: f64, hi: f64) -> ApiResult<f64> {
+    let v = number(name, s, lo, hi)?;
+    if v.fract() != 0.0 {
+        return Err(ApiError::bad_request(
+            "out_of_range",
+            format!("{name} must be an integer in [{lo}, {hi}], got {s}"),
+        ));
+    }
+    Ok(v)
 }
 
 fn parse_format(q: &HashMap<String, String>) -> ApiResult<(Format, &'static str)> {
