@@ -63,6 +63,12 @@ fn lods_come_in_every_format_with_their_counts() {
     );
     assert!(f < 10_000 && f > 1_000, "{f}");
     assert_eq!(r.number("x-error"), 0.15);
+    // The documented defaults: curvature without a parameter is level 1, octree level 2.
+    let bare = s.get("/v1/meshes/uv-sphere-5002/curvature?format=obj", &[]);
+    assert_eq!(bare.number("x-error"), 0.15);
+    assert_eq!(bare.number("x-faces"), r.number("x-faces"));
+    let octree = s.get("/v1/meshes/uv-sphere-5002/octree", &[]);
+    assert_eq!((octree.status, octree.number("x-error")), (200, 2.0));
     // A larger ε keeps fewer faces.
     let r3 = s.get(
         "/v1/meshes/uv-sphere-5002/curvature?level=3&format=obj",

@@ -51,10 +51,10 @@ pub async fn describe(
     let base = format!("/v1/meshes/{name}");
     let methods = json!({
         "original": format!("{base}/original"),
-        "curvature": { "url": format!("{base}/curvature"), "params": "error=E | level=1..3 (ε 0.15, 0.20, 0.25)" },
+        "curvature": { "url": format!("{base}/curvature"), "params": "error=E | level=1..3 (ε 0.15, 0.20, 0.25; default 1)" },
         "silhouette": { "url": format!("{base}/silhouette"), "params": "level=0..7 and/or eye=x,y,z&target=x,y,z" },
         "qem": { "url": format!("{base}/qem"), "params": "faces=N | ratio=R | error=E (fraction of the diagonal)" },
-        "octree": { "url": format!("{base}/octree"), "params": "level=K [&roi=x0,y0,x1,y1 (NDC, -1..1) &eye=x,y,z&target=x,y,z[&fov=DEG][&aspect=W/H]]" },
+        "octree": { "url": format!("{base}/octree"), "params": "level=K (default 2) [&roi=x0,y0,x1,y1 (NDC, -1..1) &eye=x,y,z&target=x,y,z[&fov=DEG][&aspect=W/H]]" },
     });
     if let Some(o) = v.as_object_mut() {
         o.insert("methods".into(), methods);
