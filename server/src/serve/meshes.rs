@@ -240,9 +240,8 @@ fn repaired(mesh: &TriMesh) -> Result<TriMesh> {
     }
     if !clean.face_areas().iter().any(|&a| a > 0.0) {
         anyhow::bail!(
-            "the mesh has no valid faces: all {} have zero area (their corners coincide or \
-             lie on one line)",
-            clean.faces.len()
+            "the mesh has no valid faces: every face has zero area (its corners coincide or \
+             lie on one line)"
         );
     }
     Ok(clean)
