@@ -159,13 +159,7 @@ fn a_failed_export_leaves_the_previous_tree_and_says_why() {
         );
         assert_eq!(files(&dir.join("tree"), "png"), before, "{args:?}");
     }
-    // No temporary folders left beside it.
-    let stray = std::fs::read_dir(&dir)
-        .unwrap()
-        .filter_map(Result::ok)
-        .filter(|e| e.file_name().to_string_lossy().starts_with('.'))
-        .count();
-    assert_eq!(stray, 0);
+    assert_no_temporary_folders(&dir);
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -223,11 +217,17 @@ fn export_refuses_to_replace_what_is_not_an_export() {
     assert!(!dir.join("empty/3/stale.png").exists());
     assert!(!files(&dir.join("empty"), "png").is_empty());
 
-    let stray = std::fs::read_dir(&dir)
+    assert_no_temporary_folders(&dir);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// An export swaps its tree in through hidden siblings of `--out`: none may be left in `dir`.
+fn assert_no_temporary_folders(dir: &Path) {
+    let stray: Vec<_> = std::fs::read_dir(dir)
         .unwrap()
         .filter_map(Result::ok)
-        .filter(|e| e.file_name().to_string_lossy().starts_with('.'))
-        .count();
-    assert_eq!(stray, 0);
-    let _ = std::fs::remove_dir_all(&dir);
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|name| name.starts_with('.'))
+        .collect();
+    assert!(stray.is_empty(), "{stray:?}");
 }
