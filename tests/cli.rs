@@ -276,3 +276,49 @@ fn lossless_psnr_is_infinite() {
     let row = table.lines().last().unwrap();
     assert!(row.split_whitespace().any(|w| w == "inf"), "{table}");
 }
+
+/// `eval terrain --out DIR` writes each point's mesh, and it is the mesh the point measured.
+#[test]
+fn eval_terrain_writes_the_meshes_it_measured() {
+    let dir = std::env::temp_dir().join(format!("zerotile-cli-meshes-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = run_ok(
+        Command::new(zerotile_bin())
+            .args(["eval", "terrain"])
+            .arg(shared_data().join("dem/N44W072.hgt"))
+            .args([
+                "--crop",
+                "300,500,129",
+                "--threshold",
+                "2,16",
+                "--repeat",
+                "1",
+            ])
+            .args(["--json", "--out"])
+            .arg(&dir),
+    );
+    let points: Vec<serde_json::Value> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(points.len(), 2);
+    for (p, name) in points.iter().zip(["threshold-2.obj", "threshold-16.obj"]) {
+        let mesh = zerotile_codec::mesh::io::read_path(
+            &dir.join(name),
+            &zerotile_codec::mesh::io::MeshLimits::default(),
+        )
+        .unwrap();
+        assert_eq!(
+            mesh.faces.len() as u64,
+            p["mesh_triangles"].as_u64().unwrap()
+        );
+        assert_eq!(
+            mesh.positions.len() as u64,
+            p["mesh_vertices"].as_u64().unwrap()
+        );
+        // Columns and rows of the 129² window, heights in metres.
+        assert!(mesh.positions.iter().all(|v| (0.0..=128.0).contains(&v.x)));
+        assert!(mesh.positions.iter().all(|v| v.z > 100.0));
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -207,6 +207,10 @@ pub struct TerrainArgs {
     /// Print one JSON object per operating point.
     #[arg(long)]
     pub json: bool,
+    /// Also write each point's mesh to DIR/MODE-PARAM.obj (x = column, y = row, z = height),
+    /// to look at in any mesh viewer.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
     /// Rescale the window to 0..=255 integers first (the paper's 8-bit setting; PSNR peak 255).
     #[arg(long = "8bit")]
     pub eight_bit: bool,
@@ -457,6 +461,7 @@ fn eval_terrain(a: TerrainArgs) -> anyhow::Result<()> {
         eight_bit: a.eight_bit,
         mesher: a.mesher,
         decode_share,
+        out: a.out,
     };
     let points = terrain::run(&eval)?;
     if a.json {

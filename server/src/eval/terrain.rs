@@ -4,9 +4,11 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
+use glam::DVec3;
 use serde::Serialize;
 use zerotile_codec::bintree::{self, Hierarchy, TileErrors};
 use zerotile_codec::ezw::{self, DecodeLimit, EncodeParams};
+use zerotile_codec::mesh::{io, TriMesh};
 use zerotile_codec::raster::{self, Encoding, ReadOptions};
 use zerotile_codec::wavelet::Wavelet;
 use zerotile_codec::zerotree::{self, Complexity};
@@ -40,6 +42,8 @@ pub struct TerrainEval {
     /// Bintree in threshold mode: the share of T the decode gets ([`DECODE_SHARE`] unless
     /// measuring another).
     pub decode_share: f64,
+    /// A folder for each point's mesh as OBJ (`--out`).
+    pub out: Option<PathBuf>,
 }
 
 /// The two terrain meshers (see `zerotile_codec::bintree` for why there are two).
@@ -302,6 +306,9 @@ fn measure(
         }),
     };
     let merr = zerotree::mesh_error(&mesh, heights);
+    if let Some(dir) = &eval.out {
+        write_mesh(dir, mode, param, &mesh)?;
+    }
     let bytes_used = dec.bytes_used;
     let wavelet = if mode == "lossless" {
         Wavelet::LeGall53
@@ -330,6 +337,26 @@ fn measure(
         decode_ms,
         mesh_ms,
     })
+}
+
+/// Writes `mesh` as `dir/MODE-PARAM.obj` (atomically, as every mesh file is written).
+fn write_mesh(
+    dir: &Path,
+    mode: &str,
+    param: Option<f64>,
+    mesh: &zerotree::TerrainMesh,
+) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("--out {}", dir.display()))?;
+    let name = match param {
+        Some(p) => format!("{mode}-{p}.obj"),
+        None => format!("{mode}.obj"),
+    };
+    let tri = TriMesh {
+        positions: mesh.positions.iter().map(|&p| DVec3::from(p)).collect(),
+        faces: mesh.triangles.clone(),
+    };
+    let path = dir.join(name);
+    io::write_path(&tri, &path).with_context(|| format!("writing {}", path.display()))
 }
 
 /// Max |a − b| and RMSE over all samples.
