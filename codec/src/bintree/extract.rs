@@ -47,6 +47,52 @@ impl Forced {
     }
 }
 
+/// The border samples that forcing vertices on one edge can make vertices of another edge,
+/// mirrored onto the opposite edge too; sorted, row-major.
+///
+/// A forced border vertex needs its ancestors, and near a corner some lie on the tile's
+/// other edge: a vertex a west neighbour forces can put one on the north edge that the north
+/// neighbour, which never sees the west neighbour, does not have (a T-junction). Forcing
+/// every such sample in every tile closes that door: whatever is forced, the other edges
+/// only gain samples both tiles of each edge already force. Mirrored, because the tile on
+/// the other side of an edge sees it as its opposite edge (the south edge of the tile to the
+/// north). A few dozen samples, near the corners.
+pub(crate) fn edge_spill(hierarchy: &Hierarchy) -> Vec<u32> {
+    let n = hierarchy.side();
+    let last = n - 1;
+    // The four edges as sample lists: north, south, west, east.
+    let edge = |e: usize, i: usize| match e {
+        0 => i,
+        1 => last * n + i,
+        2 => i * n,
+        _ => i * n + last,
+    };
+    // Positions along the edge, for the two edge directions (rows: north/south, columns:
+    // west/east), that some other edge's forcing reaches.
+    let mut along = [vec![false; n], vec![false; n]];
+    for from in 0..4 {
+        let forced = Forced::new(hierarchy, (0..n).map(|i| edge(from, i)));
+        for to in (0..4).filter(|&to| to != from) {
+            for (i, hit) in along[to / 2].iter_mut().enumerate() {
+                if forced.get(edge(to, i) as u32) {
+                    *hit = true;
+                }
+            }
+        }
+    }
+    let mut out: Vec<u32> = (0..4)
+        .flat_map(|e| {
+            let hits = &along[e / 2];
+            (0..n)
+                .filter(move |&i| hits[i])
+                .map(move |i| edge(e, i) as u32)
+        })
+        .collect();
+    out.sort_unstable();
+    out.dedup();
+    out
+}
+
 /// The mesh of `errors`' tile at `tolerance` (height units), vertex heights from `heights`.
 /// Every triangle is within `tolerance` of the heights the errors were computed from.
 pub fn extract(

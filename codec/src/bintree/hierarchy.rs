@@ -51,6 +51,8 @@ pub struct Hierarchy {
     pub(crate) parents: Vec<[u32; 2]>,
     /// Per level, the small triangles' sample lists (`None` where the error pass scans).
     pub(super) shapes: Vec<Option<super::errors::Shapes>>,
+    /// Border samples that forcing a vertex on another edge can pull in (`extract::edge_spill`).
+    pub(crate) spill: Vec<u32>,
 }
 
 impl Hierarchy {
@@ -93,8 +95,10 @@ impl Hierarchy {
             level_start,
             parents,
             shapes: Vec::new(),
+            spill: Vec::new(),
         };
         hierarchy.shapes = super::errors::level_shapes(&hierarchy);
+        hierarchy.spill = super::extract::edge_spill(&hierarchy);
         Some(hierarchy)
     }
 
