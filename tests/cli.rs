@@ -322,3 +322,23 @@ fn eval_terrain_writes_the_meshes_it_measured() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Float heights off the step grid cannot decode exactly: `--lossless` says what to use
+/// instead rather than failing its own exactness check as an "internal error".
+#[test]
+fn lossless_on_float_heights_points_to_max_error() {
+    let out = Command::new(zerotile_bin())
+        .args(["eval", "terrain"])
+        .arg(shared_data().join("dem/rio_rgbify_elev.tif"))
+        .args(["--crop", "0,0,64", "--repeat", "1", "--lossless"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("not multiples of the height step 0.01"),
+        "{err}"
+    );
+    assert!(err.contains("--max-error 0.005"), "{err}");
+    assert!(!err.contains("internal error"), "{err}");
+}

@@ -185,6 +185,22 @@ pub fn run(eval: &TerrainEval) -> Result<Vec<Point>> {
             if eval.wavelet == Some(Wavelet::Cdf97) {
                 bail!("--lossless needs the reversible 5/3 wavelet (--wavelet 53)");
             }
+            // Lossless is exact in height steps; float heights off the step grid would come
+            // back rounded to it, which is a max-error point, not a lossless one.
+            let off_grid = heights
+                .data()
+                .iter()
+                .map(|&h| (h / step - (h / step).round()).abs())
+                .fold(0.0, f64::max);
+            if off_grid > 1e-6 {
+                bail!(
+                    "{}: heights are not multiples of the height step {step} (float data), so \
+                     no decode of them is exact; use --max-error {} to keep every height within \
+                     half a step, or --step to choose the step",
+                    eval.input.display(),
+                    step / 2.0
+                );
+            }
             let params = EncodeParams::new(Wavelet::LeGall53, step);
             let (encode_ms, enc) = median_ms(eval.repeat, || ezw::encode(&heights, &params));
             let enc = enc?;
