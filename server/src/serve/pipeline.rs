@@ -136,11 +136,23 @@ pub fn neighbours(d: &Dataset, id: TileId) -> [Option<TileId>; 4] {
         Scheme::Geodetic => (id.y.checked_add(1), id.y.checked_sub(1)),
         Scheme::Mercator | Scheme::Local { .. } => (id.y.checked_sub(1), id.y.checked_add(1)),
     };
+    // The world schemes go round: across the antimeridian the first column's west
+    // neighbour is the last column (both zoom-0 geodetic roots always exist, and a crack
+    // between them showed on every globe).
+    let columns = match d.tiling.scheme() {
+        Scheme::Geodetic | Scheme::Mercator => d.tiling.tiles_per_axis(id.z).ok().map(|(n, _)| n),
+        Scheme::Local { .. } => None,
+    };
+    let west_x = id.x.checked_sub(1).or(columns.map(|n| n - 1));
+    let east_x = match columns {
+        Some(n) if id.x + 1 >= n => Some(0),
+        _ => id.x.checked_add(1),
+    };
     [
         at(Some(id.x), north_y),
         at(Some(id.x), south_y),
-        at(id.x.checked_sub(1), Some(id.y)),
-        at(id.x.checked_add(1), Some(id.y)),
+        at(west_x, Some(id.y)),
+        at(east_x, Some(id.y)),
     ]
 }
 

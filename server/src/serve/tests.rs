@@ -304,10 +304,25 @@ fn neighbours_follow_each_scheme_row_direction() {
         .flat_map(|x| (0..2).map(move |y| id(1, x, y)))
         .collect();
     let d = hill_dataset("merc-neighbours", "mercator", &all);
+    // Across the antimeridian the world goes round: west of column 0 is the last column.
     assert_eq!(
         pipeline::neighbours(&d, id(1, 0, 0)),
-        [None, Some(id(1, 0, 1)), None, Some(id(1, 1, 0))]
+        [
+            None,
+            Some(id(1, 0, 1)),
+            Some(id(1, 1, 0)),
+            Some(id(1, 1, 0))
+        ]
     );
+    let roots = [id(0, 0, 0), id(0, 1, 0)];
+    let d = hill_dataset("geo-roots", "geodetic", &roots);
+    assert_eq!(
+        pipeline::neighbours(&d, id(0, 0, 0)),
+        [None, None, Some(id(0, 1, 0)), Some(id(0, 1, 0))]
+    );
+    // A local grid does not go round.
+    let d = hill_dataset("local-neighbours", "local", &[id(0, 0, 0)]);
+    assert_eq!(pipeline::neighbours(&d, id(0, 0, 0)), [None; 4]);
 }
 
 #[tokio::test]
