@@ -646,6 +646,22 @@ fn the_view_endpoint_meshes_the_view_plane_at_eq4_threshold() {
     .assert_error(404, "empty_view", "a view beside the data");
 }
 
+/// A footprint smaller than one triangle, over the data, is the triangle under it, not
+/// `empty_view` (no triangle's centroid falls inside so small a footprint).
+#[test]
+fn a_footprint_smaller_than_a_triangle_still_sees_the_terrain() {
+    let s = Server::start(data_dir());
+    let r = s.get(
+        "/v1/datasets/crop/view?eye=256,256.01,302&target=256,256,300&fov=1",
+        &[],
+    );
+    assert_eq!(r.status, 200, "{}", String::from_utf8_lossy(&r.body));
+    let v = r.json();
+    assert!(v["a_v"].as_f64().unwrap() < 1.0, "{v}");
+    let n = v["triangles"].as_u64().unwrap();
+    assert!((1..=8).contains(&n), "{n} triangles");
+}
+
 #[test]
 fn a_missing_root_tile_is_flat_and_mercator_tiles_work() {
     let s = Server::start(data_dir());

@@ -190,8 +190,15 @@ fn view_mesh(
             Scheme::Mercator => lonlat_to_mercator([x, y]),
         })
         .collect();
+    // A footprint smaller than a triangle holds no centroid: the triangles under its own
+    // centroid stand in for it then, rather than an empty view over the data.
+    let middle = polygon
+        .iter()
+        .fold([0.0, 0.0], |a, p| [a[0] + p[0], a[1] + p[1]])
+        .map(|v| v / polygon.len().max(1) as f64);
     let mut positions: Vec<DVec3> = Vec::new();
     let mut faces = Vec::new();
+    let mut under_middle = Vec::new();
     let mut welded: HashMap<[u64; 2], u32> = HashMap::new();
     for &id in tiles {
         let (_, mesh) = pipeline::stitched(state, d, id, t, cancel)?;
@@ -201,10 +208,20 @@ fn view_mesh(
                 anyhow::bail!("tile {id} mesh has a face past its vertices");
             };
             let c = (p[0] + p[1] + p[2]) / 3.0;
-            if !inside(&polygon, [c.x, c.y]) {
-                continue;
+            if inside(&polygon, [c.x, c.y]) {
+                faces.push(p);
+            } else if faces.is_empty() && covers(&p, middle) {
+                under_middle.push(p);
             }
-            // Stitched edges are bit-identical in x and y: weld on the bits.
+        }
+    }
+    if faces.is_empty() {
+        faces = under_middle;
+    }
+    // Stitched edges are bit-identical in x and y: weld on the bits.
+    let faces = faces
+        .into_iter()
+        .map(|p| {
             let mut out = [0u32; 3];
             for (slot, q) in out.iter_mut().zip(p) {
                 let key = [q.x.to_bits(), q.y.to_bits()];
@@ -213,10 +230,17 @@ fn view_mesh(
                     (positions.len() - 1) as u32
                 });
             }
-            faces.push(out);
-        }
-    }
+            out
+        })
+        .collect();
     Ok(TriMesh::new(positions, faces))
+}
+
+/// Whether triangle `p` (x, y) holds point `m`, edges included, whichever its winding.
+fn covers(p: &[DVec3; 3], m: [f64; 2]) -> bool {
+    let side = |a: DVec3, b: DVec3| (b.x - a.x) * (m[1] - a.y) - (b.y - a.y) * (m[0] - a.x);
+    let s = [side(p[0], p[1]), side(p[1], p[2]), side(p[2], p[0])];
+    s.iter().all(|&v| v >= 0.0) || s.iter().all(|&v| v <= 0.0)
 }
 
 /// The three corners of `f`, if they exist.
@@ -243,7 +267,23 @@ fn inside(poly: &[[f64; 2]], p: [f64; 2]) -> bool {
 
 #[cfg(test)]
 mod tests {
-    use super::inside;
+    use super::{covers, inside};
+    use glam::DVec3;
+
+    #[test]
+    fn covers_takes_either_winding_and_the_edges() {
+        let ccw = [
+            DVec3::ZERO,
+            DVec3::new(2.0, 0.0, 5.0),
+            DVec3::new(0.0, 2.0, 1.0),
+        ];
+        let cw = [ccw[0], ccw[2], ccw[1]];
+        for t in [ccw, cw] {
+            assert!(covers(&t, [0.5, 0.5]));
+            assert!(covers(&t, [1.0, 0.0]));
+            assert!(!covers(&t, [1.5, 1.5]));
+        }
+    }
 
     #[test]
     fn inside_follows_the_even_odd_rule() {
