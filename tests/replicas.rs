@@ -27,7 +27,19 @@ struct Nginx {
 }
 
 impl Drop for Nginx {
+    /// TERM, not KILL: nginx's master then stops its workers; a killed master left its
+    /// workers and cache manager running after every test run.
     fn drop(&mut self) {
+        let _ = Command::new("kill")
+            .args(["-TERM", &self.child.id().to_string()])
+            .status();
+        let start = Instant::now();
+        while start.elapsed() < Duration::from_secs(5) {
+            if let Ok(Some(_)) = self.child.try_wait() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
         let _ = self.child.kill();
         let _ = self.child.wait();
     }
