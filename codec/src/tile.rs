@@ -109,7 +109,7 @@ pub fn stitched_mesh(
         forced.extend(flags(&b.west).map(|r| at(r, last)));
     }
     // And what any forcing could spill onto an edge, so that both tiles of each edge hold it.
-    forced.extend(hierarchy.spill.iter().map(|&s| s as usize));
+    forced.extend(hierarchy.edge_spill().iter().map(|&s| s as usize));
     let forced = Forced::new(hierarchy, forced);
 
     // Border heights: the symmetric mean with each neighbour; corners exact.

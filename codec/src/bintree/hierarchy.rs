@@ -51,8 +51,9 @@ pub struct Hierarchy {
     pub(crate) parents: Vec<[u32; 2]>,
     /// Per level, the small triangles' sample lists (`None` where the error pass scans).
     pub(super) shapes: Vec<Option<super::errors::Shapes>>,
-    /// Border samples that forcing a vertex on another edge can pull in (`extract::edge_spill`).
-    pub(crate) spill: Vec<u32>,
+    /// Border samples that forcing a vertex on another edge can pull in
+    /// ([`Self::edge_spill`]): only stitching needs them, so they are found on first use.
+    spill: std::sync::OnceLock<Vec<u32>>,
 }
 
 impl Hierarchy {
@@ -95,14 +96,18 @@ impl Hierarchy {
             level_start,
             parents,
             shapes: Vec::new(),
-            spill: Vec::new(),
+            spill: std::sync::OnceLock::new(),
         };
         hierarchy.shapes = super::errors::level_shapes(&hierarchy);
-        hierarchy.spill = super::extract::edge_spill(&hierarchy);
         Some(hierarchy)
     }
 
     /// Samples per side.
+    /// The border samples every stitched tile forces (`extract::edge_spill`).
+    pub(crate) fn edge_spill(&self) -> &[u32] {
+        self.spill.get_or_init(|| super::extract::edge_spill(self))
+    }
+
     pub fn side(&self) -> usize {
         self.n
     }
