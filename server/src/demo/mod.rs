@@ -29,13 +29,8 @@ pub struct Built {
 /// Builds the default terrain dataset unless `data` already holds a dataset, and the default
 /// meshes unless `data/meshes` already holds meshes; `force` rebuilds both.
 pub fn ensure(data: &Path, force: bool, progress: bool) -> Result<Built> {
-    // Else the dataset write would only say "File exists", after the terrain is encoded.
-    if data.exists() && !data.is_dir() {
-        anyhow::bail!(
-            "--data {}: is a file, not a folder; give the folder the default data goes in",
-            data.display()
-        );
-    }
+    // Before the terrain is generated, not in `ingest::build` after it.
+    ingest::check_data_dir(data)?;
     let mut built = Built::default();
     let has = |dir: &Path, exts: &[&str]| -> bool {
         std::fs::read_dir(dir).is_ok_and(|rd| {

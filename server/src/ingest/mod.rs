@@ -80,6 +80,18 @@ pub fn check_name_of(kind: &str, name: &str) -> Result<()> {
     Ok(())
 }
 
+/// Errors if `data` names a file: caught before any work, where writing the finished
+/// dataset would only say "File exists", after all the encoding.
+pub fn check_data_dir(data: &Path) -> Result<()> {
+    if data.exists() && !data.is_dir() {
+        bail!(
+            "--data {}: is a file, not a folder; give the folder the datasets go in",
+            data.display()
+        );
+    }
+    Ok(())
+}
+
 /// Refuses bad options before any work; returns the scheme.
 fn check(job: &Ingest) -> Result<&str> {
     check_name(&job.name)?;
@@ -87,14 +99,7 @@ fn check(job: &Ingest) -> Result<&str> {
         "local" | "geodetic" | "mercator" => job.scheme.as_str(),
         other => bail!("--scheme {other}: use geodetic, mercator or local"),
     };
-    // Caught here, not when the finished dataset is written: create_dir_all would only say
-    // "File exists", after all the encoding.
-    if job.data.exists() && !job.data.is_dir() {
-        bail!(
-            "--data {}: is a file, not a folder; give the folder the dataset goes in",
-            job.data.display()
-        );
-    }
+    check_data_dir(&job.data)?;
     if job.max_zoom.is_some() && scheme == "local" {
         bail!("--max-zoom applies to geodetic and mercator; a local pyramid ends at the source's resolution");
     }
