@@ -98,6 +98,19 @@ impl<T> Grid<T> {
     }
 }
 
+impl Grid<f64> {
+    /// The lowest and highest samples, NaN (no-data) skipped; `None` when nothing is left.
+    pub fn min_max(&self) -> Option<(f64, f64)> {
+        self.data
+            .iter()
+            .filter(|h| !h.is_nan())
+            .fold(None, |acc, &h| match acc {
+                None => Some((h, h)),
+                Some((lo, hi)) => Some((h.min(lo), h.max(hi))),
+            })
+    }
+}
+
 impl<T: Copy> Grid<T> {
     /// The `size_r × size_c` window whose top-left sample is (`row`, `col`).
     pub fn crop(

@@ -69,20 +69,12 @@ impl Level {
         let layout = Layout::new(rows, cols, 1);
         wavelet::forward(&mut g, Wavelet::LeGall53, &layout);
         let low = layout.ll();
-        let (lo, hi) = src
-            .data()
-            .iter()
-            .filter(|v| v.is_finite())
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
-                (lo.min(v), hi.max(v))
-            });
         let heights = g
             .crop(0, 0, low.rows, low.cols)
             .unwrap_or_else(|_| Grid::zeros(low.rows, low.cols));
-        let heights = if lo <= hi {
-            heights.map(|&v| v.clamp(lo, hi))
-        } else {
-            heights
+        let heights = match src.min_max() {
+            Some((lo, hi)) => heights.map(|&v| v.clamp(lo, hi)),
+            None => heights,
         };
         Level {
             zoom: self.zoom.saturating_sub(1),
@@ -165,13 +157,7 @@ mod tests {
         };
         for _ in 0..3 {
             level = level.coarser(9);
-            let (lo, hi) = level
-                .heights
-                .data()
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
-                    (lo.min(v), hi.max(v))
-                });
+            let (lo, hi) = level.heights.min_max().unwrap();
             assert!(lo >= 0.0 && hi <= 1900.0, "zoom {}: {lo}..{hi}", level.zoom);
             assert!(hi > lo, "the cliff is still there");
         }

@@ -39,14 +39,7 @@ impl Heightmap {
 
     /// The lowest and highest valid heights; `None` when every sample is no-data.
     pub fn min_max(&self) -> Option<(f64, f64)> {
-        self.heights
-            .data()
-            .iter()
-            .filter(|h| !h.is_nan())
-            .fold(None, |acc, &h| match acc {
-                None => Some((h, h)),
-                Some((lo, hi)) => Some((h.min(lo), h.max(hi))),
-            })
+        self.heights.min_max()
     }
 
     /// The `rows × cols` window whose first sample is (`row`, `col`), with its georeference
