@@ -12,7 +12,7 @@ use std::collections::HashMap;
 use std::hash::{Hash, Hasher};
 use std::sync::Arc;
 
-use axum::body::{Body, Bytes, HttpBody};
+use axum::body::{Body, Bytes};
 use axum::extract::rejection::{PathRejection, QueryRejection};
 use axum::extract::{Path, Query, State};
 use axum::http::header::{CACHE_CONTROL, CONTENT_LENGTH, CONTENT_TYPE, ETAG};
@@ -20,6 +20,7 @@ use axum::http::{HeaderMap, HeaderValue, StatusCode};
 use axum::response::Response;
 use axum::Json;
 use glam::DVec3;
+use http_body_util::BodyExt;
 use serde_json::{json, Value};
 use zerotile_codec::mesh::curvature::{self, CurvatureOptions};
 use zerotile_codec::mesh::io::{self, Format};
@@ -408,7 +409,7 @@ pub const UPLOAD_READ_TIMEOUT: std::time::Duration = std::time::Duration::from_s
 
 /// The next frame of a body (its data, `None` for trailers), `None` at its end.
 async fn next_frame(body: &mut Body) -> Option<Result<Option<Bytes>, axum::Error>> {
-    std::future::poll_fn(|cx| std::pin::Pin::new(&mut *body).poll_frame(cx))
+    body.frame()
         .await
         .map(|frame| frame.map(|f| f.into_data().ok()))
 }
