@@ -256,11 +256,7 @@ fn check_reader_flags(
     encoding: Option<Encoding>,
     key: Option<&str>,
 ) -> anyhow::Result<()> {
-    let ext = input
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase)
-        .unwrap_or_default();
+    let ext = zerotile_codec::raster::extension(input);
     if let Some(e) = encoding {
         if ext != "png" {
             anyhow::bail!(

@@ -83,12 +83,7 @@ pub fn read_heightmap(
     opts: &ReadOptions,
 ) -> Result<Heightmap, RasterError> {
     let path = path.as_ref();
-    let extension = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase)
-        .unwrap_or_default();
-    match extension.as_str() {
+    match extension(path).as_str() {
         "hgt" => hgt::read(path, opts),
         "tif" | "tiff" => geotiff::read(path, opts),
         "png" => png::read(path, opts),
@@ -100,6 +95,14 @@ pub fn read_heightmap(
             format!("unknown heightmap extension; zerotile reads {EXTENSIONS}"),
         )),
     }
+}
+
+/// The lower-case extension [`read_heightmap`] chooses the reader by ("" for none).
+pub fn extension(path: &Path) -> String {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .unwrap_or_default()
 }
 
 /// Opens `path` for reading, naming it in the error.
