@@ -128,7 +128,17 @@ fn is_8bit(g: &Grid<f64>, step: Option<f64>) -> bool {
 /// Runs the sweep and returns one point per parameter.
 pub fn run(eval: &TerrainEval) -> Result<Vec<Point>> {
     let (heights, step, peak) = load(eval)?;
-    let name = eval.input.display().to_string();
+    let side = heights.rows();
+    // Once per run: the hierarchy of a 257² grid takes as long as meshing it.
+    let hierarchy = (heights.cols() == side)
+        .then(|| Hierarchy::new(side))
+        .flatten();
+    let src = Source {
+        name: eval.input.display().to_string(),
+        heights: &heights,
+        peak,
+        hierarchy: hierarchy.as_ref(),
+    };
     let lossy_wavelet = eval.wavelet.unwrap_or(Wavelet::Cdf97);
     let mut points = Vec::new();
     match &eval.sweep {
@@ -149,9 +159,7 @@ pub fn run(eval: &TerrainEval) -> Result<Vec<Point>> {
                 let mode = if threshold_mode { "threshold" } else { "bpp" };
                 points.push(measure(
                     eval,
-                    &name,
-                    &heights,
-                    peak,
+                    &src,
                     &enc.bytes,
                     limit,
                     mode,
@@ -170,9 +178,7 @@ pub fn run(eval: &TerrainEval) -> Result<Vec<Point>> {
                 let enc = enc?;
                 points.push(measure(
                     eval,
-                    &name,
-                    &heights,
-                    peak,
+                    &src,
                     &enc.bytes,
                     DecodeLimit::All,
                     "max-error",
@@ -206,9 +212,7 @@ pub fn run(eval: &TerrainEval) -> Result<Vec<Point>> {
             let enc = enc?;
             let point = measure(
                 eval,
-                &name,
-                &heights,
-                peak,
+                &src,
                 &enc.bytes,
                 DecodeLimit::All,
                 "lossless",
@@ -264,23 +268,27 @@ fn check_rates(rates: &[f64], header_len: usize, samples: usize) -> Result<()> {
     Ok(())
 }
 
-#[allow(clippy::too_many_arguments)] // one call site per sweep kind; a struct would only rename them
+/// What every operating point of a run is measured against.
+struct Source<'a> {
+    name: String,
+    heights: &'a Grid<f64>,
+    /// PSNR peak.
+    peak: f64,
+    /// The bintree of a square (2^k + 1)² window, else `None`.
+    hierarchy: Option<&'a Hierarchy>,
+}
+
 fn measure(
     eval: &TerrainEval,
-    name: &str,
-    heights: &Grid<f64>,
-    peak: f64,
+    src: &Source<'_>,
     bytes: &[u8],
     limit: DecodeLimit,
     mode: &'static str,
     param: Option<f64>,
     encode_ms: f64,
 ) -> Result<Point> {
+    let (name, heights, peak, hierarchy) = (&src.name, src.heights, src.peak, src.hierarchy);
     let n = heights.len() as f64;
-    let side = heights.rows();
-    let hierarchy = (heights.cols() == side)
-        .then(|| Hierarchy::new(side))
-        .flatten();
     let mesher = eval.mesher.unwrap_or(if hierarchy.is_some() {
         Mesher::Bintree
     } else {
@@ -307,7 +315,7 @@ fn measure(
             _ => dec.threshold,
         },
     };
-    let (mesh_ms, mesh) = match (mesher, &hierarchy) {
+    let (mesh_ms, mesh) = match (mesher, hierarchy) {
         (Mesher::Bintree, Some(h)) => median_ms(eval.repeat, || {
             let errors = TileErrors::exact_above(h, &dec.heights, mesh_t);
             bintree::extract(h, &errors, &dec.heights, mesh_t, None)
@@ -332,7 +340,7 @@ fn measure(
         eval.wavelet.unwrap_or(Wavelet::Cdf97)
     };
     Ok(Point {
-        input: name.to_string(),
+        input: name.clone(),
         rows: heights.rows(),
         cols: heights.cols(),
         wavelet: wavelet.name(),
