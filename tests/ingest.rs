@@ -301,3 +301,57 @@ fn a_killed_ingest_leaves_the_previous_dataset_intact_and_served() {
     drop(s);
     let _ = std::fs::remove_dir_all(&data);
 }
+
+#[test]
+fn info_verify_finds_a_flipped_bit_and_names_the_tile() {
+    let data = scratch("info");
+    let hgt = shared_data().join("dem/N44W072.hgt");
+    assert_success(&ingest(&hgt, "n44", &data, &["--precision", "1"]));
+    let info = |extra: &[&str]| {
+        Command::new(zerotile_bin())
+            .args(["info", "n44", "--quiet", "--data"])
+            .arg(&data)
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let json = |out: &std::process::Output| -> serde_json::Value {
+        serde_json::from_slice(&out.stdout).unwrap()
+    };
+
+    let out = info(&["--verify", "--json"]);
+    assert_success(&out);
+    let r = json(&out);
+    assert_eq!(r["tiles"], 25 + 9 + 4 + 1);
+    let per_zoom: Vec<u64> = r["zooms"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|z| z["tiles"].as_u64().unwrap())
+        .collect();
+    assert_eq!(per_zoom, [1, 4, 9, 25]);
+    assert_eq!(r["failed"], serde_json::json!([]));
+    assert_eq!(r["missing"], serde_json::json!([]));
+    // Without --verify nothing is read past the header, and nothing is claimed about it.
+    assert_eq!(json(&info(&["--json"]))["failed"], serde_json::Value::Null);
+
+    // One flipped bit inside one tile's stream: that tile, and only it, fails.
+    let file = data.join("n44.ztd");
+    let mut bytes = std::fs::read(&file).unwrap();
+    let c = Container::parse(&bytes, &Limits::default()).unwrap();
+    let e = c.entry(TileId { z: 3, x: 2, y: 1 }).unwrap();
+    bytes[e.offset as usize + 40] ^= 0x10;
+    std::fs::write(&file, &bytes).unwrap();
+    let out = info(&["--verify", "--json"]);
+    assert_eq!(out.status.code(), Some(1));
+    let failed = json(&out)["failed"].clone();
+    assert_eq!(failed.as_array().unwrap().len(), 1, "{failed}");
+    assert_eq!(failed[0]["tile"], "3/2/1");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("1 of 39 tiles failed"), "{stderr}");
+    // The readable form names it too.
+    let out = info(&["--verify"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("3/2/1") && text.contains("1 of 39"), "{text}");
+    let _ = std::fs::remove_dir_all(&data);
+}

@@ -28,6 +28,9 @@ pub enum Command {
     Serve(ServeArgs),
     /// Write a dataset as a static tile tree (layer.json + z/x/y files) for a CDN.
     Export(ExportArgs),
+    /// Describe a dataset file (tiling, zooms, bytes per zoom); with --verify, read and
+    /// decode every tile and exit 1 if any fails (check a copy before serving it).
+    Info(InfoArgs),
     /// Measure the codec and mesher on one input.
     #[command(subcommand)]
     Eval(EvalCommand),
@@ -59,6 +62,24 @@ pub struct ExportArgs {
     /// Zooms to export: A-B or Z (default: all).
     #[arg(long, value_name = "A-B", value_parser = crate::export::parse_zooms)]
     pub zoom: Option<(u8, u8)>,
+    /// No progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+#[derive(Args, Debug)]
+pub struct InfoArgs {
+    /// Dataset: a name in DATA, or the path of a .ztd file.
+    pub dataset: String,
+    /// Folder of datasets.
+    #[arg(long, default_value = "data")]
+    pub data: PathBuf,
+    /// Read every tile record (checksums) and decode every stream to its end.
+    #[arg(long)]
+    pub verify: bool,
+    /// Print the report as one JSON object.
+    #[arg(long)]
+    pub json: bool,
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -239,6 +260,7 @@ pub fn run() -> ExitCode {
         Command::Healthcheck(args) => healthcheck(&args.addr),
         Command::Serve(args) => serve(args),
         Command::Export(args) => export(args),
+        Command::Info(args) => info(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -329,6 +351,34 @@ fn export(a: ExportArgs) -> anyhow::Result<()> {
         done.bytes,
         started.elapsed().as_secs_f64()
     );
+    Ok(())
+}
+
+fn info(a: InfoArgs) -> anyhow::Result<()> {
+    let report = crate::info::run(&crate::info::Info {
+        dataset: a.dataset,
+        data: a.data,
+        verify: a.verify,
+        progress: !a.quiet && !a.json,
+    })?;
+    if a.json {
+        println!("{}", serde_json::to_string(&report)?);
+    } else {
+        print!("{}", crate::info::render(&report));
+    }
+    if !report.ok() {
+        let mut problems = Vec::new();
+        if !report.missing.is_empty() {
+            problems.push(format!(
+                "{} announced tiles are missing",
+                report.missing.len()
+            ));
+        }
+        if let Some(f) = report.failed.as_ref().filter(|f| !f.is_empty()) {
+            problems.push(format!("{} of {} tiles failed", f.len(), report.tiles));
+        }
+        anyhow::bail!("{}: {}", report.path, problems.join("; "));
+    }
     Ok(())
 }
 

@@ -125,20 +125,7 @@ pub fn run(job: &Export) -> Result<Exported> {
         _ => Variant::Mesh { gzip: false },
     };
 
-    let path = {
-        let as_path = Path::new(&job.dataset);
-        if as_path
-            .extension()
-            .is_some_and(|e| e == crate::ingest::EXTENSION)
-            || as_path.is_file()
-        {
-            as_path.to_path_buf()
-        } else {
-            crate::ingest::check_name(&job.dataset)?;
-            job.data
-                .join(format!("{}.{}", job.dataset, crate::ingest::EXTENSION))
-        }
-    };
+    let path = crate::ingest::dataset_path(&job.dataset, &job.data)?;
     let d = Dataset::open(&path)?;
     let m = d.metadata().clone();
     let world = !matches!(d.tiling.scheme(), Scheme::Local { .. });

@@ -10,5 +10,6 @@ pub mod cli;
 pub mod demo;
 pub mod eval;
 pub mod export;
+pub mod info;
 pub mod ingest;
 pub mod serve;

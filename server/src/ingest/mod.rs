@@ -61,6 +61,17 @@ struct Plan {
     bounds: [f64; 4],
 }
 
+/// The container a command names: a path to a `.ztd` file (or any existing file), else
+/// the dataset `NAME` in the folder `data`.
+pub fn dataset_path(dataset: &str, data: &Path) -> Result<PathBuf> {
+    let as_path = Path::new(dataset);
+    if as_path.extension().is_some_and(|e| e == EXTENSION) || as_path.is_file() {
+        return Ok(as_path.to_path_buf());
+    }
+    check_name(dataset)?;
+    Ok(data.join(format!("{dataset}.{EXTENSION}")))
+}
+
 /// Dataset names become file names: keep them to a safe alphabet.
 pub fn check_name(name: &str) -> Result<()> {
     check_name_of("dataset", name)

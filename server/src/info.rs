@@ -1,0 +1,279 @@
+//! `zerotile info`: what a dataset file holds, and with `--verify` whether all of it reads.
+//!
+//! The server checks a tile only when someone asks for it, so a bad copy (a flipped bit on
+//! the way to object storage, a truncated upload) shows up as one 500 weeks later. Verifying
+//! reads every record through the server's own reader (its CRC) and decodes every stream to
+//! the end, before the file goes live.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::sync::Mutex;
+
+use anyhow::{bail, Context, Result};
+use indicatif::{ProgressBar, ProgressStyle};
+use rayon::prelude::*;
+use serde::Serialize;
+use zerotile_codec::container::TileId;
+use zerotile_codec::ezw::{self, DecodeLimit};
+
+use crate::serve::dataset::Dataset;
+
+/// What to look at.
+#[derive(Clone, Debug)]
+pub struct Info {
+    pub dataset: String,
+    pub data: PathBuf,
+    pub verify: bool,
+    pub progress: bool,
+}
+
+/// Tiles and bytes of one zoom.
+#[derive(Clone, Debug, Serialize)]
+pub struct Zoom {
+    pub zoom: u8,
+    pub tiles: u64,
+    /// Record bytes (corners, stream and checksum).
+    pub bytes: u64,
+    /// Record bits per coded sample.
+    pub bps: f64,
+}
+
+/// One tile that failed verification.
+#[derive(Clone, Debug, Serialize)]
+pub struct Failure {
+    pub tile: String,
+    pub error: String,
+}
+
+/// The report `info` prints.
+#[derive(Clone, Debug, Serialize)]
+pub struct Report {
+    pub path: String,
+    pub metadata: zerotile_codec::container::Metadata,
+    pub zooms: Vec<Zoom>,
+    pub tiles: u64,
+    pub bytes: u64,
+    /// Tiles `layer.json` announces (the metadata's availability) that the file lacks:
+    /// clients would get 404s where they were promised data.
+    pub missing: Vec<String>,
+    /// With `--verify`, the tiles that did not read or decode (empty: all did).
+    pub failed: Option<Vec<Failure>>,
+}
+
+impl Report {
+    /// Whether every check run found nothing wrong.
+    pub fn ok(&self) -> bool {
+        self.missing.is_empty() && self.failed.as_ref().is_none_or(Vec::is_empty)
+    }
+}
+
+pub fn run(job: &Info) -> Result<Report> {
+    let path = crate::ingest::dataset_path(&job.dataset, &job.data)?;
+    if !path.is_file() {
+        bail!(
+            "{}: no such dataset file (give a .ztd path, or a name in --data {})",
+            path.display(),
+            job.data.display()
+        );
+    }
+    let d = Dataset::open(&path).with_context(|| format!("{}", path.display()))?;
+    let m = d.metadata().clone();
+    let side = m.tile_side as u64;
+
+    let mut per_zoom: BTreeMap<u8, (u64, u64)> = BTreeMap::new();
+    for (id, e) in d.container.tiles() {
+        let z = per_zoom.entry(id.z).or_default();
+        z.0 += 1;
+        z.1 += u64::from(e.len);
+    }
+    let zooms: Vec<Zoom> = per_zoom
+        .into_iter()
+        .map(|(zoom, (tiles, bytes))| Zoom {
+            zoom,
+            tiles,
+            bytes,
+            bps: bytes as f64 * 8.0 / (tiles * side * side) as f64,
+        })
+        .collect();
+
+    let mut missing = Vec::new();
+    for (i, ranges) in m.available.iter().enumerate() {
+        let Ok(z) = u8::try_from(usize::from(m.min_zoom) + i) else {
+            break;
+        };
+        for r in ranges {
+            // A corrupt header could announce billions: stop listing after a few.
+            for y in r.start_y..=r.end_y {
+                for x in r.start_x..=r.end_x {
+                    if missing.len() < 100 && !d.has_tile(TileId { z, x, y }) {
+                        missing.push(format!("{z}/{x}/{y}"));
+                    }
+                }
+                if missing.len() >= 100 {
+                    break;
+                }
+            }
+        }
+    }
+
+    let failed = job.verify.then(|| verify(&d, job.progress));
+    Ok(Report {
+        path: path.display().to_string(),
+        metadata: m,
+        tiles: zooms.iter().map(|z| z.tiles).sum(),
+        bytes: zooms.iter().map(|z| z.bytes).sum(),
+        zooms,
+        missing,
+        failed,
+    })
+}
+
+/// Reads and fully decodes every tile; the ones that fail, in tile order.
+fn verify(d: &Dataset, progress: bool) -> Vec<Failure> {
+    let mut ids: Vec<TileId> = d.container.tiles().map(|(id, _)| id).collect();
+    ids.sort_by_key(|t| (t.z, t.y, t.x));
+    let bar = if progress {
+        let b = ProgressBar::new(ids.len() as u64);
+        if let Ok(s) = ProgressStyle::with_template("verifying {bar:40} {pos}/{len} tiles {eta}") {
+            b.set_style(s);
+        }
+        b
+    } else {
+        ProgressBar::hidden()
+    };
+    let side = d.metadata().tile_side;
+    let precision = d.metadata().precision;
+    let failed = Mutex::new(Vec::new());
+    ids.par_iter().for_each(|&id| {
+        if let Err(e) = check_tile(d, id, side, precision) {
+            if let Ok(mut f) = failed.lock() {
+                f.push((id, format!("{e:#}")));
+            }
+        }
+        bar.inc(1);
+    });
+    bar.finish_and_clear();
+    let mut failed = failed.into_inner().unwrap_or_default();
+    failed.sort_by_key(|(t, _)| (t.z, t.y, t.x));
+    failed
+        .into_iter()
+        .map(|(id, error)| Failure {
+            tile: id.to_string(),
+            error,
+        })
+        .collect()
+}
+
+fn check_tile(d: &Dataset, id: TileId, side: usize, precision: Option<f64>) -> Result<()> {
+    let rec = d.read_tile(id)?;
+    if rec.corners.iter().any(|c| !c.is_finite()) {
+        bail!("corner heights {:?} are not all finite", rec.corners);
+    }
+    let dec = ezw::decode_heights(&rec.stream, DecodeLimit::All, ezw::DEFAULT_MAX_SAMPLES)
+        .context("decoding the stream to its end")?;
+    if dec.heights.rows() != side || dec.heights.cols() != side {
+        bail!(
+            "decodes to {}×{}, the dataset says {side}²",
+            dec.heights.rows(),
+            dec.heights.cols()
+        );
+    }
+    if dec.heights.data().iter().any(|h| !h.is_finite()) {
+        bail!("decodes to heights that are not finite");
+    }
+    // The residual pass records the bound it guarantees; it must be the one promised.
+    if let Some(p) = precision {
+        match dec.max_error {
+            Some(e) if e <= p * (1.0 + 1e-9) => {}
+            Some(e) => bail!("the stream guarantees {e} m, the dataset promises {p} m"),
+            None => bail!("the stream records no error bound; the dataset promises {p} m"),
+        }
+    }
+    Ok(())
+}
+
+/// The human-readable report.
+pub fn render(r: &Report) -> String {
+    use std::fmt::Write;
+    let m = &r.metadata;
+    let mut s = String::new();
+    let precision = match m.precision {
+        Some(p) => format!("within {p} m of the source"),
+        None => "every bit plane kept".to_string(),
+    };
+    let _ = writeln!(
+        s,
+        "{} ({}): {} tiling, {}² tiles, zooms {}–{}, {}, step {} m, {precision}",
+        m.name,
+        r.path,
+        m.scheme,
+        m.tile_side,
+        m.min_zoom,
+        m.max_zoom,
+        m.wavelet.name(),
+        m.step
+    );
+    if m.scheme == "local" {
+        let [rows, cols] = m.source_size;
+        let _ = writeln!(s, "source grid {rows} × {cols} samples");
+    } else {
+        let [w, so, e, n] = m.bounds;
+        let _ = writeln!(s, "bounds (W, S, E, N) {w}, {so}, {e}, {n} degrees");
+    }
+    let _ = writeln!(
+        s,
+        "heights {} … {} m, fill {} m; source {} ({}), ingested {}",
+        m.height_range[0], m.height_range[1], m.fill, m.source, m.source_crs, m.created
+    );
+    let _ = writeln!(
+        s,
+        "{:>4} {:>8} {:>12} {:>11}",
+        "zoom", "tiles", "bytes", "bits/sample"
+    );
+    for z in &r.zooms {
+        let _ = writeln!(
+            s,
+            "{:>4} {:>8} {:>12} {:>11.3}",
+            z.zoom, z.tiles, z.bytes, z.bps
+        );
+    }
+    let side = m.tile_side as f64;
+    let _ = writeln!(
+        s,
+        "{:>4} {:>8} {:>12} {:>11.3}",
+        "all",
+        r.tiles,
+        r.bytes,
+        r.bytes as f64 * 8.0 / (r.tiles.max(1) as f64 * side * side)
+    );
+    if !r.missing.is_empty() {
+        let _ = writeln!(
+            s,
+            "announced but missing: {}{}",
+            r.missing.join(", "),
+            if r.missing.len() >= 100 { ", …" } else { "" }
+        );
+    }
+    match &r.failed {
+        None => {}
+        Some(f) if f.is_empty() => {
+            let _ = writeln!(
+                s,
+                "verified: all {} tiles read (checksums hold) and decode to the end",
+                r.tiles
+            );
+        }
+        Some(f) => {
+            for x in f {
+                // The reader's own errors already name the tile.
+                if x.error.contains(&x.tile) {
+                    let _ = writeln!(s, "{}", x.error);
+                } else {
+                    let _ = writeln!(s, "tile {}: {}", x.tile, x.error);
+                }
+            }
+            let _ = writeln!(s, "{} of {} tiles failed verification", f.len(), r.tiles);
+        }
+    }
+    s
+}
