@@ -11,7 +11,6 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
 
 use anyhow::{bail, Context, Result};
-use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use zerotile_codec::container::TileId;
 use zerotile_codec::geo::Scheme;
@@ -248,15 +247,7 @@ fn render_all(
     dir: &Path,
     progress: bool,
 ) -> Result<Exported> {
-    let bar = if progress {
-        let b = ProgressBar::new(tiles.len() as u64);
-        if let Ok(s) = ProgressStyle::with_template("exporting {bar:40} {pos}/{len} tiles {eta}") {
-            b.set_style(s);
-        }
-        b
-    } else {
-        ProgressBar::hidden()
-    };
+    let bar = crate::ingest::tile_bar("exporting", progress, tiles.len() as u64);
     let bytes = AtomicU64::new(0);
     // Neighbouring tiles share decodes: go zoom by zoom, row by row.
     let mut order = tiles.to_vec();

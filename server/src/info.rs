@@ -10,7 +10,6 @@ use std::path::PathBuf;
 use std::sync::Mutex;
 
 use anyhow::{bail, Context, Result};
-use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use serde::Serialize;
 use zerotile_codec::container::TileId;
@@ -132,15 +131,7 @@ pub fn run(job: &Info) -> Result<Report> {
 fn verify(d: &Dataset, progress: bool) -> Vec<Failure> {
     let mut ids: Vec<TileId> = d.container.tiles().map(|(id, _)| id).collect();
     ids.sort_by_key(|t| (t.z, t.y, t.x));
-    let bar = if progress {
-        let b = ProgressBar::new(ids.len() as u64);
-        if let Ok(s) = ProgressStyle::with_template("verifying {bar:40} {pos}/{len} tiles {eta}") {
-            b.set_style(s);
-        }
-        b
-    } else {
-        ProgressBar::hidden()
-    };
+    let bar = crate::ingest::tile_bar("verifying", progress, ids.len() as u64);
     let side = d.metadata().tile_side;
     let precision = d.metadata().precision;
     let failed = Mutex::new(Vec::new());

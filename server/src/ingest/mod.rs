@@ -206,7 +206,7 @@ pub fn build(job: &Ingest, map: &Heightmap) -> Result<(PathBuf, Metadata)> {
     };
 
     // Encode in parallel.
-    let bar = progress_bar(job.progress, plan.jobs.len() as u64);
+    let bar = tile_bar("encoding", job.progress, plan.jobs.len() as u64);
     let params = EncodeParams {
         max_error: job.precision,
         ..EncodeParams::new(job.wavelet, step)
@@ -365,12 +365,15 @@ fn corners(tile: &Grid<f64>) -> [f64; 4] {
     ]
 }
 
-fn progress_bar(show: bool, len: u64) -> ProgressBar {
+/// The progress bar of a pass over `len` tiles ("encoding", "exporting", "verifying"); hidden
+/// unless `show` (`--quiet`, JSON output).
+pub fn tile_bar(verb: &str, show: bool, len: u64) -> ProgressBar {
     if !show {
         return ProgressBar::hidden();
     }
     let bar = ProgressBar::new(len);
-    if let Ok(style) = ProgressStyle::with_template("encoding {bar:40} {pos}/{len} tiles {eta}") {
+    let template = format!("{verb} {{bar:40}} {{pos}}/{{len}} tiles {{eta}}");
+    if let Ok(style) = ProgressStyle::with_template(&template) {
         bar.set_style(style);
     }
     bar
