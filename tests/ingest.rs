@@ -353,5 +353,12 @@ fn info_verify_finds_a_flipped_bit_and_names_the_tile() {
     let out = info(&["--verify"]);
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("3/2/1") && text.contains("1 of 39"), "{text}");
+    // A store URL is refused with what to do instead, not "no such file".
+    let out = Command::new(zerotile_bin())
+        .args(["info", "s3://tiles/prod/n44.ztd"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("local files"));
     let _ = std::fs::remove_dir_all(&data);
 }

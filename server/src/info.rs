@@ -67,6 +67,13 @@ impl Report {
 }
 
 pub fn run(job: &Info) -> Result<Report> {
+    if crate::serve::storage::is_url(&job.dataset) {
+        bail!(
+            "{}: info reads local files; verify a dataset before uploading it, or copy it down \
+             first",
+            job.dataset
+        );
+    }
     let path = crate::ingest::dataset_path(&job.dataset, &job.data)?;
     if !path.is_file() {
         bail!(
