@@ -2,6 +2,12 @@
 //! format): a 12-byte header, a JSON chunk padded with spaces and a BIN chunk padded with
 //! zeros, both to 4 bytes. One mesh, one triangle primitive: f32 POSITION (with the `min` /
 //! `max` the specification requires), unit f32 NORMAL, u32 indices.
+//!
+//! A mesh without faces (an octree level coarser than the object, say) has no primitive
+//! glTF could hold (accessors need `count` ≥ 1, meshes a primitive): it is written as a
+//! GLB whose one scene is empty, with no node, mesh, buffer or BIN chunk, which viewers
+//! load as nothing and the Khronos validator passes without a message. Coordinates beyond
+//! f32's range (finite in f64, infinite as f32) are an encoding error: glTF floats are finite.
 
 use std::io::Write;
 
@@ -30,12 +36,29 @@ fn encode_error(what: impl Into<String>) -> MeshError {
 }
 
 pub(super) fn write(mesh: &TriMesh, out: &mut impl Write) -> Result<(), MeshError> {
-    if mesh.faces.is_empty() || mesh.positions.is_empty() {
-        // glTF accessors must have count ≥ 1.
-        return Err(encode_error("glTF cannot hold an empty mesh"));
+    // Indices in range and finite coordinates, or the accessors would point past their data.
+    mesh.check()?;
+    if mesh.faces.is_empty() {
+        let doc = json!({
+            "asset": {"version": "2.0", "generator": "zerotile"},
+            "scene": 0,
+            "scenes": [{}],
+        });
+        return write_container(&doc, None, out);
     }
     // Binary payload: positions, normals, indices, each 4-byte aligned by construction.
     let positions: Vec<Vec3> = mesh.positions.iter().map(|p| p.as_vec3()).collect();
+    if let Some((i, p)) = mesh
+        .positions
+        .iter()
+        .enumerate()
+        .find(|(_, p)| !p.as_vec3().is_finite())
+    {
+        // glTF floats must be finite, and f32 ends near 3.4e38.
+        return Err(encode_error(format!(
+            "vertex {i} at {p} is beyond f32's range"
+        )));
+    }
     let normals: Vec<Vec3> = mesh.vertex_normals().iter().map(|n| n.as_vec3()).collect();
     let mut bin = Vec::with_capacity(24 * positions.len() + 12 * mesh.faces.len());
     for v in positions.iter().chain(&normals) {
@@ -78,11 +101,23 @@ pub(super) fn write(mesh: &TriMesh, out: &mut impl Write) -> Result<(), MeshErro
              "type": "SCALAR"},
         ],
     });
-    let mut text = serde_json::to_vec(&doc).map_err(|e| encode_error(e.to_string()))?;
+    write_container(&doc, Some(bin), out)
+}
+
+/// Header, JSON chunk and, when there is one, the BIN chunk; every length must fit the u32
+/// fields.
+fn write_container(
+    doc: &serde_json::Value,
+    bin: Option<Vec<u8>>,
+    out: &mut impl Write,
+) -> Result<(), MeshError> {
+    let mut text = serde_json::to_vec(doc).map_err(|e| encode_error(e.to_string()))?;
     pad(&mut text, b' ');
-    pad(&mut bin, 0);
-    // Container: header, JSON chunk, BIN chunk; every length must fit the u32 fields.
-    let total = 12 + 8 + text.len() + 8 + bin.len();
+    let bin = bin.map(|mut b| {
+        pad(&mut b, 0);
+        b
+    });
+    let total = 12 + 8 + text.len() + bin.as_ref().map_or(0, |b| 8 + b.len());
     let u32_len = |n: usize| {
         u32::try_from(n).map_err(|_| encode_error(format!("{total} bytes exceed GLB's 4 GiB")))
     };
@@ -97,10 +132,12 @@ pub(super) fn write(mesh: &TriMesh, out: &mut impl Write) -> Result<(), MeshErro
         w.write_all(&word.to_le_bytes())?;
     }
     w.write_all(&text)?;
-    for word in [u32_len(bin.len())?, CHUNK_BIN] {
-        w.write_all(&word.to_le_bytes())?;
+    if let Some(bin) = bin {
+        for word in [u32_len(bin.len())?, CHUNK_BIN] {
+            w.write_all(&word.to_le_bytes())?;
+        }
+        w.write_all(&bin)?;
     }
-    w.write_all(&bin)?;
     w.flush()?;
     Ok(())
 }

@@ -130,6 +130,104 @@ fn glb_has_a_valid_container_and_bounds() {
     assert_eq!(doc["buffers"][0]["byteLength"], 4 * 12 * 2 + 2 * 12);
 }
 
+/// The JSON chunk of a GLB and the BIN chunk's bytes (empty when there is none), after
+/// checking the container's lengths.
+fn glb_chunks(bytes: &[u8]) -> (serde_json::Value, &[u8]) {
+    let word = |i: usize| u32::from_le_bytes(bytes[i..i + 4].try_into().expect("4 bytes"));
+    assert_eq!((&bytes[..4], word(4)), (&b"glTF"[..], 2));
+    assert_eq!(word(8) as usize, bytes.len());
+    let json_len = word(12) as usize;
+    assert_eq!((&bytes[16..20], json_len % 4), (&b"JSON"[..], 0));
+    let doc = serde_json::from_slice(&bytes[20..20 + json_len]).expect("json chunk");
+    let bin_at = 20 + json_len;
+    if bin_at == bytes.len() {
+        return (doc, &[]);
+    }
+    assert_eq!(&bytes[bin_at + 4..bin_at + 8], b"BIN\0");
+    assert_eq!(word(bin_at) as usize, bytes.len() - bin_at - 8);
+    (doc, &bytes[bin_at + 8..])
+}
+
+#[test]
+fn glb_views_are_aligned_and_normals_unit() {
+    // A vertex no face uses still gets a unit normal (+z) and counts in the bounds.
+    let mut m = quad();
+    m.positions.push(DVec3::new(5.0, 5.0, 5.0));
+    let bytes = write_bytes(&m, Format::Glb).expect("glb");
+    let (doc, bin) = glb_chunks(&bytes);
+    assert_eq!(
+        doc["buffers"][0]["byteLength"].as_u64(),
+        Some(bin.len() as u64)
+    );
+    let views = doc["bufferViews"].as_array().expect("views");
+    for (a, accessor) in doc["accessors"]
+        .as_array()
+        .expect("accessors")
+        .iter()
+        .enumerate()
+    {
+        let view = &views[accessor["bufferView"].as_u64().expect("view") as usize];
+        let (offset, length) = (view["byteOffset"].as_u64(), view["byteLength"].as_u64());
+        let (offset, length) = (offset.expect("offset"), length.expect("length"));
+        assert_eq!(offset % 4, 0, "accessor {a}");
+        let width = if accessor["type"] == "VEC3" { 12 } else { 4 };
+        assert_eq!(accessor["count"].as_u64().expect("count") * width, length);
+        assert!(offset + length <= bin.len() as u64);
+    }
+    let normals = &bin[12 * 5..2 * 12 * 5];
+    for n in normals.chunks_exact(12) {
+        let c: Vec<f32> = n
+            .chunks_exact(4)
+            .map(|b| f32::from_le_bytes(b.try_into().expect("4 bytes")))
+            .collect();
+        let len = c.iter().map(|x| x * x).sum::<f32>().sqrt();
+        assert!((len - 1.0).abs() < 1e-6, "{c:?}");
+    }
+    assert_eq!(
+        doc["accessors"][0]["max"],
+        serde_json::json!([5.0, 5.0, 5.0])
+    );
+}
+
+#[test]
+fn glb_of_a_mesh_without_faces_is_an_empty_scene() {
+    // What an octree level coarser than the object gives: no face, so no primitive glTF
+    // could hold (count ≥ 1); the file is a scene with nothing in it and no BIN chunk.
+    for m in [
+        TriMesh::new(vec![], vec![]),
+        TriMesh::new(vec![DVec3::ZERO, DVec3::X], vec![]),
+    ] {
+        let bytes = write_bytes(&m, Format::Glb).expect("glb");
+        let (doc, bin) = glb_chunks(&bytes);
+        assert!(bin.is_empty());
+        assert_eq!(
+            doc,
+            serde_json::json!({
+                "asset": {"version": "2.0", "generator": "zerotile"},
+                "scene": 0,
+                "scenes": [{}],
+            })
+        );
+    }
+}
+
+#[test]
+fn glb_refuses_what_gltf_cannot_hold() {
+    // Finite in f64, infinite in f32: glTF floats must be finite.
+    let mut far = quad();
+    far.positions[1] = DVec3::new(1e39, 0.0, 0.0);
+    let e = write_bytes(&far, Format::Glb).expect_err("f32 overflow");
+    assert!(matches!(e, MeshError::Encode { format: "GLB", .. }), "{e}");
+    // An index past the vertices would make the accessors read past their views.
+    let mut broken = quad();
+    broken.faces.push([0, 1, 9]);
+    let e = write_bytes(&broken, Format::Glb).expect_err("index out of range");
+    assert!(
+        matches!(e, MeshError::Invalid(InvalidMesh::IndexOutOfRange { .. })),
+        "{e}"
+    );
+}
+
 #[test]
 fn write_path_replaces_atomically_by_extension() {
     let dir = crate::fixtures::scratch_dir("mesh-write-path");
