@@ -1,8 +1,8 @@
 //! Every route that answers glTF binary (GLB), checked by the Khronos glTF-Validator
-//! (`tests/e2e/gltf_validate.mjs`, npm `gltf-validator` pinned in `web/package.json`): terrain
-//! tiles at several zooms and thresholds (also chosen by `ratio` and by a camera), the view
-//! route, and every object-mesh LOD method on meshes of `../shared/data/meshes` and of the
-//! default data. A validator error or warning fails the test; infos and hints are printed.
+//! (`tests/e2e/gltf_validate.mjs`, npm `gltf-validator` pinned in `web/package.json`):
+//! terrain tiles of the three schemes at several zooms and thresholds (also chosen by `ratio`
+//! and by a camera), the view route, and every object-mesh LOD method on meshes of
+//! `../shared/data/meshes` and of the default data. A validator error or warning fails the test; infos and hints are printed.
 //!
 //! Needs `node` and `npm ci --prefix web --ignore-scripts`. Without them the test prints why
 //! and passes; with `ZEROTILE_E2E=1` (set by `.ci/run`) their absence fails it. The GLB files
@@ -75,7 +75,8 @@ fn every_glb_route_passes_the_khronos_gltf_validator() {
     }
 
     // The default data (geodetic demo-ridges; torus, uv-sphere, vase), two classic meshes
-    // beside them, and the README's local ingest of SRTM (column / minus-row coordinates).
+    // beside them, and SRTM ingested as the README does (local: column / minus-row
+    // coordinates) and on the mercator grid (EPSG:3857 metres, the largest numbers in f32).
     let data = std::env::temp_dir().join(format!("zerotile-gltf-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&data);
     std::fs::create_dir_all(&data).unwrap();
@@ -90,6 +91,20 @@ fn every_glb_route_passes_the_khronos_gltf_validator() {
     let hgt = shared_data().join("dem/N44W072.hgt");
     run(
         &["ingest", hgt.to_str().unwrap(), "--name", "n44", "--quiet"],
+        &data,
+    );
+    run(
+        &[
+            "ingest",
+            hgt.to_str().unwrap(),
+            "--name",
+            "n44m",
+            "--scheme",
+            "mercator",
+            "--max-zoom",
+            "10",
+            "--quiet",
+        ],
         &data,
     );
 
@@ -131,6 +146,17 @@ fn every_glb_route_passes_the_khronos_gltf_validator() {
             format!("{tile}?threshold=0"),
         );
     }
+    let mercator = server.get("/v1/datasets/n44m", &[]).json();
+    for (z, x, y) in first_tiles(&mercator) {
+        if z % 3 == 1 {
+            let tile = format!("/v1/datasets/n44m/tiles/{z}/{x}/{y}.glb");
+            add(format!("tile-mercator-{z}-{x}-{y}"), tile.clone());
+            add(
+                format!("tile-mercator-{z}-{x}-{y}-t0"),
+                format!("{tile}?threshold=0"),
+            );
+        }
+    }
     add(
         "tile-local-readme".into(),
         "/v1/datasets/n44/tiles/3/2/1.glb?eye=600,600,3000&target=640,520,300&fov=60".into(),
@@ -153,6 +179,10 @@ fn every_glb_route_passes_the_khronos_gltf_validator() {
         (
             "view-local-wide",
             "n44/view?eye=600,600,20000&target=600,600,300&fov=90&aspect=2",
+        ),
+        (
+            "view-mercator",
+            "n44m/view?eye=-71.5,44.3,3000&target=-71.5,44.5,300&fov=60",
         ),
     ] {
         add(name.into(), format!("/v1/datasets/{query}&format=glb"));
