@@ -557,6 +557,8 @@ fn bad_requests_are_4xx_json() {
         ),
         (&format!("{t}/1/0/0.png?encoding=gray"), 400, "bad_encoding"),
         (&format!("{t}/1/0/0.png?size=100000"), 400, "out_of_range"),
+        // A size is a pixel count: 100.7 is refused, not cut to 100.
+        (&format!("{t}/1/0/0.png?size=100.7"), 400, "out_of_range"),
     ] {
         s.get(path, &[]).assert_error(status, code, path);
     }

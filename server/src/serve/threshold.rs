@@ -3,7 +3,8 @@
 //!
 //! T is an error budget in metres. The stream is read to T · [`DECODE_SHARE`] (rounded down
 //! to a power of two, so nearby budgets share one cached decode) and the mesh gets the rest,
-//! T · (1 − [`DECODE_SHARE`]), as `zerotile eval terrain` does.
+//! T · (1 − [`DECODE_SHARE`]). `zerotile eval terrain` reads to the same depth but, having
+//! the source, meshes within T minus the decode's measured error.
 
 use std::collections::HashMap;
 
@@ -16,7 +17,7 @@ use super::dataset::Dataset;
 use super::error::ApiError;
 use super::view_plane::{footprint, polygon_area, Camera};
 
-/// Share of the budget spent on decoding, the same split `zerotile eval terrain` measures.
+/// Share of the budget spent on decoding, the same depth `zerotile eval terrain` reads to.
 pub use crate::eval::terrain::DECODE_SHARE;
 /// Largest threshold accepted, metres: far above any relief, so larger values are mistakes.
 pub const MAX_THRESHOLD: f64 = 100_000.0;
@@ -250,6 +251,19 @@ pub fn number(name: &str, s: &str, lo: f64, hi: f64) -> Result<f64, ApiError> {
         return Err(ApiError::bad_request(
             "out_of_range",
             format!("{name} must be in {low}, {}], got {s}", short(hi)),
+        ));
+    }
+    Ok(v)
+}
+
+/// [`number`] that must also be whole: a count or a size, where 1.5 would otherwise be
+/// cut to 1 without a word.
+pub fn integer(name: &str, s: &str, lo: f64, hi: f64) -> Result<f64, ApiError> {
+    let v = number(name, s, lo, hi)?;
+    if v.fract() != 0.0 {
+        return Err(ApiError::bad_request(
+            "out_of_range",
+            format!("{name} must be an integer in [{lo}, {hi}], got {s}"),
         ));
     }
     Ok(v)

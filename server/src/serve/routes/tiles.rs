@@ -351,7 +351,7 @@ fn variant(
             };
             let size = match q.get("size") {
                 Some(s) => {
-                    threshold::number("size", s, f64::from(PNG_MIN_SIZE), f64::from(PNG_MAX_SIZE))?
+                    threshold::integer("size", s, f64::from(PNG_MIN_SIZE), f64::from(PNG_MAX_SIZE))?
                         as u32
                 }
                 None => PNG_DEFAULT_SIZE,
