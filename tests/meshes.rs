@@ -198,6 +198,8 @@ fn bad_asks_get_specific_json_errors() {
             "bad_mesh_query",
         ),
         ("/v1/meshes/fandisk/original?format=stl", 400, "bad_format"),
+        // The description is JSON only: asking it for a model is an error, not a 200 JSON.
+        ("/v1/meshes/fandisk?format=glb", 400, "bad_query"),
         ("/v1/meshes/fandisk/octree?level=1.5", 400, "out_of_range"),
         (
             "/v1/meshes/fandisk/octree?level=2&roi=0,0,1,1",

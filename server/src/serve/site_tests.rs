@@ -71,6 +71,29 @@ fn openapi_describes_every_registered_route_and_no_other() {
     );
 }
 
+/// Every parameter an LOD method takes is described, so a client generated from the spec
+/// can send it (fov and aspect of the octree camera were missing once).
+#[test]
+fn openapi_lists_every_parameter_the_mesh_lods_take() {
+    let doc: serde_json::Value = serde_json::from_str(super::routes::site::OPENAPI_JSON).unwrap();
+    let described: BTreeSet<&str> = doc["paths"]["/v1/meshes/{name}/{method}"]["get"]["parameters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|p| p["in"] == "query")
+        .map(|p| p["name"].as_str().unwrap())
+        .collect();
+    assert!(described.contains("format"));
+    for (method, takes) in super::routes::meshes::TAKES {
+        for p in takes {
+            assert!(
+                described.contains(p),
+                "{method} takes {p}, which openapi.json does not list"
+            );
+        }
+    }
+}
+
 #[tokio::test]
 async fn the_viewer_page_and_its_assets_are_served() {
     let (status, media, body) = get("/").await;

@@ -32,7 +32,7 @@ use crate::serve::error::{ApiError, ApiResult};
 use crate::serve::meshes::{MeshAnswer, MeshEntry, MAX_UPLOAD_BYTES};
 use crate::serve::negotiate;
 use crate::serve::state::AppState;
-use crate::serve::threshold::{number, vec3};
+use crate::serve::threshold::{integer, number, vec3};
 
 /// The LOD methods, as path segments.
 pub const METHODS: [&str; 5] = ["original", "curvature", "silhouette", "qem", "octree"];
@@ -45,9 +45,22 @@ pub async fn list(State(state): State<AppState>) -> Json<Value> {
 pub async fn describe(
     State(state): State<AppState>,
     path: Result<Path<String>, PathRejection>,
+    query: Result<Query<HashMap<String, String>>, QueryRejection>,
 ) -> ApiResult<Json<Value>> {
     let Path(name) = path?;
+    let Query(q) = query?;
     let e = entry(&state, &name)?;
+    // `?format=glb` here would otherwise answer this JSON with a 200 to a client that
+    // asked for a model.
+    if let Some(k) = q.keys().next() {
+        return Err(ApiError::bad_request(
+            "bad_query",
+            format!(
+                "the mesh description takes no parameters, got {k:?}; the mesh itself is \
+                 /v1/meshes/{name}/original?format=obj|ply|glb|json"
+            ),
+        ));
+    }
     let mut v = summary(&e);
     let base = format!("/v1/meshes/{name}");
     let methods = json!({
@@ -109,9 +122,27 @@ enum Ask {
     },
 }
 
+/// The query parameters each LOD method takes besides `format` (assets/openapi.json lists
+/// every one; `site_tests` checks).
+pub(crate) const TAKES: [(&str, &[&str]); 5] = [
+    ("original", &[]),
+    ("curvature", &["error", "level"]),
+    ("silhouette", &["level", "eye", "target"]),
+    ("qem", &["faces", "ratio", "error"]),
+    (
+        "octree",
+        &["level", "roi", "eye", "target", "fov", "aspect"],
+    ),
+];
+
 fn parse_ask(method: &str, q: &HashMap<String, String>, mesh: &TriMesh) -> ApiResult<Ask> {
     let get = |k: &str| q.get(k).map(String::as_str);
-    let only = |allowed: &[&str]| -> ApiResult<()> {
+    // Called once the method is known (an unknown one is a 404, not a 400).
+    let only = || -> ApiResult<()> {
+        let allowed = TAKES
+            .iter()
+            .find(|(m, _)| *m == method)
+            .map_or(&[][..], |(_, a)| *a);
         match q
             .keys()
             .find(|k| k.as_str() != "format" && !allowed.contains(&k.as_str()))
@@ -125,11 +156,11 @@ fn parse_ask(method: &str, q: &HashMap<String, String>, mesh: &TriMesh) -> ApiRe
     };
     match method {
         "original" => {
-            only(&[])?;
+            only()?;
             Ok(Ask::Original)
         }
         "curvature" => {
-            only(&["error", "level"])?;
+            only()?;
             match (get("error"), get("level")) {
                 (Some(e), None) => Ok(Ask::Curvature(number("error", e, 0.0, 10.0)?)),
                 (None, l) => {
@@ -143,7 +174,7 @@ fn parse_ask(method: &str, q: &HashMap<String, String>, mesh: &TriMesh) -> ApiRe
             }
         }
         "silhouette" => {
-            only(&["level", "eye", "target"])?;
+            only()?;
             let level = get("level")
                 .map(|l| integer("level", l, 0.0, 7.0))
                 .transpose()?
@@ -170,7 +201,7 @@ fn parse_ask(method: &str, q: &HashMap<String, String>, mesh: &TriMesh) -> ApiRe
             Ok(Ask::Silhouette { level, view })
         }
         "qem" => {
-            only(&["faces", "ratio", "error"])?;
+            only()?;
             let n = mesh.face_count() as f64;
             match (get("faces"), get("ratio"), get("error")) {
                 (Some(f), None, None) => {
@@ -188,7 +219,7 @@ fn parse_ask(method: &str, q: &HashMap<String, String>, mesh: &TriMesh) -> ApiRe
             }
         }
         "octree" => {
-            only(&["level", "roi", "eye", "target", "fov", "aspect"])?;
+            only()?;
             let level = integer("level", get("level").unwrap_or("2"), 0.0, 32.0)?;
             let roi = match (get("roi"), get("eye"), get("target")) {
                 (None, None, None) => None,
@@ -238,17 +269,6 @@ fn parse_ask(method: &str, q: &HashMap<String, String>, mesh: &TriMesh) -> ApiRe
 
 /// A count or level: [`number`] that is also whole, so `faces=1.5` is refused rather than
 /// silently cut to 1.
-fn integer(name: &str, s: &str, lo: f64, hi: f64) -> ApiResult<f64> {
-    let v = number(name, s, lo, hi)?;
-    if v.fract() != 0.0 {
-        return Err(ApiError::bad_request(
-            "out_of_range",
-            format!("{name} must be an integer in [{lo}, {hi}], got {s}"),
-        ));
-    }
-    Ok(v)
-}
-
 fn parse_format(q: &HashMap<String, String>) -> ApiResult<(Format, &'static str)> {
     match q.get("format").map(String::as_str).unwrap_or("json") {
         "obj" => Ok((Format::Obj, "model/obj")),
