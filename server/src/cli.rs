@@ -120,7 +120,7 @@ pub struct DemoArgs {
 pub struct IngestArgs {
     /// Heightmap: .hgt, .tif (GeoTIFF), .png (gray, terrain-RGB, Terrarium), .asc, .npy, .npz.
     pub input: PathBuf,
-    /// Dataset name (A–Z, a–z, 0–9, '-', '_'): the file is DATA/NAME.ztd.
+    /// Dataset name (1–64 of A–Z, a–z, 0–9, '-', '_'): the file is DATA/NAME.ztd.
     #[arg(long)]
     pub name: String,
     /// Folder of datasets.
@@ -186,7 +186,7 @@ pub struct ServeArgs {
 
 #[derive(Subcommand, Debug)]
 pub enum EvalCommand {
-    /// Rate, distortion and zerotree-mesh figures of the terrain codec on one heightmap.
+    /// Rate, distortion and mesh figures of the terrain codec on one heightmap.
     Terrain(TerrainArgs),
     /// Simplify one object mesh: counts, time and Metro distances to the input.
     Mesh(eval::mesh::MeshArgs),

@@ -223,10 +223,12 @@ pub fn render(r: &Report) -> String {
         "heights {} … {} m, fill {} m; source {} ({}), ingested {}",
         m.height_range[0], m.height_range[1], m.fill, m.source, m.source_crs, m.created
     );
+    // Records hold corners and a checksum besides the stream: a little above the stream
+    // bytes ingest reports.
     let _ = writeln!(
         s,
         "{:>4} {:>8} {:>12} {:>11}",
-        "zoom", "tiles", "bytes", "bits/sample"
+        "zoom", "tiles", "record bytes", "bits/sample"
     );
     for z in &r.zooms {
         let _ = writeln!(

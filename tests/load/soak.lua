@@ -1,4 +1,4 @@
--- Cycle through every tile of zooms 8-10 and every format, with gzip accepted.
+-- Cycle through every tile of zooms 9 and 10 and every format, with gzip accepted.
 local paths = {}
 local formats = {"terrain", "png", "bin", "json"}
 for x = 614, 620 do for y = 762, 767 do for _, f in ipairs(formats) do

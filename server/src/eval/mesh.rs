@@ -25,13 +25,13 @@ pub const DEFAULT_REPEAT: usize = 5;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Method {
-    /// Curvature-error vertex decimation (DESIGN §3.1).
+    /// Curvature-error vertex decimation (../shared/DESIGN.md §3.1).
     Curvature,
-    /// Octree LOD (DESIGN §3.2).
+    /// Octree LOD (../shared/DESIGN.md §3.2).
     Octree,
-    /// Garland–Heckbert quadric edge collapse (DESIGN §3.4).
+    /// Garland–Heckbert quadric edge collapse (../shared/DESIGN.md §3.4).
     Qem,
-    /// Silhouette-preserving view-sphere LOD (DESIGN §3.3).
+    /// Silhouette-preserving view-sphere LOD (../shared/DESIGN.md §3.3).
     Silhouette,
 }
 

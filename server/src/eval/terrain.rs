@@ -1,4 +1,4 @@
-//! `zerotile eval terrain`: rate, distortion and zerotree-mesh figures per operating point,
+//! `zerotile eval terrain`: rate, distortion and mesh figures per operating point,
 //! one JSON object per line (the benchmark scripts' contract) or a table like the paper's.
 
 use std::path::{Path, PathBuf};
