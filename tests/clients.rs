@@ -17,49 +17,24 @@ use std::process::Command;
 use std::time::Instant;
 
 use zerotile_tests::server::Server;
-use zerotile_tests::{run_ok, shared_data, zerotile_bin};
-
-fn repo() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
-}
+use zerotile_tests::{e2e_out, node_missing, repo_root, run_in, shared_data, tools_ready};
 
 /// What is missing for the browser tests, if anything.
 fn missing_tools(chromium: &Path) -> Vec<String> {
-    let mut missing = Vec::new();
-    if Command::new("node").arg("--version").output().is_err() {
-        missing.push("node (Node.js 18+)".to_string());
-    }
+    let mut missing = node_missing("playwright-core");
     if !chromium.is_file() {
         missing.push(format!(
             "Chromium at {} (apt-get install -y chromium, or set CHROMIUM)",
             chromium.display()
         ));
     }
-    if !repo().join("web/node_modules/playwright-core").is_dir() {
-        missing.push("web/node_modules (npm ci --prefix web)".to_string());
-    }
     missing
-}
-
-fn run(args: &[&str], data: &Path) {
-    run_ok(
-        Command::new(zerotile_bin())
-            .args(args)
-            .arg("--data")
-            .arg(data),
-    );
 }
 
 #[test]
 fn cesium_maplibre_and_the_viewer_render_in_headless_chromium() {
     let chromium = PathBuf::from(std::env::var("CHROMIUM").unwrap_or("/usr/bin/chromium".into()));
-    let missing = missing_tools(&chromium);
-    if !missing.is_empty() {
-        let msg = format!("browser client tests need: {}", missing.join("; "));
-        if std::env::var("ZEROTILE_E2E").is_ok_and(|v| v == "1") {
-            panic!("ZEROTILE_E2E=1 but {msg}");
-        }
-        eprintln!("SKIPPED (set ZEROTILE_E2E=1 to require it): {msg}");
+    if !tools_ready("the browser client test", &missing_tools(&chromium)) {
         return;
     }
 
@@ -69,9 +44,9 @@ fn cesium_maplibre_and_the_viewer_render_in_headless_chromium() {
     let data = std::env::temp_dir().join(format!("zerotile-clients-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&data);
     std::fs::create_dir_all(&data).unwrap();
-    run(&["demo-data", "--quiet"], &data);
+    run_in(&["demo-data", "--quiet"], &data);
     let hgt = shared_data().join("dem/N44W072.hgt");
-    run(
+    run_in(
         &[
             "ingest",
             hgt.to_str().unwrap(),
@@ -88,13 +63,10 @@ fn cesium_maplibre_and_the_viewer_render_in_headless_chromium() {
     eprintln!("data ready in {:.1} s", t0.elapsed().as_secs_f64());
 
     let server = Server::start(&data);
-    let target = std::env::var("CARGO_TARGET_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|_| repo().join("target"));
-    let out = target.join("e2e");
+    let out = e2e_out("");
     let t1 = Instant::now();
     let status = Command::new("node")
-        .arg(repo().join("tests/e2e/clients.mjs"))
+        .arg(repo_root().join("tests/e2e/clients.mjs"))
         .args(["--base", server.base(), "--geodetic", "demo-ridges"])
         .args(["--mercator", "n44m", "--out"])
         .arg(&out)

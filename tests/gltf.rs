@@ -13,37 +13,11 @@
     reason = "end-to-end test: a broken step should fail loudly"
 )]
 
-use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use serde_json::Value;
 use zerotile_tests::server::Server;
-use zerotile_tests::{run_ok, shared_data, zerotile_bin};
-
-fn repo() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
-}
-
-/// What is missing for the validator, if anything.
-fn missing_tools() -> Vec<String> {
-    let mut missing = Vec::new();
-    if Command::new("node").arg("--version").output().is_err() {
-        missing.push("node (Node.js 18+)".to_string());
-    }
-    if !repo().join("web/node_modules/gltf-validator").is_dir() {
-        missing.push("web/node_modules/gltf-validator (npm ci --prefix web)".to_string());
-    }
-    missing
-}
-
-fn run(args: &[&str], data: &Path) {
-    run_ok(
-        Command::new(zerotile_bin())
-            .args(args)
-            .arg("--data")
-            .arg(data),
-    );
-}
+use zerotile_tests::{e2e_out, node_missing, repo_root, run_in, shared_data, tools_ready};
 
 /// `(zoom, x, y)` of the first tile the dataset holds at each zoom (its `available` ranges).
 fn first_tiles(info: &Value) -> Vec<(usize, u64, u64)> {
@@ -64,13 +38,7 @@ fn first_tiles(info: &Value) -> Vec<(usize, u64, u64)> {
 
 #[test]
 fn every_glb_route_passes_the_khronos_gltf_validator() {
-    let missing = missing_tools();
-    if !missing.is_empty() {
-        let msg = format!("the glTF validation test needs: {}", missing.join("; "));
-        if std::env::var("ZEROTILE_E2E").is_ok_and(|v| v == "1") {
-            panic!("ZEROTILE_E2E=1 but {msg}");
-        }
-        eprintln!("SKIPPED (set ZEROTILE_E2E=1 to require it): {msg}");
+    if !tools_ready("the glTF validation test", &node_missing("gltf-validator")) {
         return;
     }
 
@@ -80,7 +48,7 @@ fn every_glb_route_passes_the_khronos_gltf_validator() {
     let data = std::env::temp_dir().join(format!("zerotile-gltf-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&data);
     std::fs::create_dir_all(&data).unwrap();
-    run(&["demo-data", "--quiet"], &data);
+    run_in(&["demo-data", "--quiet"], &data);
     for m in ["fandisk.obj", "spot.obj"] {
         std::fs::copy(
             shared_data().join("meshes").join(m),
@@ -89,11 +57,11 @@ fn every_glb_route_passes_the_khronos_gltf_validator() {
         .unwrap();
     }
     let hgt = shared_data().join("dem/N44W072.hgt");
-    run(
+    run_in(
         &["ingest", hgt.to_str().unwrap(), "--name", "n44", "--quiet"],
         &data,
     );
-    run(
+    run_in(
         &[
             "ingest",
             hgt.to_str().unwrap(),
@@ -217,10 +185,7 @@ fn every_glb_route_passes_the_khronos_gltf_validator() {
         }
     }
 
-    let target = std::env::var("CARGO_TARGET_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|_| repo().join("target"));
-    let out = target.join("e2e/gltf");
+    let out = e2e_out("gltf");
     let _ = std::fs::remove_dir_all(&out);
     std::fs::create_dir_all(&out).unwrap();
     let mut files = Vec::new();
@@ -244,7 +209,7 @@ fn every_glb_route_passes_the_khronos_gltf_validator() {
     );
 
     let report = Command::new("node")
-        .arg(repo().join("tests/e2e/gltf_validate.mjs"))
+        .arg(repo_root().join("tests/e2e/gltf_validate.mjs"))
         .arg("--strict")
         .args(&files)
         .output()

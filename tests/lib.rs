@@ -18,6 +18,60 @@ pub fn shared_data() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data")
 }
 
+/// The repository root.
+pub fn repo_root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// Where end-to-end tests leave files worth a look (screenshots, GLBs): `TARGET/e2e/WHAT`.
+pub fn e2e_out(what: &str) -> PathBuf {
+    std::env::var("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|_| repo_root().join("target"))
+        .join("e2e")
+        .join(what)
+}
+
+/// Whether a test that needs outside tools (a browser, nginx, an S3 server) can run: yes
+/// when `missing` is empty. Otherwise it prints why and says no, so a laptop without them
+/// still passes `cargo test`; under `ZEROTILE_E2E=1` (set by `.ci/run`) it fails the test
+/// instead, so CI cannot skip silently.
+pub fn tools_ready(test: &str, missing: &[String]) -> bool {
+    if missing.is_empty() {
+        return true;
+    }
+    let msg = format!("{test} needs: {}", missing.join("; "));
+    if std::env::var("ZEROTILE_E2E").is_ok_and(|v| v == "1") {
+        panic!("ZEROTILE_E2E=1 but {msg}");
+    }
+    eprintln!("SKIPPED (set ZEROTILE_E2E=1 to require it): {msg}");
+    false
+}
+
+/// What a node-driven test lacks: node itself, or `package` under web/node_modules.
+pub fn node_missing(package: &str) -> Vec<String> {
+    let mut missing = Vec::new();
+    if Command::new("node").arg("--version").output().is_err() {
+        missing.push("node (Node.js 18+)".to_string());
+    }
+    if !repo_root().join("web/node_modules").join(package).is_dir() {
+        missing.push(format!(
+            "web/node_modules/{package} (npm ci --prefix web --ignore-scripts)"
+        ));
+    }
+    missing
+}
+
+/// `zerotile ARGS --data DATA`, which must succeed.
+pub fn run_in(args: &[&str], data: &Path) -> std::process::Output {
+    run_ok(
+        Command::new(zerotile_bin())
+            .args(args)
+            .arg("--data")
+            .arg(data),
+    )
+}
+
 /// The `zerotile` binary built for this test profile.
 ///
 /// Cargo builds it only when the server package is in the run (`cargo test --workspace`, as

@@ -19,7 +19,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use zerotile_tests::server::Server;
-use zerotile_tests::{run_ok, zerotile_bin};
+use zerotile_tests::{run_ok, tools_ready, zerotile_bin};
 
 struct Nginx {
     child: Child,
@@ -61,11 +61,8 @@ fn port_of(s: &Server) -> &str {
 /// everything it writes under `dir`.
 fn start_nginx(dir: &Path, a: &str, b: &str) -> Option<Nginx> {
     let Ok(bin) = which("nginx") else {
-        let msg = "nginx not found (apt-get install nginx-light)";
-        if std::env::var("ZEROTILE_E2E").is_ok_and(|v| v == "1") {
-            panic!("ZEROTILE_E2E=1 but {msg}");
-        }
-        eprintln!("SKIPPED (set ZEROTILE_E2E=1 to require it): {msg}");
+        let missing = ["nginx (apt-get install nginx-light)".to_string()];
+        tools_ready("the replica test", &missing);
         return None;
     };
     let shipped =

@@ -16,7 +16,7 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use zerotile_tests::server::Server;
-use zerotile_tests::{ingest_command, run_ok, shared_data, zerotile_bin};
+use zerotile_tests::{ingest_command, run_ok, shared_data, tools_ready, zerotile_bin};
 
 /// A `moto_server` on a free loopback port, stopped on drop.
 struct Moto {
@@ -39,11 +39,10 @@ impl Moto {
         let child = match child {
             Ok(c) => c,
             Err(e) => {
-                let msg = format!("moto_server not runnable ({e}); `pip install 'moto[server]'`");
-                if std::env::var("ZEROTILE_E2E").is_ok_and(|v| v == "1") {
-                    panic!("ZEROTILE_E2E=1 but {msg}");
-                }
-                eprintln!("SKIPPED (set ZEROTILE_E2E=1 to require it): {msg}");
+                let missing = [format!(
+                    "moto_server, runnable ({e}; `pip install 'moto[server]'`)"
+                )];
+                tools_ready("the object-store test", &missing);
                 return None;
             }
         };
