@@ -17,6 +17,9 @@ use zerotile_codec::ezw::{self, DecodeLimit};
 
 use crate::serve::dataset::Dataset;
 
+/// Announced tiles listed as missing before the check stops.
+const MISSING_LISTED: usize = 100;
+
 /// What to look at.
 #[derive(Clone, Debug)]
 pub struct Info {
@@ -102,21 +105,23 @@ pub fn run(job: &Info) -> Result<Report> {
         })
         .collect();
 
+    // A corrupt header can announce 2^64 tiles: stop at the first MISSING_LISTED absent
+    // ones. Every position visited is a stored tile or one of those, so the scan ends
+    // within (tiles + MISSING_LISTED) steps whatever the ranges say.
     let mut missing = Vec::new();
-    for (i, ranges) in m.available.iter().enumerate() {
+    'scan: for (i, ranges) in m.available.iter().enumerate() {
         let Ok(z) = u8::try_from(usize::from(m.min_zoom) + i) else {
             break;
         };
         for r in ranges {
-            // A corrupt header could announce billions: stop listing after a few.
             for y in r.start_y..=r.end_y {
                 for x in r.start_x..=r.end_x {
-                    if missing.len() < 100 && !d.has_tile(TileId { z, x, y }) {
+                    if !d.has_tile(TileId { z, x, y }) {
                         missing.push(format!("{z}/{x}/{y}"));
+                        if missing.len() >= MISSING_LISTED {
+                            break 'scan;
+                        }
                     }
-                }
-                if missing.len() >= 100 {
-                    break;
                 }
             }
         }
@@ -251,7 +256,11 @@ pub fn render(r: &Report) -> String {
             s,
             "announced but missing: {}{}",
             r.missing.join(", "),
-            if r.missing.len() >= 100 { ", …" } else { "" }
+            if r.missing.len() >= MISSING_LISTED {
+                ", …"
+            } else {
+                ""
+            }
         );
     }
     match &r.failed {
@@ -276,4 +285,62 @@ pub fn render(r: &Report) -> String {
         }
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use zerotile_codec::container::{Availability, Metadata, ViewParams, Writer};
+    use zerotile_codec::wavelet::Wavelet;
+
+    /// A header that announces every tile of a 2^32 × 2^32 zoom but stores one: the check
+    /// lists the first absent ones and returns, rather than walking 2^64 positions.
+    #[test]
+    fn an_absurd_availability_is_reported_not_walked() {
+        let mut w = Writer::new();
+        w.add(TileId { z: 0, x: 0, y: 0 }, [0.0; 4], b"not decoded here");
+        let m = Metadata {
+            name: "huge".into(),
+            scheme: "local".into(),
+            tile_side: 257,
+            min_zoom: 0,
+            max_zoom: 0,
+            bounds: [0.0, 256.0, 256.0, 0.0],
+            source_size: [257, 257],
+            wavelet: Wavelet::Cdf97,
+            step: 1.0,
+            precision: None,
+            height_range: [0.0, 1.0],
+            fill: 0.0,
+            view: ViewParams { a: 1.0, b: 0.0 },
+            available: vec![vec![Availability {
+                start_x: 0,
+                start_y: 0,
+                end_x: u32::MAX,
+                end_y: u32::MAX,
+            }]],
+            source: "test".into(),
+            source_crs: "none".into(),
+            samples: 257 * 257,
+            stream_bytes: 16,
+            created: "2026-11-25T00:00:00Z".into(),
+        };
+        let dir = std::env::temp_dir().join(format!("zerotile-info-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("huge.ztd");
+        std::fs::write(&path, w.finish(&m).unwrap()).unwrap();
+        let report = run(&Info {
+            dataset: path.display().to_string(),
+            data: dir.clone(),
+            verify: false,
+            progress: false,
+        })
+        .unwrap();
+        assert_eq!(report.tiles, 1);
+        assert_eq!(report.missing.len(), MISSING_LISTED);
+        assert_eq!(report.missing[0], "0/1/0");
+        assert!(!report.ok());
+        assert!(render(&report).contains("announced but missing: 0/1/0, 0/2/0"));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }
