@@ -184,6 +184,22 @@ fn check_tile(d: &Dataset, id: TileId, side: usize, precision: Option<f64>) -> R
     if dec.heights.data().iter().any(|h| !h.is_finite()) {
         bail!("decodes to heights that are not finite");
     }
+    // The record's corners are the samples the stream encoded there (stitched meshes use
+    // them), so the decode must agree with them within the bound the stream records: a
+    // stream stored under another tile's record would not.
+    if let Some(bound) = dec.max_error {
+        let last = side - 1;
+        let decoded =
+            [(0, 0), (0, last), (last, 0), (last, last)].map(|(r, c)| *dec.heights.get(r, c));
+        for (k, (&d, &c)) in decoded.iter().zip(&rec.corners).enumerate() {
+            if (d - c).abs() > bound * (1.0 + 1e-9) + 1e-9 {
+                bail!(
+                    "corner {k} decodes to {d} m, the record says {c} m (the stream bounds its \
+                     error by {bound} m)"
+                );
+            }
+        }
+    }
     // The residual pass records the bound it guarantees; it must be the one promised.
     if let Some(p) = precision {
         match dec.max_error {
@@ -291,16 +307,14 @@ pub fn render(r: &Report) -> String {
 mod tests {
     use super::*;
     use zerotile_codec::container::{Availability, Metadata, ViewParams, Writer};
+    use zerotile_codec::ezw::EncodeParams;
     use zerotile_codec::wavelet::Wavelet;
+    use zerotile_codec::Grid;
 
-    /// A header that announces every tile of a 2^32 × 2^32 zoom but stores one: the check
-    /// lists the first absent ones and returns, rather than walking 2^64 positions.
-    #[test]
-    fn an_absurd_availability_is_reported_not_walked() {
-        let mut w = Writer::new();
-        w.add(TileId { z: 0, x: 0, y: 0 }, [0.0; 4], b"not decoded here");
-        let m = Metadata {
-            name: "huge".into(),
+    /// The metadata of a one-tile local 257² dataset.
+    fn local_257(stream_bytes: u64) -> Metadata {
+        Metadata {
+            name: "t".into(),
             scheme: "local".into(),
             tile_side: 257,
             min_zoom: 0,
@@ -310,21 +324,83 @@ mod tests {
             wavelet: Wavelet::Cdf97,
             step: 1.0,
             precision: None,
-            height_range: [0.0, 1.0],
+            height_range: [0.0, 512.0],
             fill: 0.0,
             view: ViewParams { a: 1.0, b: 0.0 },
             available: vec![vec![Availability {
                 start_x: 0,
                 start_y: 0,
-                end_x: u32::MAX,
-                end_y: u32::MAX,
+                end_x: 0,
+                end_y: 0,
             }]],
             source: "test".into(),
             source_crs: "none".into(),
             samples: 257 * 257,
-            stream_bytes: 16,
+            stream_bytes,
             created: "2026-11-25T00:00:00Z".into(),
+        }
+    }
+
+    /// Writes a container to a fresh folder and returns `info`'s verifying report on it.
+    fn verify_file(name: &str, file: Vec<u8>) -> Report {
+        let dir = std::env::temp_dir().join(format!("zerotile-info-{name}-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("t.ztd");
+        std::fs::write(&path, file).unwrap();
+        let report = run(&Info {
+            dataset: path.display().to_string(),
+            data: dir.clone(),
+            verify: true,
+            progress: false,
+        })
+        .unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
+        report
+    }
+
+    /// A record whose corners disagree with its stream (beyond the stream's own error
+    /// bound) fails verification; the same stream with its true corners passes.
+    #[test]
+    fn corners_that_disagree_with_the_stream_fail() {
+        let n = 257;
+        let g = Grid::new(
+            n,
+            n,
+            (0..n * n).map(|k| ((k / n) + (k % n)) as f64).collect(),
+        )
+        .unwrap();
+        let enc = ezw::encode(&g, &EncodeParams::new(Wavelet::Cdf97, 1.0)).unwrap();
+        let id = TileId { z: 0, x: 0, y: 0 };
+        let file = |corners: [f64; 4]| {
+            let mut w = Writer::new();
+            w.add(id, corners, &enc.bytes);
+            w.finish(&local_257(enc.bytes.len() as u64)).unwrap()
         };
+        let good = verify_file("good", file([0.0, 256.0, 256.0, 512.0]));
+        assert!(good.ok(), "{:?}", good.failed);
+        let bad = verify_file("bad", file([0.0, 256.0, 256.0, 500.0]));
+        let failed = bad.failed.unwrap();
+        assert_eq!(failed.len(), 1);
+        assert!(
+            failed[0].error.contains("corner 3 decodes to"),
+            "{}",
+            failed[0].error
+        );
+    }
+
+    /// A header that announces every tile of a 2^32 × 2^32 zoom but stores one: the check
+    /// lists the first absent ones and returns, rather than walking 2^64 positions.
+    #[test]
+    fn an_absurd_availability_is_reported_not_walked() {
+        let mut w = Writer::new();
+        w.add(TileId { z: 0, x: 0, y: 0 }, [0.0; 4], b"not decoded here");
+        let mut m = local_257(16);
+        m.available = vec![vec![Availability {
+            start_x: 0,
+            start_y: 0,
+            end_x: u32::MAX,
+            end_y: u32::MAX,
+        }]];
         let dir = std::env::temp_dir().join(format!("zerotile-info-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join("huge.ztd");
