@@ -372,6 +372,32 @@ fn to_height_units(mut d: DecodedHeights, header: &Header) -> DecodedHeights {
     d
 }
 
+/// Where the trailer starts: after the header, every pass and the residual section.
+fn trailer_start(header: &Header, header_len: usize) -> Option<usize> {
+    header
+        .segments
+        .iter()
+        .chain(header.residual.as_ref().map(|(_, len)| len))
+        .try_fold(header_len, |end, &len| end.checked_add(len))
+}
+
+/// The length of the whole stream `bytes` starts with, by its own header and trailer, or
+/// `None` when `bytes` stops before the end of its trailer.
+///
+/// A decode accepts any prefix (that is the point of an embedded stream), so it cannot tell
+/// a stored stream that lost its tail from a deliberate prefix; this can. A result below
+/// `bytes.len()` means something else follows the stream.
+pub fn whole_len(bytes: &[u8], max_samples: usize) -> Result<Option<usize>, DecodeError> {
+    let (mut header, header_len) = Header::read(bytes, max_samples)?;
+    let Some(start) = trailer_start(&header, header_len) else {
+        return Ok(None);
+    };
+    let Some(rest) = bytes.get(start..) else {
+        return Ok(None);
+    };
+    Ok(header.read_trailer(rest).ok().map(|len| start + len))
+}
+
 /// [`decode`] with heights left in centred coder units (what the residual pass works in),
 /// and whatever `keep` takes from the significant coefficients and their grid (coder units)
 /// before the grid becomes the heights.
@@ -389,13 +415,8 @@ fn decode_centered<T>(
     // The trailer (bounds after the propagation and refinement passes) follows the residual
     // section. It is read from the whole input, not the prefix: it says nothing about the
     // heights, only how far they can be off. A stream cut before it just lacks those bounds.
-    let trailer_start = header
-        .segments
-        .iter()
-        .chain(header.residual.as_ref().map(|(_, len)| len))
-        .try_fold(header_len, |end, &len| end.checked_add(len));
     // Unreadable means cut short (or damaged): no bounds, the decode stands.
-    let trailer_end = trailer_start.and_then(|start| {
+    let trailer_end = trailer_start(&header, header_len).and_then(|start| {
         let len = header.read_trailer(bytes.get(start..)?).ok()?;
         Some(start + len)
     });

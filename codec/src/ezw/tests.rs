@@ -415,3 +415,35 @@ fn hostile_error_bound_delta_is_an_error() {
     assert!(decode(stream, limit, 1 << 18).is_err());
     assert!(decode_heights(stream, limit, 1 << 18).is_err());
 }
+
+/// A whole stream knows its length; every prefix, those ending exactly at a pass end
+/// included, is short of it; bytes after it are not counted. With and without the residual
+/// section.
+#[test]
+fn whole_len_tells_a_cut_stream_from_a_whole_one() {
+    let g = n44w072_crop(300, 500, 65);
+    for max_error in [None, Some(2.0)] {
+        let params = EncodeParams {
+            max_error,
+            ..EncodeParams::new(Wavelet::Cdf97, 1.0)
+        };
+        let enc = encode(&g, &params).unwrap();
+        let n = enc.bytes.len();
+        assert_eq!(whole_len(&enc.bytes, DEFAULT_MAX_SAMPLES).unwrap(), Some(n));
+        let cuts = enc
+            .passes
+            .iter()
+            .map(|p| p.end)
+            .chain([enc.header_len, n / 2, n - 1]);
+        for cut in cuts.filter(|&c| c < n) {
+            assert_eq!(
+                whole_len(&enc.bytes[..cut], DEFAULT_MAX_SAMPLES).unwrap(),
+                None,
+                "{max_error:?}: cut at {cut} of {n}"
+            );
+        }
+        let mut padded = enc.bytes.clone();
+        padded.extend_from_slice(&[0; 100]);
+        assert_eq!(whole_len(&padded, DEFAULT_MAX_SAMPLES).unwrap(), Some(n));
+    }
+}
