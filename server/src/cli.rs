@@ -368,11 +368,14 @@ fn info(a: InfoArgs) -> anyhow::Result<()> {
     }
     if !report.ok() {
         let mut problems = Vec::new();
-        if !report.missing.is_empty() {
+        if report.missing_total > 0 {
             problems.push(format!(
                 "{} announced tiles are missing",
-                report.missing.len()
+                report.missing_total
             ));
+        }
+        if !report.availability_problems.is_empty() {
+            problems.push("its availability could not be checked".to_string());
         }
         if let Some(f) = report.failed.as_ref().filter(|f| !f.is_empty()) {
             problems.push(format!("{} of {} tiles failed", f.len(), report.tiles));

@@ -6,7 +6,7 @@
 //! the end, before the file goes live.
 
 use std::collections::BTreeMap;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 use anyhow::{bail, Context, Result};
@@ -17,8 +17,10 @@ use zerotile_codec::ezw::{self, DecodeLimit};
 
 use crate::serve::dataset::Dataset;
 
-/// Announced tiles listed as missing before the check stops.
+/// Announced tiles listed by name (all are counted).
 const MISSING_LISTED: usize = 100;
+/// Ranges per zoom checked; an ingest writes one (two for the geodetic roots).
+const MAX_RANGES: usize = 64;
 
 /// What to look at.
 #[derive(Clone, Debug)]
@@ -34,7 +36,7 @@ pub struct Info {
 pub struct Zoom {
     pub zoom: u8,
     pub tiles: u64,
-    /// Record bytes (corners, stream and checksum).
+    /// Record bytes: corners and stream (each record's CRC sits in the index).
     pub bytes: u64,
     /// Record bits per coded sample.
     pub bps: f64,
@@ -50,14 +52,20 @@ pub struct Failure {
 /// The report `info` prints.
 #[derive(Clone, Debug, Serialize)]
 pub struct Report {
+    /// The name the server serves it under: the file's stem.
+    pub name: String,
     pub path: String,
     pub metadata: zerotile_codec::container::Metadata,
     pub zooms: Vec<Zoom>,
     pub tiles: u64,
     pub bytes: u64,
     /// Tiles `layer.json` announces (the metadata's availability) that the file lacks:
-    /// clients would get 404s where they were promised data.
+    /// clients would get 404s where they were promised data. The first
+    /// [`MISSING_LISTED`]; `missing_total` counts them all.
     pub missing: Vec<String>,
+    pub missing_total: u64,
+    /// Availability the check could not read.
+    pub availability_problems: Vec<String>,
     /// With `--verify`, the tiles that did not read or decode (empty: all did).
     pub failed: Option<Vec<Failure>>,
 }
@@ -65,15 +73,25 @@ pub struct Report {
 impl Report {
     /// Whether every check run found nothing wrong.
     pub fn ok(&self) -> bool {
-        self.missing.is_empty() && self.failed.as_ref().is_none_or(Vec::is_empty)
+        self.missing_total == 0
+            && self.availability_problems.is_empty()
+            && self.failed.as_ref().is_none_or(Vec::is_empty)
     }
 }
 
 pub fn run(job: &Info) -> Result<Report> {
-    if crate::serve::storage::is_url(&job.dataset) {
+    let data = job.data.to_string_lossy();
+    for given in [&*job.dataset, &*data] {
+        if crate::serve::storage::is_url(given) {
+            bail!(
+                "{given}: info reads local files; verify a dataset before uploading it, or \
+                 copy it down first"
+            );
+        }
+    }
+    if Path::new(&job.dataset).is_dir() {
         bail!(
-            "{}: info reads local files; verify a dataset before uploading it, or copy it down \
-             first",
+            "{}: a folder; give a .ztd file, or a dataset name with --data FOLDER",
             job.dataset
         );
     }
@@ -105,38 +123,90 @@ pub fn run(job: &Info) -> Result<Report> {
         })
         .collect();
 
-    // A corrupt header can announce 2^64 tiles: stop at the first MISSING_LISTED absent
-    // ones. Every position visited is a stored tile or one of those, so the scan ends
-    // within (tiles + MISSING_LISTED) steps whatever the ranges say.
-    let mut missing = Vec::new();
-    'scan: for (i, ranges) in m.available.iter().enumerate() {
-        let Ok(z) = u8::try_from(usize::from(m.min_zoom) + i) else {
-            break;
-        };
-        for r in ranges {
-            for y in r.start_y..=r.end_y {
-                for x in r.start_x..=r.end_x {
-                    if !d.has_tile(TileId { z, x, y }) {
-                        missing.push(format!("{z}/{x}/{y}"));
-                        if missing.len() >= MISSING_LISTED {
-                            break 'scan;
-                        }
-                    }
-                }
-            }
-        }
-    }
+    let absent = absent(&d);
 
     let failed = job.verify.then(|| verify(&d, job.progress));
     Ok(Report {
+        name: d.name.clone(),
         path: path.display().to_string(),
         metadata: m,
         tiles: zooms.iter().map(|z| z.tiles).sum(),
         bytes: zooms.iter().map(|z| z.bytes).sum(),
         zooms,
-        missing,
+        missing: absent.listed,
+        missing_total: absent.total,
+        availability_problems: absent.problems,
         failed,
     })
+}
+
+/// Announced tiles the file lacks.
+struct Absent {
+    /// Per range, its area minus the stored tiles inside it, summed (saturating).
+    total: u64,
+    /// The first [`MISSING_LISTED`] of them, as z/x/y.
+    listed: Vec<String>,
+    /// Zooms whose ranges were not checked, and why.
+    problems: Vec<String>,
+}
+
+/// Counts announced-but-absent tiles by arithmetic, so a header announcing 2^64 tiles
+/// costs nothing to count, and lists the first few by walking positions under a step
+/// budget, so overlapping or repeated ranges cannot make the walk long.
+fn absent(d: &Dataset) -> Absent {
+    let m = d.metadata();
+    let mut stored: BTreeMap<u8, Vec<(u32, u32)>> = BTreeMap::new();
+    for (id, _) in d.container.tiles() {
+        stored.entry(id.z).or_default().push((id.x, id.y));
+    }
+    let mut out = Absent {
+        total: 0,
+        listed: Vec::new(),
+        problems: Vec::new(),
+    };
+    let mut budget = d.container.len() + 100_000;
+    for (i, ranges) in m.available.iter().enumerate() {
+        let Ok(z) = u8::try_from(usize::from(m.min_zoom) + i) else {
+            break;
+        };
+        if ranges.len() > MAX_RANGES {
+            out.problems.push(format!(
+                "zoom {z} announces {} ranges (an ingest writes one or two); not checked",
+                ranges.len()
+            ));
+            continue;
+        }
+        let here = stored.get(&z).map_or(&[][..], Vec::as_slice);
+        for r in ranges {
+            if r.end_x < r.start_x || r.end_y < r.start_y {
+                out.problems.push(format!("zoom {z}: an empty range {r:?}"));
+                continue;
+            }
+            let inside = |&(x, y): &(u32, u32)| {
+                (r.start_x..=r.end_x).contains(&x) && (r.start_y..=r.end_y).contains(&y)
+            };
+            let area =
+                (u128::from(r.end_x - r.start_x) + 1) * (u128::from(r.end_y - r.start_y) + 1);
+            let gap = area - here.iter().filter(|t| inside(t)).count() as u128;
+            out.total = out
+                .total
+                .saturating_add(u64::try_from(gap).unwrap_or(u64::MAX));
+            let mut found = 0u128;
+            'range: for y in r.start_y..=r.end_y {
+                for x in r.start_x..=r.end_x {
+                    if found == gap || out.listed.len() >= MISSING_LISTED || budget == 0 {
+                        break 'range;
+                    }
+                    budget -= 1;
+                    if !d.has_tile(TileId { z, x, y }) {
+                        found += 1;
+                        out.listed.push(format!("{z}/{x}/{y}"));
+                    }
+                }
+            }
+        }
+    }
+    out
 }
 
 /// Reads and fully decodes every tile; the ones that fail, in tile order.
@@ -168,11 +238,17 @@ fn verify(d: &Dataset, progress: bool) -> Vec<Failure> {
 }
 
 fn check_tile(d: &Dataset, id: TileId, side: usize, precision: Option<f64>) -> Result<()> {
+    // The reader checks the CRC and that the corners are finite.
     let rec = d.read_tile(id)?;
-    if rec.corners.iter().any(|c| !c.is_finite()) {
-        bail!("corner heights {:?} are not all finite", rec.corners);
+    // A decode takes any prefix, so a stream that lost its tail (or gained one) would pass
+    // it: the stream's own header and trailer say where it ends.
+    let len = rec.stream.len();
+    match ezw::whole_len(&rec.stream, side * side).context("reading the stream header")? {
+        Some(n) if n == len => {}
+        Some(n) => bail!("the stream ends at byte {n} of its {len}: {} bytes follow it", len - n),
+        None => bail!("the stream is cut short: its {len} bytes end before its header's passes and trailer do"),
     }
-    let dec = ezw::decode_heights(&rec.stream, DecodeLimit::All, ezw::DEFAULT_MAX_SAMPLES)
+    let dec = ezw::decode_heights(&rec.stream, DecodeLimit::All, side * side)
         .context("decoding the stream to its end")?;
     if dec.heights.rows() != side || dec.heights.cols() != side {
         bail!(
@@ -220,10 +296,16 @@ pub fn render(r: &Report) -> String {
         Some(p) => format!("within {p} m of the source"),
         None => "every bit plane kept".to_string(),
     };
+    // Served under the file's name; say so when the ingest named it otherwise.
+    let ingested_as = if m.name == r.name {
+        String::new()
+    } else {
+        format!(", ingested as {}", m.name)
+    };
     let _ = writeln!(
         s,
-        "{} ({}): {} tiling, {}² tiles, zooms {}–{}, {}, step {} m, {precision}",
-        m.name,
+        "{} ({}{ingested_as}): {} tiling, {}² tiles, zooms {}–{}, {}, step {} m, {precision}",
+        r.name,
         r.path,
         m.scheme,
         m.tile_side,
@@ -244,8 +326,8 @@ pub fn render(r: &Report) -> String {
         "heights {} … {} m, fill {} m; source {} ({}), ingested {}",
         m.height_range[0], m.height_range[1], m.fill, m.source, m.source_crs, m.created
     );
-    // Records hold corners and a checksum besides the stream: a little above the stream
-    // bytes ingest reports.
+    // Records hold the corners besides the stream: 32 bytes a tile above the stream bytes
+    // ingest reports.
     let _ = writeln!(
         s,
         "{:>4} {:>8} {:>12} {:>11}",
@@ -267,17 +349,22 @@ pub fn render(r: &Report) -> String {
         r.bytes,
         r.bytes as f64 * 8.0 / (r.tiles.max(1) as f64 * side * side)
     );
-    if !r.missing.is_empty() {
+    if r.missing_total > 0 {
+        let more = r.missing_total.saturating_sub(r.missing.len() as u64);
         let _ = writeln!(
             s,
-            "announced but missing: {}{}",
+            "{} announced tiles are missing: {}{}",
+            r.missing_total,
             r.missing.join(", "),
-            if r.missing.len() >= MISSING_LISTED {
-                ", …"
+            if more > 0 {
+                format!(" and {more} more")
             } else {
-                ""
+                String::new()
             }
         );
+    }
+    for p in &r.availability_problems {
+        let _ = writeln!(s, "availability: {p}");
     }
     match &r.failed {
         None => {}
@@ -388,22 +475,58 @@ mod tests {
         );
     }
 
-    /// A header that announces every tile of a 2^32 × 2^32 zoom but stores one: the check
-    /// lists the first absent ones and returns, rather than walking 2^64 positions.
+    /// A stream stored without its tail (its record's CRC made to match, as a writer that
+    /// stopped early would) decodes, as any prefix does, but is not whole; nor is one with
+    /// bytes after it.
     #[test]
-    fn an_absurd_availability_is_reported_not_walked() {
+    fn a_cut_or_padded_stream_fails_though_it_decodes() {
+        let n = 257;
+        let g = Grid::new(
+            n,
+            n,
+            (0..n * n)
+                .map(|k| ((k / n) * (k % n) % 97) as f64)
+                .collect(),
+        )
+        .unwrap();
+        let enc = ezw::encode(&g, &EncodeParams::new(Wavelet::Cdf97, 1.0)).unwrap();
+        let corners = [
+            *g.get(0, 0),
+            *g.get(0, n - 1),
+            *g.get(n - 1, 0),
+            *g.get(n - 1, n - 1),
+        ];
+        let file = |stream: &[u8]| {
+            let mut w = Writer::new();
+            w.add(TileId { z: 0, x: 0, y: 0 }, corners, stream);
+            w.finish(&local_257(stream.len() as u64)).unwrap()
+        };
+        assert!(verify_file("whole", file(&enc.bytes)).ok());
+        // At the end of a pass halfway through: a prefix the decoder takes without a word.
+        let cut = enc.passes[enc.passes.len() / 2].end;
+        assert!(ezw::decode_heights(&enc.bytes[..cut], DecodeLimit::All, n * n).is_ok());
+        let r = verify_file("cut", file(&enc.bytes[..cut]));
+        let f = r.failed.unwrap();
+        assert!(f.len() == 1 && f[0].error.contains("cut short"), "{f:?}");
+        let mut padded = enc.bytes.clone();
+        padded.extend_from_slice(&[0; 10]);
+        let r = verify_file("padded", file(&padded));
+        let f = r.failed.unwrap();
+        assert!(
+            f.len() == 1 && f[0].error.contains("10 bytes follow"),
+            "{f:?}"
+        );
+    }
+
+    /// `info` (without --verify) on a one-tile file whose header announces `available`.
+    fn announce(available: Vec<Availability>) -> Report {
+        let mut m = local_257(16);
+        m.available = vec![available];
         let mut w = Writer::new();
         w.add(TileId { z: 0, x: 0, y: 0 }, [0.0; 4], b"not decoded here");
-        let mut m = local_257(16);
-        m.available = vec![vec![Availability {
-            start_x: 0,
-            start_y: 0,
-            end_x: u32::MAX,
-            end_y: u32::MAX,
-        }]];
-        let dir = std::env::temp_dir().join(format!("zerotile-info-{}", std::process::id()));
+        let dir = std::env::temp_dir().join(format!("zerotile-info-a-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
-        let path = dir.join("huge.ztd");
+        let path = dir.join("t.ztd");
         std::fs::write(&path, w.finish(&m).unwrap()).unwrap();
         let report = run(&Info {
             dataset: path.display().to_string(),
@@ -412,11 +535,38 @@ mod tests {
             progress: false,
         })
         .unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
+        report
+    }
+
+    /// A header that announces every tile of a 2^32 × 2^32 zoom but stores one: the check
+    /// counts the absent ones by arithmetic (saturating) and lists the first few, rather
+    /// than walking 2^64 positions; repeated ranges are counted, not walked either.
+    #[test]
+    fn an_absurd_availability_is_counted_not_walked() {
+        let range = |end: u32| Availability {
+            start_x: 0,
+            start_y: 0,
+            end_x: end,
+            end_y: end,
+        };
+        let report = announce(vec![range(u32::MAX)]);
         assert_eq!(report.tiles, 1);
         assert_eq!(report.missing.len(), MISSING_LISTED);
         assert_eq!(report.missing[0], "0/1/0");
+        assert_eq!(report.missing_total, u64::MAX);
         assert!(!report.ok());
-        assert!(render(&report).contains("announced but missing: 0/1/0, 0/2/0"));
-        let _ = std::fs::remove_dir_all(&dir);
+        assert!(render(&report).contains("announced tiles are missing: 0/1/0, 0/2/0"));
+
+        // The one stored tile, announced as often as allowed: nothing missing.
+        let report = announce(vec![range(0); MAX_RANGES]);
+        assert!(report.ok(), "{:?}", report.missing);
+        // A 2 × 2 range four times: three absent in each copy, listed once each copy.
+        let report = announce(vec![range(1); 4]);
+        assert_eq!(report.missing_total, 12);
+        // More ranges than an ingest writes: not checked, and said so.
+        let report = announce(vec![range(0); MAX_RANGES + 1]);
+        assert_eq!(report.availability_problems.len(), 1);
+        assert!(!report.ok());
     }
 }
