@@ -96,7 +96,7 @@ fn check_bin() -> Result<PathBuf, String> {
     let fix = "build it with the tests: `cargo test --workspace --profile ci`";
     let built =
         modified(&bin).ok_or_else(|| format!("no zerotile binary at {}: {fix}", bin.display()))?;
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+    let root = repo_root();
     let newest = ["server/src", "codec/src"]
         .iter()
         .filter_map(|d| newest_in(&root.join(d)))

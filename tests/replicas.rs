@@ -66,8 +66,7 @@ fn start_nginx(dir: &Path, a: &str, b: &str) -> Option<Nginx> {
         return None;
     };
     let shipped =
-        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../docker/nginx.conf"))
-            .unwrap();
+        std::fs::read_to_string(zerotile_tests::repo_root().join("docker/nginx.conf")).unwrap();
     let port = free_port();
     let d = dir.display();
     let mut conf = String::new();

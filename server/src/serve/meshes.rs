@@ -234,6 +234,21 @@ fn load(path: &Path) -> Result<TriMesh> {
 /// has no extent to simplify or view (QEM's error, a fraction of the diagonal, has nothing
 /// to measure against), so it is refused like an empty one.
 fn repaired(mesh: &TriMesh) -> Result<TriMesh> {
+    // GLB and binary PLY store f32: a finite f64 past its range would make every such
+    // answer fail (GLB) or carry infinities (PLY).
+    let limit = f64::from(f32::MAX);
+    if let Some((i, p)) = mesh
+        .positions
+        .iter()
+        .enumerate()
+        .find(|(_, p)| p.abs().max_element() > limit)
+    {
+        anyhow::bail!(
+            "vertex {} at {p} lies beyond ±{limit:e}, the range of the f32 coordinates GLB and \
+             PLY answers carry",
+            i + 1
+        );
+    }
     let (clean, _) = repair(mesh)?;
     if clean.faces.is_empty() {
         anyhow::bail!("the mesh has no valid faces");
@@ -280,6 +295,11 @@ mod tests {
         assert!(cat.get("g10").is_none());
         assert!(!dir.join(MESH_DIR).join("g10.obj").exists());
         assert!(cat.upload("g10", TRI, Some(Format::Obj)).is_ok());
+        let huge = b"v 0 0 0\nv 1e39 0 0\nv 0 1 0\nf 1 2 3\n";
+        let Err(err) = cat.upload("huge", huge, Some(Format::Obj)) else {
+            panic!("a mesh beyond f32 was accepted");
+        };
+        assert!(format!("{err:#}").contains("vertex 2 at"), "{err:#}");
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

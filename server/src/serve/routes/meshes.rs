@@ -267,8 +267,7 @@ fn parse_ask(method: &str, q: &HashMap<String, String>, mesh: &TriMesh) -> ApiRe
     }
 }
 
-/// A count or level: [`number`] that is also whole, so `faces=1.5` is refused rather than
-/// silently cut to 1.
+/// The answer's format and media type; JSON unless `format` names another.
 fn parse_format(q: &HashMap<String, String>) -> ApiResult<(Format, &'static str)> {
     match q.get("format").map(String::as_str).unwrap_or("json") {
         "obj" => Ok((Format::Obj, "model/obj")),
