@@ -1,4 +1,4 @@
-//! Errors, sorted by who is at fault. Each module keeps a small enum; [`Error`] folds them.
+//! Errors, sorted by who is at fault. Each module keeps a small enum; [`enum@Error`] folds them.
 
 use thiserror::Error;
 

@@ -61,7 +61,7 @@ pub struct Report {
     pub bytes: u64,
     /// Tiles `layer.json` announces (the metadata's availability) that the file lacks:
     /// clients would get 404s where they were promised data. The first
-    /// [`MISSING_LISTED`]; `missing_total` counts them all.
+    /// `MISSING_LISTED`; `missing_total` counts them all.
     pub missing: Vec<String>,
     pub missing_total: u64,
     /// Availability the check could not read.

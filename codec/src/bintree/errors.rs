@@ -29,11 +29,11 @@ impl TileErrors {
     /// shape is a broken contract (debug assertion) and gives an all-zero map in release.
     ///
     /// Per level, finest first, so children are final before their parents. The two
-    /// finest levels are row-major sweeps over the grid ([`finest_two_levels`]); every
-    /// level whose shapes each hold at least [`LANES`] triangles (at 257², all but the
-    /// three coarsest) is evaluated [`LANES`] triangles of one shape side by side over
-    /// the shape's precomputed rows ([`Shapes`]), which vectorises however short the rows
-    /// are; the few big triangles left scan in vectorised rows ([`plane_error`]). Both
+    /// finest levels are row-major sweeps over the grid (`finest_two_levels`); every
+    /// level whose shapes each hold at least `LANES` triangles (at 257², all but the
+    /// three coarsest) is evaluated `LANES` triangles of one shape side by side over
+    /// the shape's precomputed rows (`Shapes`), which vectorises however short the rows
+    /// are; the few big triangles left scan in vectorised rows (`plane_error`). Both
     /// evaluate each residual by one expression, so the values are those of the
     /// per-triangle pass bit for bit.
     pub fn new(hierarchy: &Hierarchy, heights: &Grid<f64>) -> Self {
@@ -52,7 +52,7 @@ impl TileErrors {
     /// `floor` is below any tolerance it will be read at: it is "quiet", its error is not
     /// computed (taken as 0), and only the raise of its children's values runs, which keeps
     /// the values of neighbouring, non-quiet diamonds propagating upwards. The test is made
-    /// every [`PRUNE_STEP`] levels.
+    /// every `PRUNE_STEP` levels.
     pub fn exact_above(hierarchy: &Hierarchy, heights: &Grid<f64>, floor: f64) -> Self {
         let n = hierarchy.side();
         let mut value = vec![0f32; n * n];

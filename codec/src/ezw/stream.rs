@@ -67,7 +67,7 @@ pub struct Header {
     pub top_plane: Option<u8>,
     pub segments: Vec<usize>,
     /// Per segment: the code of the bound on max |decoded − original| for a decode that
-    /// stops right after it (see [`bound`]); [`bound::UNKNOWN`] until read (the header holds
+    /// stops right after it (see `bound`); `bound::UNKNOWN` until read (the header holds
     /// the cleanup passes' codes, the trailer the others').
     pub pass_errors: Vec<i32>,
     /// Max-error residual section: (bound in coder units, byte length).

@@ -7,7 +7,7 @@
 //! killed ingest leaves the previous dataset of that name untouched.
 //!
 //! Schemes: `local` tiles the source grid itself; `geodetic` and `mercator` resample the
-//! source at the tiling's sample positions (see [`world`]). Sources in EPSG:4326 or
+//! source at the tiling's sample positions (see `world`). Sources in EPSG:4326 or
 //! EPSG:3857 go to either world scheme; other CRSs are refused with a pointer to gdalwarp.
 
 mod resample;

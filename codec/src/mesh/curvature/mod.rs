@@ -3,7 +3,7 @@
 //!
 //! Every vertex gets a discrete curvature W from its area and its bending R = √(2H² − K)
 //! (weighted up on features and saddles, [`measure`]). Vertices leave in order of W; each
-//! hole is refilled by the ear of least connection curvature ([`retriangulate`]); a removal
+//! hole is refilled by the ear of least connection curvature (`retriangulate`); a removal
 //! is allowed only while ε, the largest change of W on its 1-ring *against the input mesh*,
 //! stays under the level's bound. Levels are cut by ε (0.15, 0.20, 0.25 …), not by ratio,
 //! and nest: each continues from the one before. Choices the paper leaves open are in
