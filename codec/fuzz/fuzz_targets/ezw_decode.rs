@@ -2,10 +2,11 @@
 //! an unbounded allocation. The first byte picks the decode limit so prefixes, thresholds
 //! and the residual pass are all exercised. The server's heights-only decode must agree with
 //! the full one on every input: the same heights, bounds and bytes, or an error for both.
+//! `whole_len` (what `zerotile info --verify` asks) never claims more bytes than it got.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use zerotile_codec::ezw::{decode, decode_heights, DecodeLimit};
+use zerotile_codec::ezw::{decode, decode_heights, whole_len, DecodeLimit};
 
 /// Small enough that a hostile header cannot make the fuzzer allocate gigabytes.
 const MAX_SAMPLES: usize = 1 << 18;
@@ -19,6 +20,9 @@ fuzz_target!(|data: &[u8]| {
         1 => DecodeLimit::Threshold(f64::from(mode) / 16.0),
         _ => DecodeLimit::Bytes(rest.len() * usize::from(mode) / 255),
     };
+    if let Ok(Some(n)) = whole_len(rest, MAX_SAMPLES) {
+        assert!(n <= rest.len(), "whole_len {n} past the {} bytes given", rest.len());
+    }
     let lean = decode_heights(rest, limit, MAX_SAMPLES);
     match decode(rest, limit, MAX_SAMPLES) {
         Ok(d) => {
