@@ -81,10 +81,6 @@ fn a_static_tree_holds_what_the_server_serves() {
         assert_eq!(per_zoom(&z.to_string()), stored, "zoom {z}");
         assert!(stored >= footprint, "zoom {z}: {stored}");
     }
-    for t in &tiles {
-        let qm = quantized_mesh::decode(&std::fs::read(t).unwrap()).unwrap();
-        assert!(!qm.triangles.is_empty(), "{}", t.display());
-    }
     let layer: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.join("static/layer.json")).unwrap()).unwrap();
     assert_eq!(layer["scheme"], "tms");
@@ -92,6 +88,22 @@ fn a_static_tree_holds_what_the_server_serves() {
         .as_str()
         .unwrap()
         .starts_with("{z}/{x}/{y}.terrain"));
+    // Each tile carries the extensions layer.json lists and no other: a static host cannot
+    // negotiate, and CesiumJS reads a metadata extension whether it asked for it or not,
+    // failing the tile when layer.json has no `metadataAvailability` (it has none).
+    assert_eq!(
+        layer["extensions"],
+        serde_json::json!(["octvertexnormals", "watermask"])
+    );
+    assert!(layer.get("metadataAvailability").is_none());
+    for t in &tiles {
+        let qm = quantized_mesh::decode(&std::fs::read(t).unwrap()).unwrap();
+        assert!(!qm.triangles.is_empty(), "{}", t.display());
+        assert!(qm.normals.is_some(), "{}", t.display());
+        assert!(qm.water_mask.is_some(), "{}", t.display());
+        assert!(qm.metadata.is_none(), "{}", t.display());
+        assert!(qm.unknown_extensions.is_empty(), "{}", t.display());
+    }
 
     // Byte for byte what `zerotile serve` sends for the same ask.
     let s = Server::start(&dir.join("data"));
@@ -105,7 +117,7 @@ fn a_static_tree_holds_what_the_server_serves() {
             &format!("/v1/datasets/n44/tiles/{rel}"),
             &[(
                 "accept",
-                "application/vnd.quantized-mesh;extensions=octvertexnormals-metadata",
+                "application/vnd.quantized-mesh;extensions=octvertexnormals-watermask",
             )],
         );
         assert_eq!(r.status, 200, "{rel}");

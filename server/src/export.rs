@@ -108,12 +108,15 @@ pub fn run(job: &Export) -> Result<Exported> {
         other => bail!("--format {other}: use terrain, png or json"),
     };
     let variant = match format {
-        // Every extension a client may ask for: CesiumJS skips the ones it did not request.
+        // The extensions layer.json lists, which CesiumJS skips unless it asked for them.
+        // Not `metadata`: CesiumJS parses that one whether it asked or not, and without a
+        // `metadataAvailability` in layer.json (which lists full availability instead) it
+        // fails every such tile.
         TileFormat::Terrain => Variant::Terrain {
             ext: Extensions {
                 octvertexnormals: true,
-                watermask: false,
-                metadata: true,
+                watermask: true,
+                metadata: false,
             },
             gzip: false,
         },
