@@ -1,6 +1,8 @@
 //! Real clients in headless Chromium against the real binary: CesiumJS on a geodetic
 //! dataset's `layer.json`, MapLibre GL JS `raster-dem` on a mercator dataset's terrain-RGB
-//! tiles, and the viewer page at `/` (the browser side is `tests/e2e/clients.mjs`).
+//! tiles, the viewer page at `/`, and CesiumJS on a `zerotile export --format terrain` tree
+//! served by a plain file server, as a CDN would (the browser side is
+//! `tests/e2e/clients.mjs`).
 //!
 //! Needs `node`, Chromium (`apt-get install -y chromium`, or `CHROMIUM=/path`) and
 //! `npm ci --prefix web`. Without them the test prints why and passes, so a laptop without a
@@ -60,6 +62,35 @@ fn cesium_maplibre_and_the_viewer_render_in_headless_chromium() {
         ],
         &data,
     );
+    // The same SRTM tile on Cesium's geodetic grid, exported as a static tree: CesiumJS must
+    // load it and sample the source's heights from it.
+    run_in(
+        &[
+            "ingest",
+            hgt.to_str().unwrap(),
+            "--name",
+            "n44g",
+            "--scheme",
+            "geodetic",
+            "--quiet",
+        ],
+        &data,
+    );
+    let exported = data.with_file_name(format!("zerotile-clients-{}-static", std::process::id()));
+    let _ = std::fs::remove_dir_all(&exported);
+    run_in(
+        &[
+            "export",
+            "n44g",
+            "--format",
+            "terrain",
+            "--out",
+            exported.to_str().unwrap(),
+            "--quiet",
+        ],
+        &data,
+    );
+    let expect = srtm_heights(&hgt);
     eprintln!("data ready in {:.1} s", t0.elapsed().as_secs_f64());
 
     let server = Server::start(&data);
@@ -68,7 +99,9 @@ fn cesium_maplibre_and_the_viewer_render_in_headless_chromium() {
     let status = Command::new("node")
         .arg(repo_root().join("tests/e2e/clients.mjs"))
         .args(["--base", server.base(), "--geodetic", "demo-ridges"])
-        .args(["--mercator", "n44m", "--out"])
+        .args(["--mercator", "n44m", "--static"])
+        .arg(&exported)
+        .args(["--expect", &expect, "--out"])
         .arg(&out)
         .env("CHROMIUM", &chromium)
         .status()
@@ -80,8 +113,51 @@ fn cesium_maplibre_and_the_viewer_render_in_headless_chromium() {
     );
     drop(server);
     let _ = std::fs::remove_dir_all(&data);
+    let _ = std::fs::remove_dir_all(&exported);
     assert!(
         status.success(),
         "a browser client failed (its output is above)"
     );
+}
+
+/// `[[lon, lat, metres], ...]` read from N44W072's SRTM samples (1201² big-endian i16, rows
+/// from 45° N down, columns from 72° W), bilinear between them: Mount Washington and a 10×10
+/// grid over the tile.
+fn srtm_heights(hgt: &Path) -> String {
+    let bytes = std::fs::read(hgt).unwrap();
+    let n = 1201usize;
+    assert_eq!(bytes.len(), n * n * 2, "{}", hgt.display());
+    let at = |r: usize, c: usize| {
+        let i = 2 * (r.min(n - 1) * n + c.min(n - 1));
+        f64::from(i16::from_be_bytes([bytes[i], bytes[i + 1]]))
+    };
+    let height = |lon: f64, lat: f64| {
+        let (r, c) = ((45.0 - lat) * 1200.0, (lon + 72.0) * 1200.0);
+        let (r0, c0) = (r.floor(), c.floor());
+        let (fr, fc) = (r - r0, c - c0);
+        #[allow(
+            clippy::cast_possible_truncation,
+            clippy::cast_sign_loss,
+            reason = "the points lie inside the tile"
+        )]
+        let (r0, c0) = (r0 as usize, c0 as usize);
+        at(r0, c0) * (1.0 - fr) * (1.0 - fc)
+            + at(r0, c0 + 1) * (1.0 - fr) * fc
+            + at(r0 + 1, c0) * fr * (1.0 - fc)
+            + at(r0 + 1, c0 + 1) * fr * fc
+    };
+    let mut points = vec![(-71.3033, 44.2705)];
+    for i in 0..10 {
+        for j in 0..10 {
+            points.push((
+                -72.0 + 0.05 + 0.1 * f64::from(i),
+                44.0 + 0.05 + 0.1 * f64::from(j),
+            ));
+        }
+    }
+    let rows: Vec<_> = points
+        .iter()
+        .map(|&(lon, lat)| serde_json::json!([lon, lat, height(lon, lat)]))
+        .collect();
+    serde_json::Value::from(rows).to_string()
 }

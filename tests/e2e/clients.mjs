@@ -2,10 +2,16 @@
 //   cesium   CesiumJS' CesiumTerrainProvider on a geodetic dataset's layer.json
 //   maplibre MapLibre GL JS raster-dem (terrain + hillshade) on a mercator dataset's PNG tiles
 //   viewer   our own page at `/`: terrain and mesh views, controls change the triangle count
-// Each saves a screenshot under --out and fails if it is blank or the client logged errors.
+//   static   CesiumJS on a `zerotile export --format terrain` tree (--static DIR) served by a
+//            plain static file server on another origin, as a CDN would: heights sampled from
+//            it must match --expect ([[lon, lat, metres], ...], the source's own heights)
+//            within the deepest level's geometric error
+// Each saves a screenshot under --out (static: none) and fails if it is blank or the client
+// logged errors.
 //
 //   node tests/e2e/clients.mjs --base http://127.0.0.1:8080 --geodetic demo-ridges \
-//        --mercator n44m --out target/e2e [--only cesium,maplibre,viewer]
+//        --mercator n44m --out target/e2e [--only cesium,maplibre,viewer] \
+//        [--static DIR --expect '[[-71.3,44.27,1822]]']
 //
 // CesiumJS and MapLibre are served from web/node_modules by a small static server started
 // here (they are not embedded in zerotile). Exit status 0 = every client passed.
@@ -26,7 +32,7 @@ const args = Object.fromEntries(
 );
 const base = (args.base || "http://127.0.0.1:8080").replace(/\/$/, "");
 const out = args.out || "target/e2e";
-const only = (args.only || "cesium,maplibre,viewer").split(",");
+const only = (args.only || `cesium,maplibre,viewer${args.static ? ",static" : ""}`).split(",");
 mkdirSync(out, { recursive: true });
 
 // ---- a static server for the client libraries and their test pages ------------------------
@@ -56,6 +62,33 @@ const statics = createServer((req, res) => {
 });
 await new Promise((ok) => statics.listen(0, "127.0.0.1", ok));
 const local = `http://127.0.0.1:${statics.address().port}`;
+
+// ---- a plain file server for an exported tree: another origin, as a CDN is ----------------
+
+// What a static host does: the path names a file (the query string is ignored), the type
+// comes from the extension, no content negotiation, and CORS open to any page (a CDN in front
+// of the tiles must send Access-Control-Allow-Origin, or CesiumJS cannot read them).
+const exported = args.static ? normalize(args.static) : null;
+const cdnLog = [];
+const cdn = exported && createServer((req, res) => {
+  const path = decodeURIComponent(new URL(req.url, "http://x").pathname);
+  const file = normalize(join(exported, path));
+  cdnLog.push(`${req.url}`);
+  const headers = { "access-control-allow-origin": "*" };
+  let ok = file.startsWith(exported);
+  try {
+    ok = ok && statSync(file).isFile();
+  } catch {
+    ok = false;
+  }
+  if (!ok) {
+    res.writeHead(404, headers);
+    return res.end();
+  }
+  res.writeHead(200, { ...headers, "content-type": TYPES[extname(file)] || "application/octet-stream" });
+  createReadStream(file).pipe(res);
+});
+if (cdn) await new Promise((ok) => cdn.listen(0, "127.0.0.1", ok));
 
 // ---- the browser ------------------------------------------------------------------------------
 
@@ -302,7 +335,64 @@ async function viewer() {
   await c.page.close();
 }
 
-const clients = { cesium, maplibre, viewer };
+// ---- (d) CesiumJS on a static export ------------------------------------------------------
+
+async function staticExport() {
+  const tiles = `http://127.0.0.1:${cdn.address().port}/`;
+  const expect = JSON.parse(args.expect || "[]");
+  check(expect.length > 0, "static: no --expect points to compare");
+  pages["/static.html"] = `<!doctype html><html><head>
+<link rel="icon" href="data:,">
+<script>window.CESIUM_BASE_URL = "/node_modules/cesium/Build/Cesium/";</script>
+<script src="/node_modules/cesium/Build/Cesium/Cesium.js"></script></head><body></body></html>`;
+  const c = await open("static");
+  await c.page.goto(`${local}/static.html`);
+  const r = await c.page.evaluate(async ([url, points]) => {
+    const provider = await Cesium.CesiumTerrainProvider.fromUrl(url, { requestVertexNormals: true });
+    const tileErrors = [];
+    provider.errorEvent.addEventListener((e) => tileErrors.push(String(e.message)));
+    const maxLevel = provider.availability._maximumLevel;
+    // One deepest-level tile over the first point, decoded and meshed as the globe would.
+    const first = Cesium.Cartographic.fromDegrees(points[0][0], points[0][1]);
+    const xy = provider.tilingScheme.positionToTileXY(first, maxLevel);
+    const data = await provider.requestTileGeometry(xy.x, xy.y, maxLevel);
+    const mesh = await data.createMesh({ tilingScheme: provider.tilingScheme, x: xy.x, y: xy.y, level: maxLevel,
+      exaggeration: 1, exaggerationRelativeHeight: 0 });
+    const sampled = await Cesium.sampleTerrainMostDetailed(provider,
+      points.map(([lon, lat]) => Cesium.Cartographic.fromDegrees(lon, lat)));
+    return {
+      maxLevel, tileErrors,
+      normals: provider.hasVertexNormals && mesh.encoding.hasVertexNormals,
+      vertices: mesh.vertices.length / mesh.encoding.stride,
+      triangles: mesh.indices.length / 3,
+      range: [mesh.minimumHeight, mesh.maximumHeight],
+      heights: sampled.map((p) => p.height),
+      tolerance: provider.getLevelMaximumGeometricError(maxLevel),
+    };
+  }, [tiles, expect]);
+  console.log(`static: layer.json read, deepest level ${r.maxLevel}; one tile there: ${r.vertices} vertices, ` +
+    `${r.triangles} triangles, heights ${r.range.map((h) => h.toFixed(0)).join("–")} m, normals ${r.normals}`);
+  check(r.triangles > 0, "static: the deepest tile has no triangles");
+  check(r.normals, "static: no vertex normals although requested and exported");
+  let worst = 0;
+  expect.forEach(([lon, lat, want], i) => {
+    const got = r.heights[i];
+    const off = Math.abs(got - want);
+    worst = Math.max(worst, Number.isFinite(off) ? off : Infinity);
+    if (!(off <= r.tolerance)) console.error(`  static: ${lon}, ${lat}: ${got} m, source ${want} m`);
+  });
+  console.log(`static: ${expect.length} heights sampled, worst ${worst.toFixed(1)} m from the source ` +
+    `(allowed: the level-${r.maxLevel} geometric error, ${r.tolerance.toFixed(1)} m)`);
+  check(worst <= r.tolerance, `static: a sampled height is ${worst.toFixed(1)} m from the source (> ${r.tolerance.toFixed(1)} m)`);
+  const asked = cdnLog.filter((u) => /\.terrain(\?|$)/.test(u));
+  console.log(`static: ${asked.length} .terrain request(s), e.g. ${asked[0]}`);
+  check(asked.length > 0, "static: no .terrain file was requested");
+  for (const t of r.tileErrors) c.problems.push(`terrain provider: ${t}`);
+  noProblems(c);
+  await c.page.close();
+}
+
+const clients = { cesium, maplibre, viewer, static: staticExport };
 try {
   for (const name of only) {
     const t0 = Date.now();
@@ -316,6 +406,7 @@ try {
 } finally {
   await browser.close();
   statics.close();
+  if (cdn) cdn.close();
 }
 console.log(failures === 0 ? "all clients passed" : `${failures} failure(s)`);
 process.exit(failures === 0 ? 0 : 1);
