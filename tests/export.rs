@@ -63,6 +63,12 @@ fn a_static_tree_holds_what_the_server_serves() {
         &dir,
     );
     assert_success(&out);
+    // Zooms 0–7 are missing, and CesiumJS starts at 0: the export says so.
+    let note = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        note.contains("no zooms below 8") && note.contains("level 0"),
+        "{note}"
+    );
 
     // Every tile of zooms 8–10 is there and decodes; layer.json points at them.
     let tiles = files(&dir.join("static"), "terrain");
@@ -96,6 +102,8 @@ fn a_static_tree_holds_what_the_server_serves() {
         serde_json::json!(["octvertexnormals", "watermask"])
     );
     assert!(layer.get("metadataAvailability").is_none());
+    assert_eq!(layer["maxzoom"], 10);
+    assert_eq!(layer["available"].as_array().unwrap().len(), 11);
     for t in &tiles {
         let qm = quantized_mesh::decode(&std::fs::read(t).unwrap()).unwrap();
         assert!(!qm.triangles.is_empty(), "{}", t.display());
@@ -242,4 +250,52 @@ fn assert_no_temporary_folders(dir: &Path) {
         .filter(|name| name.starts_with('.'))
         .collect();
     assert!(stray.is_empty(), "{stray:?}");
+}
+
+/// layer.json makes available only the zooms the tree holds: CesiumJS asks for every level
+/// it lists, and a static host answers 404 for the ones left out.
+#[test]
+fn a_partial_export_lists_only_its_zooms() {
+    let dir = scratch("partial");
+    let hgt = shared_data().join("dem/N44W072.hgt");
+    assert_success(&zerotile(
+        &[
+            "ingest",
+            hgt.to_str().unwrap(),
+            "--name",
+            "n44",
+            "--scheme",
+            "geodetic",
+            "--quiet",
+        ],
+        &dir,
+    ));
+    let out = zerotile(
+        &["export", "n44", "--out", "low", "--zoom", "0-8", "--quiet"],
+        &dir,
+    );
+    assert_success(&out);
+    assert!(
+        out.stderr.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let layer: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("low/layer.json")).unwrap()).unwrap();
+    assert_eq!(layer["maxzoom"], 8);
+    let available = layer["available"].as_array().unwrap();
+    assert_eq!(available.len(), 9);
+    // Every tile layer.json makes available is a file in the tree (TMS y, as the paths).
+    for (z, ranges) in available.iter().enumerate() {
+        for r in ranges.as_array().unwrap() {
+            let n = |k: &str| r[k].as_u64().unwrap();
+            for x in n("startX")..=n("endX") {
+                for y in n("startY")..=n("endY") {
+                    let rel = format!("low/{z}/{x}/{y}.terrain");
+                    assert!(dir.join(&rel).is_file(), "{rel}");
+                }
+            }
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -344,6 +344,13 @@ fn export(a: ExportArgs) -> anyhow::Result<()> {
         progress: !a.quiet,
     };
     let done = crate::export::run(&job)?;
+    if let Some((z0 @ 1.., _)) = job.zooms.filter(|_| job.format == "terrain") {
+        eprintln!(
+            "note: {} has no zooms below {z0}, which CesiumJS needs from level 0 on: serve it \
+             beside an export of those zooms, or export from 0",
+            job.out.display()
+        );
+    }
     println!(
         "{}: {} tiles, {} bytes, {:.1} s",
         job.out.display(),

@@ -190,7 +190,11 @@ pub fn run(job: &Export) -> Result<Exported> {
     )
     .and_then(|n| {
         if world {
-            let layer = layer(&d)?;
+            // Only the exported zooms: CesiumJS asks for every level layer.json makes
+            // available, and a file server answers 404 for levels left out.
+            let mut layer = layer(&d)?;
+            layer.maxzoom = z1;
+            layer.available.truncate(usize::from(z1) + 1);
             let mut value = layer.to_value()?;
             // Static trees keep tiles beside layer.json, not under tiles/.
             if let Some(o) = value.as_object_mut() {
