@@ -6,8 +6,7 @@
 //            plain static file server on another origin, as a CDN would: heights sampled from
 //            it must match --expect ([[lon, lat, metres], ...], the source's own heights)
 //            within the deepest level's geometric error
-// Each saves a screenshot under --out (static: none) and fails if it is blank or the client
-// logged errors.
+// Each saves a screenshot under --out and fails if it is blank or the client logged errors.
 //
 //   node tests/e2e/clients.mjs --base http://127.0.0.1:8080 --geodetic demo-ridges \
 //        --mercator n44m --out target/e2e [--only cesium,maplibre,viewer] \
@@ -344,7 +343,9 @@ async function staticExport() {
   pages["/static.html"] = `<!doctype html><html><head>
 <link rel="icon" href="data:,">
 <script>window.CESIUM_BASE_URL = "/node_modules/cesium/Build/Cesium/";</script>
-<script src="/node_modules/cesium/Build/Cesium/Cesium.js"></script></head><body></body></html>`;
+<link rel="stylesheet" href="/node_modules/cesium/Build/Cesium/Widgets/widgets.css">
+<style>html,body,#c{margin:0;width:100%;height:100%;overflow:hidden}</style>
+<script src="/node_modules/cesium/Build/Cesium/Cesium.js"></script></head><body><div id="c"></div></body></html>`;
   const c = await open("static");
   await c.page.goto(`${local}/static.html`);
   const r = await c.page.evaluate(async ([url, points]) => {
@@ -384,6 +385,25 @@ async function staticExport() {
   console.log(`static: ${expect.length} heights sampled, worst ${worst.toFixed(1)} m from the source ` +
     `(allowed: the level-${r.maxLevel} geometric error, ${r.tolerance.toFixed(1)} m)`);
   check(worst <= r.tolerance, `static: a sampled height is ${worst.toFixed(1)} m from the source (> ${r.tolerance.toFixed(1)} m)`);
+  // The globe draws it: one view from south of the first point, every tile loaded, no error.
+  await c.page.evaluate(async ([url, [lon, lat]]) => {
+    const terrainProvider = await Cesium.CesiumTerrainProvider.fromUrl(url, { requestVertexNormals: true });
+    terrainProvider.errorEvent.addEventListener((e) => console.error(`terrain provider: ${e.message}`));
+    const imagery = await Cesium.TileMapServiceImageryProvider.fromUrl(Cesium.buildModuleUrl("Assets/Textures/NaturalEarthII"));
+    const viewer = new Cesium.Viewer("c", {
+      terrainProvider, baseLayer: new Cesium.ImageryLayer(imagery), baseLayerPicker: false, geocoder: false,
+      animation: false, timeline: false, homeButton: false, sceneModePicker: false, navigationHelpButton: false,
+      fullscreenButton: false, infoBox: false, selectionIndicator: false });
+    viewer.scene.light = new Cesium.DirectionalLight({ direction: new Cesium.Cartesian3(0.6, -0.2, -0.5) });
+    viewer.scene.globe.enableLighting = true;
+    viewer.camera.setView({ destination: Cesium.Cartesian3.fromDegrees(lon, lat - 0.25, 12000),
+      orientation: { heading: 0, pitch: Cesium.Math.toRadians(-25), roll: 0 } });
+    window.viewer = viewer;
+  }, [tiles, expect[0]]);
+  await c.page.waitForFunction(() => window.viewer.scene.globe.tilesLoaded, null, { timeout: 60000, polling: 250 });
+  await c.page.waitForTimeout(500);
+  await c.page.waitForFunction(() => window.viewer.scene.globe.tilesLoaded, null, { timeout: 60000, polling: 250 });
+  await shoot(c, "static.png");
   const asked = cdnLog.filter((u) => /\.terrain(\?|$)/.test(u));
   console.log(`static: ${asked.length} .terrain request(s), e.g. ${asked[0]}`);
   check(asked.length > 0, "static: no .terrain file was requested");
