@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
 
+use glam::DVec3;
 use serde_json::Value;
 use zerotile_codec::container::{
     Availability, Container, Limits, Metadata, TileId, ViewParams, Writer,
@@ -794,4 +795,52 @@ fn real_geodetic_tiles_match_their_neighbours_on_every_side() {
         &qm_edge(&north, 1, true),
         "north edge",
     );
+
+    // Lighting: the normals of every shared edge vertex but the corners agree across the
+    // border (they came from each tile's own triangles once, and differed by up to tens of
+    // degrees: a lit seam along every tile edge in CesiumJS).
+    let lit = |x: u32, y: u32| {
+        let accept = "application/vnd.quantized-mesh;extensions=octvertexnormals";
+        let r = s.get(
+            &format!("/v1/datasets/srtm/tiles/10/{x}/{y}.terrain?threshold=4"),
+            &[("Accept", accept)],
+        );
+        assert_eq!(r.status, 200);
+        qm::read(&r.body).unwrap()
+    };
+    let (a, east, north) = (
+        lit(x0 + 1, y0 + 1),
+        lit(x0 + 2, y0 + 1),
+        lit(x0 + 1, y0 + 2),
+    );
+    let normals = |t: &qm::Tile, edge: usize, along_u: bool| -> Vec<(u16, DVec3)> {
+        let oct = &t.extensions.iter().find(|(id, _)| *id == 1).unwrap().1;
+        let mut v: Vec<(u16, DVec3)> = t.edges[edge]
+            .iter()
+            .map(|&i| {
+                let i = i as usize;
+                let n = quantized_mesh::oct_decode([oct[2 * i], oct[2 * i + 1]]);
+                (if along_u { t.u[i] } else { t.v[i] }, n)
+            })
+            .filter(|(k, _)| *k != 0 && *k != 32767)
+            .collect();
+        v.sort_by_key(|p| p.0);
+        v
+    };
+    for (mine, theirs, what) in [
+        (normals(&a, 2, false), normals(&east, 0, false), "east"),
+        (normals(&a, 3, true), normals(&north, 1, true), "north"),
+    ] {
+        assert!(!mine.is_empty() && mine.len() == theirs.len(), "{what}");
+        let worst = mine
+            .iter()
+            .zip(&theirs)
+            .map(|((_, p), (_, q))| p.angle_between(*q).to_degrees())
+            .fold(0.0, f64::max);
+        // Oct encoding keeps a byte per component: ~1° apart at worst.
+        assert!(
+            worst < 2.0,
+            "{what} edge normals differ by up to {worst:.1}°"
+        );
+    }
 }

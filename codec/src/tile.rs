@@ -112,9 +112,26 @@ pub fn stitched_mesh(
     forced.extend(hierarchy.edge_spill().iter().map(|&s| s as usize));
     let forced = Forced::new(hierarchy, forced);
 
-    // Border heights: the symmetric mean with each neighbour; corners exact.
+    let heights = stitched_heights(n);
+    Ok(bintree::extract(
+        hierarchy,
+        n.center.errors,
+        &heights,
+        tolerance,
+        Some(&forced),
+    ))
+}
+
+/// The centre's heights as its stitched mesh carries them: each border sample the
+/// symmetric mean with the neighbour across it (the same bits from either tile), corners
+/// the exact ones. Shapes are the caller's to check (`stitched_mesh` does).
+pub fn stitched_heights(n: &Neighbourhood) -> Grid<f64> {
     let mut heights = n.center.heights.clone();
     let own = n.center.heights;
+    let side = own.rows();
+    let Some(last) = side.checked_sub(1) else {
+        return heights;
+    };
     if let Some(nb) = n.north {
         for c in 0..side {
             *heights.get_mut(0, c) = mean(*own.get(0, c), *nb.heights.get(last, c));
@@ -141,13 +158,7 @@ pub fn stitched_mesh(
         *heights.get_mut(last, 0) = sw;
         *heights.get_mut(last, last) = se;
     }
-    Ok(bintree::extract(
-        hierarchy,
-        n.center.errors,
-        &heights,
-        tolerance,
-        Some(&forced),
-    ))
+    heights
 }
 
 fn flags(v: &[bool]) -> impl Iterator<Item = usize> + '_ {

@@ -156,15 +156,38 @@ pub fn neighbours(d: &Dataset, id: TileId) -> [Option<TileId>; 4] {
     ]
 }
 
+/// A tile meshed against its neighbours, with the decodes it was meshed from.
+pub struct Stitched {
+    pub center: Arc<DecodedTile>,
+    /// North, south, west, east, where they exist and read.
+    around: [Option<Arc<DecodedTile>>; 4],
+    pub mesh: TerrainMesh,
+}
+
+impl Stitched {
+    /// The decodes as the stitcher saw them (for normals that agree across borders).
+    pub fn neighbourhood(&self) -> Neighbourhood<'_> {
+        let [north, south, west, east] = &self.around;
+        Neighbourhood {
+            center: view(&self.center),
+            north: north.as_deref().map(view),
+            south: south.as_deref().map(view),
+            west: west.as_deref().map(view),
+            east: east.as_deref().map(view),
+            corners: Some(self.center.corners),
+        }
+    }
+}
+
 /// The tile's mesh at threshold `t`, crack-free against its neighbours' meshes at the same
-/// `t`, and the tile's own decode.
+/// `t`, and the decodes it was made from.
 pub fn stitched(
     state: &AppState,
     d: &Dataset,
     id: TileId,
     t: f64,
     cancel: &Cancel,
-) -> Result<(Arc<DecodedTile>, TerrainMesh)> {
+) -> Result<Stitched> {
     // The tile and each neighbour at one depth: the stitch needs them decoded alike.
     let depth = Depth::for_threshold(t);
     let center = decoded(state, d, id, depth, cancel)?;
@@ -180,16 +203,12 @@ pub fn stitched(
             }
         }
     }
-    let [north, south, west, east] = &around;
-    let n = Neighbourhood {
-        center: view(&center),
-        north: north.as_deref().map(view),
-        south: south.as_deref().map(view),
-        west: west.as_deref().map(view),
-        east: east.as_deref().map(view),
-        corners: Some(center.corners),
+    let mut out = Stitched {
+        center,
+        around,
+        mesh: TerrainMesh::default(),
     };
     cancel.check()?;
-    let mesh = stitched_mesh(&d.hierarchy, &n, mesh_tolerance(t))?;
-    Ok((center, mesh))
+    out.mesh = stitched_mesh(&d.hierarchy, &out.neighbourhood(), mesh_tolerance(t))?;
+    Ok(out)
 }

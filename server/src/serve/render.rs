@@ -11,6 +11,7 @@ use zerotile_codec::formats::terrain_rgb::{self, RgbOptions};
 use zerotile_codec::geo::{self, Scheme};
 use zerotile_codec::mesh::{io, Format, TriMesh};
 use zerotile_codec::raster::Encoding;
+use zerotile_codec::tile::Neighbourhood;
 use zerotile_codec::zerotree::TerrainMesh;
 use zerotile_codec::Grid;
 
@@ -20,15 +21,26 @@ fn geo_id(id: TileId) -> geo::TileId {
     geo::TileId::new(id.z, id.x, id.y)
 }
 
-/// A quantized-mesh-1.0 tile (the tiling must be georeferenced).
+/// A quantized-mesh-1.0 tile (the tiling must be georeferenced). With the decodes `mesh`
+/// was stitched from, its normals come from their height grid, so they agree across tile
+/// borders (`quantized_mesh::grid_normals`); without, from its own triangles.
 pub fn quantized_mesh(
     d: &Dataset,
     id: TileId,
     mesh: &TerrainMesh,
     opts: &QmOptions,
+    around: Option<&Neighbourhood>,
 ) -> Result<Vec<u8>> {
     let tile = d.tiling.tile_geo(geo_id(id))?;
-    Ok(quantized_mesh::encode(mesh, &tile, opts)?)
+    let normals = around
+        .filter(|_| opts.octvertexnormals)
+        .map(|n| quantized_mesh::grid_normals(&tile, n, mesh));
+    Ok(quantized_mesh::encode_with_normals(
+        mesh,
+        &tile,
+        opts,
+        normals.as_deref(),
+    )?)
 }
 
 /// Two triangles at one height over a whole tile: what a root tile without data holds

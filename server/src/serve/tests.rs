@@ -375,8 +375,9 @@ fn a_cancelled_render_decodes_nothing_more() {
     let state = AppState::new(Catalog::default(), Config::default());
     let cancel = pipeline::Cancel::default();
     drop(cancel.on_drop());
-    let err = pipeline::stitched(&state, &d, TileId { z: 0, x: 0, y: 0 }, 1.0, &cancel)
-        .expect_err("a cancelled render stops");
+    let Err(err) = pipeline::stitched(&state, &d, TileId { z: 0, x: 0, y: 0 }, 1.0, &cancel) else {
+        panic!("a cancelled render stops");
+    };
     assert!(err.is::<pipeline::Cancelled>(), "{err:#}");
     assert_eq!(state.metrics.tiles_decoded.load(Relaxed), 0);
     // Not cancelled, the same call renders.

@@ -30,8 +30,29 @@ const DEGENERATE_DIRECTION: f64 = 0.1;
 /// lists hold every vertex on x = 0 (west), y = rows − 1 (south), x = cols − 1 (east) and
 /// y = 0 (north), sorted south → north and west → east.
 pub fn encode(mesh: &TerrainMesh, tile: &TileGeo, opts: &QmOptions) -> Result<Vec<u8>, QmError> {
+    encode_with_normals(mesh, tile, opts, None)
+}
+
+/// [`encode`] with the vertex normals given (ECEF, one per vertex of `mesh`, in its order),
+/// e.g. [`grid_normals`](super::grid_normals) for a stitched tile, instead of the
+/// area-weighted normals of the mesh's own triangles.
+pub fn encode_with_normals(
+    mesh: &TerrainMesh,
+    tile: &TileGeo,
+    opts: &QmOptions,
+    normals: Option<&[DVec3]>,
+) -> Result<Vec<u8>, QmError> {
     // Check everything from outside first: nothing below can then fail.
     check_mesh(mesh)?;
+    if let Some(given) = normals {
+        if given.len() != mesh.positions.len() || given.iter().any(|v| !v.is_finite()) {
+            return Err(QmError::InvalidMesh(format!(
+                "{} normals, finite, for {} vertices",
+                given.len(),
+                mesh.positions.len()
+            )));
+        }
+    }
     check_tile(tile)?;
     check_water_mask(opts.watermask.as_ref())?;
     let metadata = opts
@@ -115,8 +136,18 @@ pub fn encode(mesh: &TerrainMesh, tile: &TileGeo, opts: &QmOptions) -> Result<Ve
     // Extensions, in id order.
     if opts.octvertexnormals {
         put_extension_header(&mut out, EXTENSION_OCT_NORMALS, 2 * n)?;
-        for normal in vertex_normals(&ecef, &triangles) {
-            out.extend_from_slice(&oct_encode(normal));
+        match normals {
+            Some(given) => {
+                for &old in &order {
+                    let n = given.get(old as usize).copied().unwrap_or(DVec3::Z);
+                    out.extend_from_slice(&oct_encode(n.try_normalize().unwrap_or(DVec3::Z)));
+                }
+            }
+            None => {
+                for normal in vertex_normals(&ecef, &triangles) {
+                    out.extend_from_slice(&oct_encode(normal));
+                }
+            }
         }
     }
     match &opts.watermask {

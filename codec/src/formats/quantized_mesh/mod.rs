@@ -45,12 +45,14 @@
 
 mod decode;
 mod encode;
+mod normals;
 mod oct;
 #[cfg(test)]
 mod tests;
 
 pub use decode::decode;
-pub use encode::encode;
+pub use encode::{encode, encode_with_normals};
+pub use normals::grid_normals;
 pub use oct::{oct_decode, oct_encode};
 
 use crate::geo::TileGeo;
@@ -76,7 +78,8 @@ pub const EXTENSION_METADATA: u8 = 4;
 /// (`Accept: application/vnd.quantized-mesh;extensions=octvertexnormals-watermask-metadata`).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct QmOptions {
-    /// Extension 1: per-vertex normals (ECEF, area-weighted, oct-encoded).
+    /// Extension 1: per-vertex normals (ECEF, oct-encoded): given to
+    /// [`encode_with_normals`], else area-weighted over the mesh's own triangles.
     pub octvertexnormals: bool,
     /// Extension 2: the tile's water mask; `WaterMask::Uniform(0)` says "all land".
     pub watermask: Option<WaterMask>,

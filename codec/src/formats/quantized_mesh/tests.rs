@@ -767,3 +767,135 @@ fn encoder_rejects_meshes_that_break_the_contract() {
         Err(QmError::Parameter { .. })
     ));
 }
+
+mod grid_normals {
+    use super::*;
+    use crate::bintree::{Hierarchy, TileErrors};
+    use crate::tile::{stitched_mesh, Neighbourhood, TileView};
+
+    /// A flat grid's normals are the ellipsoid's, on a mercator tile too (rows not evenly
+    /// spaced in latitude).
+    #[test]
+    fn a_flat_grid_has_the_ellipsoid_normal() {
+        let n = 17;
+        let h = Hierarchy::new(n).unwrap();
+        let g = crate::Grid::new(n, n, vec![250.0; n * n]).unwrap();
+        let errors = TileErrors::new(&h, &g);
+        let hood = Neighbourhood {
+            center: TileView {
+                heights: &g,
+                errors: &errors,
+            },
+            north: None,
+            south: None,
+            west: None,
+            east: None,
+            corners: None,
+        };
+        let mesh = grid_mesh(n, n, |_, _| 250.0);
+        let tiling = Tiling::new(Scheme::Mercator, 257).unwrap();
+        for tile in [
+            TileGeo::geodetic(30.0, 60.0, 30.1, 60.1),
+            tiling.tile_geo(TileId::new(6, 20, 30)).unwrap(),
+        ] {
+            for (i, v) in grid_normals(&tile, &hood, &mesh).iter().enumerate() {
+                let [x, y, _] = mesh.positions[i];
+                let lon = tile.west + x / 16.0 * (tile.east - tile.west);
+                let lat = tile.latitude_at(y / 16.0);
+                let up = Ellipsoid::WGS84.surface_normal(lon, lat);
+                // On the border the difference is one-sided: the chords' normal is that of
+                // the point half a sample away (along both axes at a corner).
+                let half =
+                    0.5 * (tile.east - tile.west).max(tile.north - tile.south) / 16.0 * 2f64.sqrt();
+                let angle = v.angle_between(up).to_degrees();
+                assert!(angle <= half, "vertex {i}: {angle}° off, {half}° allowed");
+            }
+        }
+    }
+
+    /// Two real tiles side by side, each meshed with the other as its east or west
+    /// neighbour: every shared edge vertex gets the same normal from both (the corners
+    /// aside, whose samples past the corner lie in tiles neither holds).
+    #[test]
+    fn neighbours_give_a_shared_edge_the_same_normals() {
+        let n = 17;
+        let h = Hierarchy::new(n).unwrap();
+        let (ga, gb) = (n44w072_crop(700, 700, n), n44w072_crop(700, 716, n));
+        let (ea, eb) = (TileErrors::new(&h, &ga), TileErrors::new(&h, &gb));
+        let view = |g, e| TileView {
+            heights: g,
+            errors: e,
+        };
+        let alone = |c| Neighbourhood {
+            center: c,
+            north: None,
+            south: None,
+            west: None,
+            east: None,
+            corners: None,
+        };
+        let a = Neighbourhood {
+            east: Some(view(&gb, &eb)),
+            ..alone(view(&ga, &ea))
+        };
+        let b = Neighbourhood {
+            west: Some(view(&ga, &ea)),
+            ..alone(view(&gb, &eb))
+        };
+        let step = 16.0 / 1200.0;
+        let tile_a = TileGeo::geodetic(
+            -72.0 + 700.0 / 1200.0,
+            44.0,
+            -72.0 + 716.0 / 1200.0,
+            44.0 + step,
+        );
+        let tile_b = TileGeo::geodetic(tile_a.east, 44.0, tile_a.east + step, 44.0 + step);
+        let (ma, mb) = (
+            stitched_mesh(&h, &a, 4.0).unwrap(),
+            stitched_mesh(&h, &b, 4.0).unwrap(),
+        );
+        let (na, nb) = (
+            grid_normals(&tile_a, &a, &ma),
+            grid_normals(&tile_b, &b, &mb),
+        );
+        let edge = |m: &TerrainMesh, normals: &[DVec3], x: f64| -> Vec<(u64, DVec3)> {
+            let mut v: Vec<(u64, DVec3)> = m
+                .positions
+                .iter()
+                .zip(normals)
+                .filter(|(p, _)| p[0] == x && p[1] > 0.0 && p[1] < 16.0)
+                .map(|(p, &nv)| (p[1] as u64, nv))
+                .collect();
+            v.sort_by_key(|e| e.0);
+            v
+        };
+        let (ra, rb) = (edge(&ma, &na, 16.0), edge(&mb, &nb, 0.0));
+        assert!(ra.len() >= 2, "{ra:?}");
+        assert_eq!(ra.len(), rb.len());
+        for ((ya, va), (yb, vb)) in ra.iter().zip(&rb) {
+            assert_eq!(ya, yb);
+            assert!(va.angle_between(*vb) < 1e-9, "row {ya}: {va} vs {vb}");
+        }
+        // And the triangles' own normals, which the tiles used before, do not agree there.
+        let facets = |m: &TerrainMesh, tile: &TileGeo| {
+            let opts = QmOptions {
+                octvertexnormals: true,
+                ..QmOptions::default()
+            };
+            decode(&encode(m, tile, &opts).unwrap()).unwrap()
+        };
+        let (da, db) = (facets(&ma, &tile_a), facets(&mb, &tile_b));
+        let worst = (0..da.u.len())
+            .filter(|&i| da.u[i] == 32767 && da.v[i] != 0 && da.v[i] != 32767)
+            .filter_map(|i| {
+                let j = (0..db.u.len()).find(|&j| db.u[j] == 0 && db.v[j] == da.v[i])?;
+                let (p, q) = (da.normals.as_ref()?[i], db.normals.as_ref()?[j]);
+                Some(oct_decode(p).angle_between(oct_decode(q)).to_degrees())
+            })
+            .fold(0.0, f64::max);
+        assert!(
+            worst > 2.0,
+            "facet normals agreed anyway ({worst}°): the test shows nothing"
+        );
+    }
+}

@@ -396,16 +396,31 @@ pub(crate) fn render_tile(
     flat_root: bool,
     cancel: &pipeline::Cancel,
 ) -> anyhow::Result<Encoded> {
-    let mesh_of = || -> anyhow::Result<_> {
+    // A missing world root is served flat, with no decode behind it.
+    let stitched = || -> anyhow::Result<Option<pipeline::Stitched>> {
         Ok(if flat_root {
-            render::flat_mesh(d.hierarchy.side(), d.metadata().fill)
+            None
         } else {
-            pipeline::stitched(state, d, id, t, cancel)?.1
+            Some(pipeline::stitched(state, d, id, t, cancel)?)
+        })
+    };
+    let mesh_of = || -> anyhow::Result<_> {
+        Ok(match stitched()? {
+            Some(s) => s.mesh,
+            None => render::flat_mesh(d.hierarchy.side(), d.metadata().fill),
         })
     };
     let (bytes, triangles) = match (format, variant) {
         (TileFormat::Terrain, Variant::Terrain { ext, .. }) => {
-            let mesh = mesh_of()?;
+            let s = stitched()?;
+            let flat;
+            let mesh = match &s {
+                Some(s) => &s.mesh,
+                None => {
+                    flat = render::flat_mesh(d.hierarchy.side(), d.metadata().fill);
+                    &flat
+                }
+            };
             let opts = QmOptions {
                 octvertexnormals: ext.octvertexnormals,
                 watermask: ext.watermask.then_some(WaterMask::Uniform(0)),
@@ -415,8 +430,9 @@ pub(crate) fn render_tile(
                     None
                 },
             };
+            let around = s.as_ref().map(pipeline::Stitched::neighbourhood);
             (
-                render::quantized_mesh(d, id, &mesh, &opts)?,
+                render::quantized_mesh(d, id, mesh, &opts, around.as_ref())?,
                 Some(mesh.triangle_count()),
             )
         }

@@ -201,7 +201,7 @@ fn view_mesh(
     let mut under_middle = Vec::new();
     let mut welded: HashMap<[u64; 2], u32> = HashMap::new();
     for &id in tiles {
-        let (_, mesh) = pipeline::stitched(state, d, id, t, cancel)?;
+        let mesh = pipeline::stitched(state, d, id, t, cancel)?.mesh;
         let tile = render::tri_mesh(d, id, &mesh)?;
         for f in &tile.faces {
             let Some(p) = at3(&tile.positions, *f) else {

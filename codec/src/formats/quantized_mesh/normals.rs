@@ -1,0 +1,116 @@
+//! Vertex normals from the height grid, for tiles meshed with their neighbours.
+//!
+//! Why not from the mesh's own triangles ([`encode`](super::encode) without these): a tile's
+//! triangles stop at its edge, so an edge vertex's normal averages only the facets on its
+//! side, and the tile across the edge gives the same vertex another normal. CesiumJS then
+//! lights a seam along every tile border (the static-export screenshot showed them). The
+//! gradient of the height grid, with the samples one past an edge read from the neighbour
+//! that holds them, is the same on both sides of a border, and carries the relief of every
+//! sample rather than of the mesh's facets.
+//!
+//! Each normal is the cross product of the central differences east–west and north–south
+//! of the vertex's sample, in ECEF. An edge sample's height is the stitched one (the mean of
+//! the two decodes, as [`stitched_heights`] gives); past an edge without a neighbour the
+//! difference is one-sided. At a tile corner the sample past the corner lies on an edge the
+//! tile does not share, so the two tiles' corner normals can differ slightly.
+
+use glam::DVec3;
+
+use crate::geo::{Ellipsoid, TileGeo};
+use crate::tile::{stitched_heights, Neighbourhood};
+use crate::zerotree::TerrainMesh;
+
+/// ECEF normals of `mesh`'s vertices (in the mesh's own order), for `encode_with_normals`.
+/// `mesh` is in grid coordinates (x = column, y = row from the north edge) over
+/// `n.center`'s grid, as `stitched_mesh` makes it; `tile` places that grid.
+pub fn grid_normals(tile: &TileGeo, n: &Neighbourhood, mesh: &TerrainMesh) -> Vec<DVec3> {
+    let heights = stitched_heights(n);
+    let side = heights.rows();
+    if side < 2 || heights.cols() != side {
+        return vec![DVec3::Z; mesh.positions.len()];
+    }
+    let last = side - 1;
+    let geo = GridGeo::new(tile, side);
+    // Height at (row, col), one past each edge included where a neighbour holds it.
+    let at = |r: isize, c: isize| -> Option<f64> {
+        let inside = |k: isize| (0..side as isize).contains(&k);
+        match (inside(r), inside(c)) {
+            (true, true) => Some(*heights.get(r as usize, c as usize)),
+            (false, true) if r < 0 => n.north.map(|v| *v.heights.get(last - 1, c as usize)),
+            (false, true) => n.south.map(|v| *v.heights.get(1, c as usize)),
+            (true, false) if c < 0 => n.west.map(|v| *v.heights.get(r as usize, last - 1)),
+            (true, false) => n.east.map(|v| *v.heights.get(r as usize, 1)),
+            (false, false) => None,
+        }
+    };
+    mesh.positions
+        .iter()
+        .map(|&[x, y, _]| {
+            let (r, c) = (y.round() as isize, x.round() as isize);
+            let Some(h) = at(r, c) else {
+                return DVec3::Z;
+            };
+            let here = geo.ecef(r, c, h);
+            // A side without a sample falls back on the vertex itself (one-sided).
+            let p = |dr: isize, dc: isize| {
+                at(r + dr, c + dc).map_or(here, |h| geo.ecef(r + dr, c + dc, h))
+            };
+            let east = p(0, 1) - p(0, -1);
+            let north = p(-1, 0) - p(1, 0);
+            east.cross(north)
+                .try_normalize()
+                .unwrap_or_else(|| geo.up(r, c))
+        })
+        .collect()
+}
+
+/// Per row and column of the grid (one past each edge too), the trigonometry of its
+/// latitude and longitude: an ECEF position is then a few products, not four sin/cos.
+struct GridGeo {
+    /// (cos φ, sin φ, N(φ)) for rows −1 ..= side.
+    rows: Vec<(f64, f64, f64)>,
+    /// (cos λ, sin λ) for columns −1 ..= side.
+    cols: Vec<(f64, f64)>,
+    e2: f64,
+}
+
+impl GridGeo {
+    fn new(tile: &TileGeo, side: usize) -> Self {
+        let e = Ellipsoid::WGS84;
+        let e2 = e.e2();
+        let steps = (side - 1) as f64;
+        let rows = (-1..=side as isize)
+            .map(|r| {
+                let lat = tile.latitude_at(r as f64 / steps);
+                let (s, c) = lat.to_radians().sin_cos();
+                (c, s, e.a / (1.0 - e2 * s * s).sqrt())
+            })
+            .collect();
+        let cols = (-1..=side as isize)
+            .map(|c| {
+                let lon = tile.west + c as f64 / steps * (tile.east - tile.west);
+                let (s, co) = lon.to_radians().sin_cos();
+                (co, s)
+            })
+            .collect();
+        Self { rows, cols, e2 }
+    }
+
+    /// [`Ellipsoid::to_ecef`] of sample (r, c) at height `h`.
+    fn ecef(&self, r: isize, c: isize, h: f64) -> DVec3 {
+        let (cos_lat, sin_lat, n) = self.rows[(r + 1) as usize];
+        let (cos_lon, sin_lon) = self.cols[(c + 1) as usize];
+        DVec3::new(
+            (n + h) * cos_lat * cos_lon,
+            (n + h) * cos_lat * sin_lon,
+            (n * (1.0 - self.e2) + h) * sin_lat,
+        )
+    }
+
+    /// The ellipsoid normal at sample (r, c).
+    fn up(&self, r: isize, c: isize) -> DVec3 {
+        let (cos_lat, sin_lat, _) = self.rows[(r + 1) as usize];
+        let (cos_lon, sin_lon) = self.cols[(c + 1) as usize];
+        DVec3::new(cos_lat * cos_lon, cos_lat * sin_lon, sin_lat)
+    }
+}
