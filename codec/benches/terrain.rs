@@ -15,6 +15,9 @@ mod common;
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use zerotile_codec::bintree::{self, Hierarchy, TileErrors};
 use zerotile_codec::ezw::{self, DecodeLimit, EncodeParams};
+use zerotile_codec::formats::quantized_mesh::{self, QmOptions};
+use zerotile_codec::geo::TileGeo;
+use zerotile_codec::tile::{Neighbourhood, TileView};
 use zerotile_codec::wavelet::Wavelet;
 
 fn decode_and_mesh(c: &mut Criterion) {
@@ -78,6 +81,37 @@ fn decode_and_mesh(c: &mut Criterion) {
     for tolerance in [2.0, 16.0] {
         group.bench_function(format!("extract_tol_{tolerance}"), |b| {
             b.iter(|| bintree::extract(&hierarchy, &errors, &g, tolerance, None))
+        });
+    }
+    // Quantized-mesh normals for a tile with all four neighbours (the tile itself stands in
+    // for them: the cost does not depend on their heights), against the triangles' own.
+    let tile = TileGeo::geodetic(-71.6, 44.0, -71.4, 44.2);
+    let view = TileView {
+        heights: &g,
+        errors: &errors,
+    };
+    let hood = Neighbourhood {
+        center: view,
+        north: Some(view),
+        south: Some(view),
+        west: Some(view),
+        east: Some(view),
+        corners: None,
+    };
+    let opts = QmOptions {
+        octvertexnormals: true,
+        ..QmOptions::default()
+    };
+    for tolerance in [2.0, 16.0] {
+        let mesh = bintree::extract(&hierarchy, &errors, &g, tolerance, None);
+        group.bench_function(format!("qm_grid_normals_tol_{tolerance}"), |b| {
+            b.iter(|| {
+                let normals = quantized_mesh::grid_normals(&tile, &hood, &mesh);
+                quantized_mesh::encode_with_normals(&mesh, &tile, &opts, Some(&normals))
+            })
+        });
+        group.bench_function(format!("qm_facet_normals_tol_{tolerance}"), |b| {
+            b.iter(|| quantized_mesh::encode(&mesh, &tile, &opts))
         });
     }
     group.finish();
