@@ -50,6 +50,11 @@ pub fn grid_normals(tile: &TileGeo, n: &Neighbourhood, mesh: &TerrainMesh) -> Ve
             let Some(h) = at(r, c) else {
                 return DVec3::Z;
             };
+            // A row at a pole is one point: its east-west difference is only the heights'
+            // scatter along the row, which would tip the normal sideways.
+            if geo.at_pole(r) {
+                return geo.up(r, c);
+            }
             let here = geo.ecef(r, c, h);
             // A side without a sample falls back on the vertex itself (one-sided).
             let p = |dr: isize, dc: isize| {
@@ -105,6 +110,11 @@ impl GridGeo {
             (n + h) * cos_lat * sin_lon,
             (n * (1.0 - self.e2) + h) * sin_lat,
         )
+    }
+
+    /// Whether row `r` lies on a pole (its samples are one point).
+    fn at_pole(&self, r: isize) -> bool {
+        self.rows[(r + 1) as usize].0.abs() < 1e-9
     }
 
     /// The ellipsoid normal at sample (r, c).

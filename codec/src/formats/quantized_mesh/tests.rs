@@ -813,6 +813,40 @@ mod grid_normals {
         }
     }
 
+    /// On a geodetic root tile the north row is the pole: whatever its heights scatter,
+    /// its vertices get the pole's normal, not one tipped sideways by the scatter.
+    #[test]
+    fn the_pole_row_points_up() {
+        let n = 17;
+        let h = Hierarchy::new(n).unwrap();
+        let g = crate::Grid::new(n, n, (0..n * n).map(|k| (k % 7) as f64).collect()).unwrap();
+        let errors = TileErrors::new(&h, &g);
+        let hood = Neighbourhood {
+            center: TileView {
+                heights: &g,
+                errors: &errors,
+            },
+            north: None,
+            south: None,
+            west: None,
+            east: None,
+            corners: None,
+        };
+        let mesh = grid_mesh(n, n, |r, c| *g.get(r, c));
+        let tile = TileGeo::geodetic(0.0, -90.0, 180.0, 90.0);
+        let normals = grid_normals(&tile, &hood, &mesh);
+        for (i, v) in normals
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| mesh.positions[*i][1] == 0.0)
+        {
+            assert!(
+                v.angle_between(DVec3::Z).to_degrees() < 1e-6,
+                "vertex {i}: {v}"
+            );
+        }
+    }
+
     /// Two real tiles side by side, each meshed with the other as its east or west
     /// neighbour: every shared edge vertex gets the same normal from both (the corners
     /// aside, whose samples past the corner lie in tiles neither holds).
