@@ -343,7 +343,8 @@ fn info_verify_finds_a_flipped_bit_and_names_the_tile() {
     bytes[e.offset as usize + 40] ^= 0x10;
     std::fs::write(&file, &bytes).unwrap();
     let out = info(&["--verify", "--json"]);
-    assert_eq!(out.status.code(), Some(1));
+    // 3: read, but a check failed (1 is for a file that cannot be read, below).
+    assert_eq!(out.status.code(), Some(3));
     let failed = json(&out)["failed"].clone();
     assert_eq!(failed.as_array().unwrap().len(), 1, "{failed}");
     assert_eq!(failed[0]["tile"], "3/2/1");

@@ -29,7 +29,9 @@ pub enum Command {
     /// Write a dataset as a static tile tree (layer.json + z/x/y files) for a CDN.
     Export(ExportArgs),
     /// Describe a dataset file (tiling, zooms, bytes per zoom); with --verify, read and
-    /// decode every tile and exit 1 if any fails (check a copy before serving it).
+    /// decode every tile (check a copy before serving it). Exit 0 when every check passes,
+    /// 3 when the file was read and a check failed (the report says which), 1 when it could
+    /// not be read.
     Info(InfoArgs),
     /// Measure the codec and mesher on one input.
     #[command(subcommand)]
@@ -266,7 +268,11 @@ pub fn run() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("zerotile: {e:#}");
-            ExitCode::FAILURE
+            if e.is::<crate::info::ChecksFailed>() {
+                ExitCode::from(crate::info::CHECKS_FAILED)
+            } else {
+                ExitCode::FAILURE
+            }
         }
     }
 }
@@ -387,7 +393,9 @@ fn info(a: InfoArgs) -> anyhow::Result<()> {
         if let Some(f) = report.failed.as_ref().filter(|f| !f.is_empty()) {
             problems.push(format!("{} of {} tiles failed", f.len(), report.tiles));
         }
-        anyhow::bail!("{}: {}", report.path, problems.join("; "));
+        return Err(
+            crate::info::ChecksFailed(format!("{}: {}", report.path, problems.join("; "))).into(),
+        );
     }
     Ok(())
 }

@@ -17,6 +17,15 @@ use zerotile_codec::ezw::{self, DecodeLimit};
 
 use crate::serve::dataset::Dataset;
 
+/// The exit code of a file that was read but failed a check, apart from 1 (could not read
+/// it), so a script can tell a bad copy from a missing one.
+pub const CHECKS_FAILED: u8 = 3;
+
+/// The error `info` ends with when the file was read and a check failed.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct ChecksFailed(pub String);
+
 /// Announced tiles listed by name (all are counted).
 const MISSING_LISTED: usize = 100;
 /// Ranges per zoom checked; an ingest writes one (two for the geodetic roots).
