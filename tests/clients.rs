@@ -19,7 +19,9 @@ use std::process::Command;
 use std::time::Instant;
 
 use zerotile_tests::server::Server;
-use zerotile_tests::{e2e_out, node_missing, repo_root, run_in, shared_data, tools_ready};
+use zerotile_tests::{
+    client_data, e2e_out, node_missing, repo_root, run_in, shared_data, tools_ready,
+};
 
 /// What is missing for the browser tests, if anything.
 fn missing_tools(chromium: &Path) -> Vec<String> {
@@ -43,25 +45,8 @@ fn cesium_maplibre_and_the_viewer_render_in_headless_chromium() {
     // The default data (geodetic demo-ridges and the object meshes) plus SRTM on the
     // mercator grid, which is what MapLibre's raster-dem expects.
     let t0 = Instant::now();
-    let data = std::env::temp_dir().join(format!("zerotile-clients-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&data);
-    std::fs::create_dir_all(&data).unwrap();
-    run_in(&["demo-data", "--quiet"], &data);
+    let data = client_data("clients");
     let hgt = shared_data().join("dem/N44W072.hgt");
-    run_in(
-        &[
-            "ingest",
-            hgt.to_str().unwrap(),
-            "--name",
-            "n44m",
-            "--scheme",
-            "mercator",
-            "--max-zoom",
-            "10",
-            "--quiet",
-        ],
-        &data,
-    );
     // The same SRTM tile on Cesium's geodetic grid, exported as a static tree: CesiumJS must
     // load it and sample the source's heights from it.
     run_in(

@@ -17,7 +17,9 @@ use std::process::Command;
 
 use serde_json::Value;
 use zerotile_tests::server::Server;
-use zerotile_tests::{e2e_out, node_missing, repo_root, run_in, shared_data, tools_ready};
+use zerotile_tests::{
+    client_data, e2e_out, node_missing, repo_root, run_in, shared_data, tools_ready,
+};
 
 /// `(zoom, x, y)` of the first tile the dataset holds at each zoom (its `available` ranges).
 fn first_tiles(info: &Value) -> Vec<(usize, u64, u64)> {
@@ -45,10 +47,7 @@ fn every_glb_route_passes_the_khronos_gltf_validator() {
     // The default data (geodetic demo-ridges; torus, uv-sphere, vase), two classic meshes
     // beside them, and SRTM ingested as the README does (local: column / minus-row
     // coordinates) and on the mercator grid (EPSG:3857 metres, the largest numbers in f32).
-    let data = std::env::temp_dir().join(format!("zerotile-gltf-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&data);
-    std::fs::create_dir_all(&data).unwrap();
-    run_in(&["demo-data", "--quiet"], &data);
+    let data = client_data("gltf");
     for m in ["fandisk.obj", "spot.obj"] {
         std::fs::copy(
             shared_data().join("meshes").join(m),
@@ -59,20 +58,6 @@ fn every_glb_route_passes_the_khronos_gltf_validator() {
     let hgt = shared_data().join("dem/N44W072.hgt");
     run_in(
         &["ingest", hgt.to_str().unwrap(), "--name", "n44", "--quiet"],
-        &data,
-    );
-    run_in(
-        &[
-            "ingest",
-            hgt.to_str().unwrap(),
-            "--name",
-            "n44m",
-            "--scheme",
-            "mercator",
-            "--max-zoom",
-            "10",
-            "--quiet",
-        ],
         &data,
     );
 

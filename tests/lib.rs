@@ -62,6 +62,24 @@ pub fn node_missing(package: &str) -> Vec<String> {
     missing
 }
 
+/// A fresh data folder for the client tests: the default data (geodetic demo-ridges and
+/// the object meshes) and N44W072 on the mercator grid as `n44m` (zooms to 10).
+pub fn client_data(tag: &str) -> PathBuf {
+    let data = std::env::temp_dir().join(format!("zerotile-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&data);
+    std::fs::create_dir_all(&data).expect("a temporary folder");
+    run_in(&["demo-data", "--quiet"], &data);
+    let hgt = shared_data().join("dem/N44W072.hgt");
+    let mut ingest = ingest_command(
+        &hgt,
+        "n44m",
+        &data,
+        &["--scheme", "mercator", "--max-zoom", "10"],
+    );
+    run_ok(&mut ingest);
+    data
+}
+
 /// `zerotile ARGS --data DATA`, which must succeed.
 pub fn run_in(args: &[&str], data: &Path) -> std::process::Output {
     run_ok(

@@ -437,21 +437,25 @@ mod tests {
         }
     }
 
-    /// Writes a container to a fresh folder and returns `info`'s verifying report on it.
-    fn verify_file(name: &str, file: Vec<u8>) -> Report {
-        let dir = std::env::temp_dir().join(format!("zerotile-info-{name}-{}", std::process::id()));
+    /// Writes a container to a fresh folder and returns `info`'s report on it.
+    fn report_on(tag: &str, file: Vec<u8>, verify: bool) -> Report {
+        let dir = std::env::temp_dir().join(format!("zerotile-info-{tag}-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join("t.ztd");
         std::fs::write(&path, file).unwrap();
         let report = run(&Info {
             dataset: path.display().to_string(),
             data: dir.clone(),
-            verify: true,
+            verify,
             progress: false,
         })
         .unwrap();
         let _ = std::fs::remove_dir_all(&dir);
         report
+    }
+
+    fn verify_file(tag: &str, file: Vec<u8>) -> Report {
+        report_on(tag, file, true)
     }
 
     /// A record whose corners disagree with its stream (beyond the stream's own error
@@ -533,19 +537,7 @@ mod tests {
         m.available = vec![available];
         let mut w = Writer::new();
         w.add(TileId { z: 0, x: 0, y: 0 }, [0.0; 4], b"not decoded here");
-        let dir = std::env::temp_dir().join(format!("zerotile-info-a-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let path = dir.join("t.ztd");
-        std::fs::write(&path, w.finish(&m).unwrap()).unwrap();
-        let report = run(&Info {
-            dataset: path.display().to_string(),
-            data: dir.clone(),
-            verify: false,
-            progress: false,
-        })
-        .unwrap();
-        let _ = std::fs::remove_dir_all(&dir);
-        report
+        report_on("a", w.finish(&m).unwrap(), false)
     }
 
     /// A header that announces every tile of a 2^32 × 2^32 zoom but stores one: the check

@@ -773,6 +773,18 @@ mod grid_normals {
     use crate::bintree::{Hierarchy, TileErrors};
     use crate::tile::{stitched_mesh, Neighbourhood, TileView};
 
+    /// A tile with no neighbour on any side.
+    fn alone(center: TileView<'_>) -> Neighbourhood<'_> {
+        Neighbourhood {
+            center,
+            north: None,
+            south: None,
+            west: None,
+            east: None,
+            corners: None,
+        }
+    }
+
     /// A flat grid's normals are the ellipsoid's, on a mercator tile too (rows not evenly
     /// spaced in latitude).
     #[test]
@@ -781,17 +793,10 @@ mod grid_normals {
         let h = Hierarchy::new(n).unwrap();
         let g = crate::Grid::new(n, n, vec![250.0; n * n]).unwrap();
         let errors = TileErrors::new(&h, &g);
-        let hood = Neighbourhood {
-            center: TileView {
-                heights: &g,
-                errors: &errors,
-            },
-            north: None,
-            south: None,
-            west: None,
-            east: None,
-            corners: None,
-        };
+        let hood = alone(TileView {
+            heights: &g,
+            errors: &errors,
+        });
         let mesh = grid_mesh(n, n, |_, _| 250.0);
         let tiling = Tiling::new(Scheme::Mercator, 257).unwrap();
         for tile in [
@@ -821,17 +826,10 @@ mod grid_normals {
         let h = Hierarchy::new(n).unwrap();
         let g = crate::Grid::new(n, n, (0..n * n).map(|k| (k % 7) as f64).collect()).unwrap();
         let errors = TileErrors::new(&h, &g);
-        let hood = Neighbourhood {
-            center: TileView {
-                heights: &g,
-                errors: &errors,
-            },
-            north: None,
-            south: None,
-            west: None,
-            east: None,
-            corners: None,
-        };
+        let hood = alone(TileView {
+            heights: &g,
+            errors: &errors,
+        });
         let mesh = grid_mesh(n, n, |r, c| *g.get(r, c));
         let tile = TileGeo::geodetic(0.0, -90.0, 180.0, 90.0);
         let normals = grid_normals(&tile, &hood, &mesh);
@@ -859,14 +857,6 @@ mod grid_normals {
         let view = |g, e| TileView {
             heights: g,
             errors: e,
-        };
-        let alone = |c| Neighbourhood {
-            center: c,
-            north: None,
-            south: None,
-            west: None,
-            east: None,
-            corners: None,
         };
         let a = Neighbourhood {
             east: Some(view(&gb, &eb)),

@@ -4,6 +4,7 @@
 //! client's ETag matches; otherwise render off the async threads (decode, stitch, encode)
 //! and add the cache, threshold and negotiation headers.
 
+use std::borrow::Cow;
 use std::collections::hash_map::DefaultHasher;
 use std::collections::HashMap;
 use std::hash::{Hash, Hasher};
@@ -404,23 +405,15 @@ pub(crate) fn render_tile(
             Some(pipeline::stitched(state, d, id, t, cancel)?)
         })
     };
-    let mesh_of = || -> anyhow::Result<_> {
-        Ok(match stitched()? {
-            Some(s) => s.mesh,
-            None => render::flat_mesh(d.hierarchy.side(), d.metadata().fill),
-        })
-    };
+    let flat = || render::flat_mesh(d.hierarchy.side(), d.metadata().fill);
+    let mesh_of = || -> anyhow::Result<_> { Ok(stitched()?.map_or_else(flat, |s| s.mesh)) };
     let (bytes, triangles) = match (format, variant) {
         (TileFormat::Terrain, Variant::Terrain { ext, .. }) => {
+            // The decodes stay beside the mesh: its normals are read from them.
             let s = stitched()?;
-            let flat;
-            let mesh = match &s {
-                Some(s) => &s.mesh,
-                None => {
-                    flat = render::flat_mesh(d.hierarchy.side(), d.metadata().fill);
-                    &flat
-                }
-            };
+            let mesh = s
+                .as_ref()
+                .map_or_else(|| Cow::Owned(flat()), |s| Cow::Borrowed(&s.mesh));
             let opts = QmOptions {
                 octvertexnormals: ext.octvertexnormals,
                 watermask: ext.watermask.then_some(WaterMask::Uniform(0)),
@@ -432,7 +425,7 @@ pub(crate) fn render_tile(
             };
             let around = s.as_ref().map(pipeline::Stitched::neighbourhood);
             (
-                render::quantized_mesh(d, id, mesh, &opts, around.as_ref())?,
+                render::quantized_mesh(d, id, &mesh, &opts, around.as_ref())?,
                 Some(mesh.triangle_count()),
             )
         }
