@@ -516,6 +516,14 @@ fn bad_requests_are_4xx_json() {
         (&format!("{t}/1/0/0"), 404, "unknown_format"),
         (&format!("{t}/1/0/0.terrain"), 404, "not_georeferenced"),
         ("/v1/datasets/crop/layer.json", 404, "not_georeferenced"),
+        ("/v1/datasets/crop/tiles.json", 404, "not_mercator"),
+        ("/v1/datasets/srtm/tiles.json", 404, "not_mercator"),
+        (
+            "/v1/datasets/merc/tiles.json?encoding=gray",
+            400,
+            "bad_encoding",
+        ),
+        ("/v1/datasets/merc/tiles.json?size=8", 400, "out_of_range"),
         (&format!("{t}/1/0/0.png?threshold=NaN"), 400, "out_of_range"),
         (&format!("{t}/1/0/0.png?threshold=inf"), 400, "out_of_range"),
         (&format!("{t}/1/0/0.png?threshold=-1"), 400, "out_of_range"),
@@ -692,6 +700,98 @@ fn a_missing_root_tile_is_flat_and_mercator_tiles_work() {
         mesh_bin::decode(&bin.body).unwrap().crs,
         mesh_bin::MeshCrs::WebMercator
     );
+}
+
+/// TileJSON is what a MapLibre `raster-dem` source reads from `url`: every tile it lists must
+/// answer with the PNG the options asked for, and its URLs must be absolute (MapLibre fails
+/// on relative ones), as the client or its proxy reached the server.
+#[test]
+fn tilejson_lists_tiles_that_answer_as_asked() {
+    let s = Server::start(data_dir());
+    let r = s.get("/v1/datasets/merc/tiles.json", &[]);
+    assert_eq!(r.status, 200, "{}", String::from_utf8_lossy(&r.body));
+    let vary: Vec<&str> = r
+        .headers
+        .iter()
+        .filter(|(k, _)| k.eq_ignore_ascii_case("vary"))
+        .map(|(_, v)| v.as_str())
+        .collect();
+    let vary = vary.join(", ");
+    assert!(vary.contains("X-Forwarded-Host"), "{vary}");
+    let t = r.json();
+    assert_eq!(t["tilejson"], "3.0.0");
+    assert_eq!(
+        (t["minzoom"].as_u64(), t["maxzoom"].as_u64()),
+        (Some(0), Some(0))
+    );
+    assert_eq!(t["bounds"], serde_json::json!([-180.0, -85.0, 180.0, 85.0]));
+    assert_eq!(
+        (t["tileSize"].as_u64(), t["encoding"].as_str()),
+        (Some(512), Some("mapbox"))
+    );
+    let template = t["tiles"][0].as_str().unwrap();
+    let own = format!(
+        "{}/v1/datasets/merc/tiles/{{z}}/{{x}}/{{y}}.png?v=",
+        s.base()
+    );
+    assert!(
+        template.starts_with(&own),
+        "{template} does not start with {own}"
+    );
+    // A tile as MapLibre decodes it: the size and encoding the document gives.
+    let dem = |template: &str, encoding| {
+        let url = template.replace("{z}/{x}/{y}", "0/0/0");
+        let tile = s.get(&url[s.base().len()..], &[]);
+        assert_eq!(tile.status, 200, "{url}");
+        terrain_rgb::decode(&tile.body, encoding, 1 << 22).unwrap()
+    };
+    // The dataset holds 0–1,500 m: read with the wrong encoding, the heights are far off.
+    let in_range = |g: &Grid<f64>| g.data().iter().all(|h| (-1.0..1600.0).contains(h));
+    let g = dem(template, Encoding::TerrainRgb);
+    assert_eq!((g.rows(), g.cols()), (512, 512));
+    assert!(in_range(&g));
+    assert!(!in_range(&dem(template, Encoding::Terrarium)));
+
+    // Terrarium at 256 px: the listed tile is one.
+    let t = s
+        .get(
+            "/v1/datasets/merc/tiles.json?encoding=terrarium&size=256",
+            &[],
+        )
+        .json();
+    assert_eq!(
+        (t["tileSize"].as_u64(), t["encoding"].as_str()),
+        (Some(256), Some("terrarium"))
+    );
+    let template = t["tiles"][0].as_str().unwrap();
+    let g = dem(template, Encoding::Terrarium);
+    assert_eq!((g.rows(), g.cols()), (256, 256));
+    assert!(in_range(&g));
+
+    // Behind a proxy, what the client used.
+    let proxied = s.get(
+        "/v1/datasets/merc/tiles.json",
+        &[
+            ("x-forwarded-proto", "https"),
+            ("x-forwarded-host", "tiles.example.org"),
+            ("x-forwarded-prefix", "/dem"),
+        ],
+    );
+    let template = proxied.json()["tiles"][0].as_str().unwrap().to_string();
+    assert!(
+        template.starts_with("https://tiles.example.org/dem/v1/datasets/merc/tiles/"),
+        "{template}"
+    );
+    s.get(
+        "/v1/datasets/merc/tiles.json",
+        &[("x-forwarded-host", "evil.example/<script>")],
+    )
+    .assert_error(400, "bad_header", "a host that is no host");
+
+    // The description points at it, for mercator datasets only.
+    let d = s.get("/v1/datasets/merc", &[]).json();
+    assert_eq!(d["tilejson"], "/v1/datasets/merc/tiles.json");
+    assert!(s.get("/v1/datasets/srtm", &[]).json()["tilejson"].is_null());
 }
 
 #[test]

@@ -1,6 +1,7 @@
 // Real clients against a running `zerotile serve`, in headless Chromium (playwright-core):
 //   cesium   CesiumJS' CesiumTerrainProvider on a geodetic dataset's layer.json
 //   maplibre MapLibre GL JS raster-dem (terrain + hillshade) on a mercator dataset's PNG tiles
+//            (the terrain source by its tiles.json alone)
 //   viewer   our own page at `/`: terrain and mesh views, controls change the triangle count
 //   static   CesiumJS on a `zerotile export --format terrain` tree (--static DIR) served by a
 //            plain static file server on another origin, as a CDN would: heights sampled from
@@ -241,7 +242,10 @@ async function maplibre() {
   const info = await describe(args.mercator || "n44m");
   const [w, s, e, n] = info.bounds;
   const tiles = `${base}/v1/datasets/${info.name}/tiles/{z}/{x}/{y}.png`;
-  const dem = { type: "raster-dem", tiles: [tiles], tileSize: 512, encoding: "mapbox", bounds: info.bounds,
+  // Both ways of pointing MapLibre at the tiles: the terrain by the dataset's TileJSON alone
+  // (it carries the zooms, bounds, size and encoding), the hillshade with them spelled out.
+  const dem = { type: "raster-dem", url: `${base}${info.tilejson}` };
+  const hills = { type: "raster-dem", tiles: [tiles], tileSize: 512, encoding: "mapbox", bounds: info.bounds,
     minzoom: info.minzoom, maxzoom: info.maxzoom };
   pages["/maplibre.html"] = `<!doctype html><html><head>
 <link rel="icon" href="data:,">
@@ -254,7 +258,7 @@ const map = new maplibregl.Map({
   container: "m", center: [${(w + e) / 2}, ${(s + n) / 2}], zoom: ${Math.max(info.maxzoom - 0.5, 1)}, pitch: 60, bearing: 20,
   canvasContextAttributes: { preserveDrawingBuffer: true }, preserveDrawingBuffer: true,
   style: { version: 8,
-    sources: { dem: ${JSON.stringify(dem)}, hills: ${JSON.stringify(dem)} },
+    sources: { dem: ${JSON.stringify(dem)}, hills: ${JSON.stringify(hills)} },
     layers: [
       { id: "bg", type: "background", paint: { "background-color": "#d8d2c4" } },
       { id: "hillshade", type: "hillshade", source: "hills", paint: { "hillshade-exaggeration": 0.8 } },
@@ -271,6 +275,8 @@ window.map = map;
   const pngs = c.requests.filter((u) => /\/tiles\/\d+\/\d+\/\d+\.png/.test(u));
   console.log(`maplibre: ${pngs.length} terrain-RGB tile request(s), terrain ${await c.page.evaluate(() => !!window.map.getTerrain())}`);
   check(pngs.length > 0, "maplibre: no terrain-RGB tile was requested");
+  // The TileJSON source asked for its tiles by the document's (versioned) template.
+  check(pngs.some((u) => /\.png\?v=[0-9a-f]{16}$/.test(u)), "maplibre: no tile was requested through tiles.json");
   check(await c.page.evaluate(() => !!window.map.getTerrain()), "maplibre: terrain is not on");
   for (const t of await c.page.evaluate(() => window.mapErrors)) c.problems.push(`map error: ${t}`);
   await shoot(c, "maplibre.png");

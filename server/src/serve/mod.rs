@@ -19,6 +19,7 @@ pub mod meshes;
 pub mod metrics;
 pub mod negotiate;
 pub mod pipeline;
+pub mod public_url;
 pub mod render;
 pub mod render_slots;
 pub mod routes;
@@ -67,6 +68,10 @@ pub fn app(state: AppState) -> Router {
         .route(
             "/v1/datasets/{name}/layer.json",
             get(routes::meta::layer_json),
+        )
+        .route(
+            "/v1/datasets/{name}/tiles.json",
+            get(routes::meta::tilejson),
         )
         .route("/v1/datasets/{name}/view", get(routes::view::view))
         .route(

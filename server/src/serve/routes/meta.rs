@@ -1,20 +1,26 @@
-//! Health, metrics, the dataset list and descriptions, and Cesium's `layer.json`.
+//! Health, metrics, the dataset list and descriptions, Cesium's `layer.json` and MapLibre's
+//! TileJSON.
 
+use std::collections::HashMap;
 use std::sync::Arc;
 
-use axum::extract::rejection::PathRejection;
-use axum::extract::{Path, State};
-use axum::http::header::{CACHE_CONTROL, CONTENT_TYPE};
+use axum::extract::rejection::{PathRejection, QueryRejection};
+use axum::extract::{Path, Query, State};
+use axum::http::header::{CACHE_CONTROL, CONTENT_TYPE, VARY};
+use axum::http::HeaderMap;
 use axum::response::{IntoResponse, Response};
 use axum::Json;
 use serde_json::{json, Value};
 use zerotile_codec::formats::layer_json::{
     AvailableRange, Extension, LayerJson, DEFAULT_TILES_TEMPLATE,
 };
+use zerotile_codec::formats::tilejson::{DemEncoding, RasterDem};
 use zerotile_codec::geo::{Bounds, Scheme};
 
 use crate::serve::dataset::Dataset;
 use crate::serve::error::{ApiError, ApiResult};
+use crate::serve::public_url;
+use crate::serve::routes::tiles::{png_size, png_terrarium};
 use crate::serve::state::AppState;
 use crate::serve::threshold;
 
@@ -103,6 +109,8 @@ pub async fn describe(
             json!(["png", "json", "bin", "obj", "glb", "ezw"])
         },
         "layer_json": georeferenced.then(|| format!("/v1/datasets/{}/layer.json", d.name)),
+        "tilejson": matches!(d.tiling.scheme(), Scheme::Mercator)
+            .then(|| format!("/v1/datasets/{}/tiles.json", d.name)),
         "tile_url": format!("/v1/datasets/{}/tiles/{{z}}/{{x}}/{{y}}.{{format}}", d.name),
     });
     if let (Some(a), Some(b)) = (v.as_object_mut(), extra.as_object()) {
@@ -129,6 +137,71 @@ pub async fn layer_json(
     let layer = layer(&d).map_err(ApiError::internal)?;
     let value = layer.to_value().map_err(ApiError::internal)?;
     Ok(([(CACHE_CONTROL, "public, max-age=60")], Json(value)).into_response())
+}
+
+/// TileJSON for a mercator dataset's PNG tiles: a MapLibre `raster-dem` source with only
+/// `url` set learns the tiles, zooms, bounds, tile size and encoding from it.
+pub async fn tilejson(
+    State(state): State<AppState>,
+    path: Result<Path<String>, PathRejection>,
+    query: Result<Query<HashMap<String, String>>, QueryRejection>,
+    headers: HeaderMap,
+) -> ApiResult<Response> {
+    let Path(name) = path?;
+    let Query(q) = query?;
+    let d = dataset(&state, &name)?;
+    if !matches!(d.tiling.scheme(), Scheme::Mercator) {
+        return Err(ApiError::not_found(
+            "not_mercator",
+            format!(
+                "{name} is not on the Web Mercator grid MapLibre tiles with: ingest the source \
+                 with --scheme mercator for raster-dem (its PNG tiles still come by z/x/y)"
+            ),
+        ));
+    }
+    let terrarium = png_terrarium(&q)?;
+    let size = png_size(&q)?;
+    let m = d.metadata();
+    let version = format!("{:016x}", d.version);
+    // The tile URL repeats the options asked for here; `v` changes with every ingest, so a
+    // CDN keying on the URL never serves the old dataset's tiles.
+    let mut params = vec![format!("v={version}")];
+    if terrarium {
+        params.push("encoding=terrarium".into());
+    }
+    if q.contains_key("size") {
+        params.push(format!("size={size}"));
+    }
+    let base = public_url::origin(&headers)?;
+    let doc = RasterDem {
+        name: d.name.clone(),
+        description: format!("zerotile EZW terrain from {}", m.source),
+        attribution: String::new(),
+        version,
+        tiles: vec![format!(
+            "{base}/v1/datasets/{}/tiles/{{z}}/{{x}}/{{y}}.png?{}",
+            d.name,
+            params.join("&")
+        )],
+        minzoom: m.min_zoom,
+        maxzoom: m.max_zoom,
+        bounds: m.bounds,
+        encoding: if terrarium {
+            DemEncoding::Terrarium
+        } else {
+            DemEncoding::Mapbox
+        },
+        tile_size: size,
+    };
+    let value = doc.to_value().map_err(ApiError::internal)?;
+    Ok((
+        [
+            (CACHE_CONTROL, "public, max-age=60"),
+            (VARY, public_url::VARY),
+        ],
+        Json(value),
+    )
+        .into_response())
 }
 
 /// The dataset's layer.json, tiles at `tiles/{z}/{x}/{y}.terrain` beside it.

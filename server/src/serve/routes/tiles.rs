@@ -336,29 +336,10 @@ fn variant(
             ext: negotiate::terrain_extensions(headers, q.get("extensions").map(String::as_str))?,
             gzip: negotiate::accepts_gzip(headers),
         },
-        TileFormat::Png => {
-            let terrarium = match q.get("encoding").map(String::as_str) {
-                None | Some("mapbox") | Some("terrain-rgb") => false,
-                Some("terrarium") => true,
-                Some(other) => {
-                    return Err(ApiError::bad_request(
-                        "bad_encoding",
-                        format!(
-                            "encoding must be terrain-rgb (the default; also called mapbox) or \
-                             terrarium, got {other:?}"
-                        ),
-                    ))
-                }
-            };
-            let size = match q.get("size") {
-                Some(s) => {
-                    threshold::integer("size", s, f64::from(PNG_MIN_SIZE), f64::from(PNG_MAX_SIZE))?
-                        as u32
-                }
-                None => PNG_DEFAULT_SIZE,
-            };
-            Variant::Png { terrarium, size }
-        }
+        TileFormat::Png => Variant::Png {
+            terrarium: png_terrarium(q)?,
+            size: png_size(q)?,
+        },
         TileFormat::Json | TileFormat::Bin | TileFormat::Obj => Variant::Mesh {
             gzip: negotiate::accepts_gzip(headers),
         },
@@ -480,4 +461,29 @@ fn gzip_bytes(raw: &[u8]) -> std::io::Result<Vec<u8>> {
     );
     enc.write_all(raw)?;
     enc.finish()
+}
+
+/// `?encoding=` of a PNG tile (and of the TileJSON that lists them): Terrarium or not.
+pub(crate) fn png_terrarium(q: &HashMap<String, String>) -> ApiResult<bool> {
+    match q.get("encoding").map(String::as_str) {
+        None | Some("mapbox") | Some("terrain-rgb") => Ok(false),
+        Some("terrarium") => Ok(true),
+        Some(other) => Err(ApiError::bad_request(
+            "bad_encoding",
+            format!(
+                "encoding must be terrain-rgb (the default; also called mapbox) or terrarium, \
+                 got {other:?}"
+            ),
+        )),
+    }
+}
+
+/// `?size=` of a PNG tile, pixels a side.
+pub(crate) fn png_size(q: &HashMap<String, String>) -> ApiResult<u32> {
+    Ok(match q.get("size") {
+        Some(s) => {
+            threshold::integer("size", s, f64::from(PNG_MIN_SIZE), f64::from(PNG_MAX_SIZE))? as u32
+        }
+        None => PNG_DEFAULT_SIZE,
+    })
 }

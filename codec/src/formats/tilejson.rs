@@ -1,0 +1,237 @@
+//! TileJSON 3.0.0 for terrain-RGB / Terrarium raster tiles: what a MapLibre GL `raster-dem`
+//! source reads from its `url`, so the page needs no copy of the zooms and bounds.
+//!
+//! References:
+//! - TileJSON 3.0.0 (mapbox/tilejson-spec): `tilejson`, `tiles` (absolute URLs: §3.2 leaves
+//!   relative ones undefined and MapLibre fails on them), `scheme`, `minzoom`, `maxzoom`,
+//!   `bounds`, `version`, `name`, `description`, `attribution`.
+//! - MapLibre GL JS `loadTileJson` (4.x): it takes `tiles`, `minzoom`, `maxzoom`,
+//!   `attribution`, `bounds`, `scheme`, `tileSize` and `encoding` from the document, the last
+//!   two outside the spec, and the source's own options win over them.
+//!
+//! A client that is not told `maxzoom` and `bounds` asks for tiles past the deepest zoom and
+//! outside the data, which a server can only answer with 404s.
+//!
+//! ```
+//! use zerotile_codec::formats::tilejson::{DemEncoding, RasterDem};
+//!
+//! let t = RasterDem {
+//!     name: "n44".into(),
+//!     tiles: vec!["https://tiles.example/n44/{z}/{x}/{y}.png".into()],
+//!     minzoom: 0,
+//!     maxzoom: 8,
+//!     bounds: [-72.0, 44.0, -71.0, 45.0],
+//!     encoding: DemEncoding::Mapbox,
+//!     tile_size: 512,
+//!     ..RasterDem::default()
+//! };
+//! let json = t.to_value()?;
+//! assert_eq!(json["encoding"], "mapbox");
+//! assert_eq!(json["maxzoom"], 8);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+use serde_json::{json, Value};
+
+/// The TileJSON version written.
+pub const VERSION: &str = "3.0.0";
+
+/// Web Mercator's latitude limit, degrees: XYZ tiles end there.
+pub const MAX_MERCATOR_LATITUDE: f64 = 85.051_128_779_806_59;
+
+/// How the PNG pixels hold heights, by MapLibre's names.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DemEncoding {
+    /// Mapbox terrain-RGB.
+    Mapbox,
+    /// Mapzen / AWS Terrarium.
+    Terrarium,
+}
+
+/// Why a document cannot be written.
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+#[error("{name} must be {expected}, got {got}")]
+pub struct TileJsonError {
+    pub name: &'static str,
+    pub expected: &'static str,
+    pub got: String,
+}
+
+/// A `raster-dem` tileset on the XYZ (Web Mercator) grid.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RasterDem {
+    pub name: String,
+    pub description: String,
+    pub attribution: String,
+    /// Changes whenever the tiles do (a client or CDN may key its cache on it).
+    pub version: String,
+    /// Absolute URL templates with `{z}`, `{x}`, `{y}`.
+    pub tiles: Vec<String>,
+    pub minzoom: u8,
+    pub maxzoom: u8,
+    /// West, south, east, north in degrees.
+    pub bounds: [f64; 4],
+    pub encoding: DemEncoding,
+    /// Pixels a side.
+    pub tile_size: u32,
+}
+
+impl Default for RasterDem {
+    fn default() -> Self {
+        Self {
+            name: String::new(),
+            description: String::new(),
+            attribution: String::new(),
+            version: "1.0.0".into(),
+            tiles: Vec::new(),
+            minzoom: 0,
+            maxzoom: 0,
+            bounds: [-180.0, -MAX_MERCATOR_LATITUDE, 180.0, MAX_MERCATOR_LATITUDE],
+            encoding: DemEncoding::Mapbox,
+            tile_size: 512,
+        }
+    }
+}
+
+fn error(name: &'static str, expected: &'static str, got: impl ToString) -> TileJsonError {
+    TileJsonError {
+        name,
+        expected,
+        got: got.to_string(),
+    }
+}
+
+impl RasterDem {
+    /// The document, after checking what a client relies on.
+    pub fn to_value(&self) -> Result<Value, TileJsonError> {
+        if self.tiles.is_empty() {
+            return Err(error("tiles", "at least one URL template", "none"));
+        }
+        for t in &self.tiles {
+            let absolute = t.starts_with("http://") || t.starts_with("https://");
+            let templated = ["{z}", "{x}", "{y}"].iter().all(|p| t.contains(p));
+            if !absolute || !templated {
+                return Err(error(
+                    "tiles",
+                    "absolute http(s) URLs with {z}, {x} and {y}",
+                    t,
+                ));
+            }
+        }
+        if self.minzoom > self.maxzoom || self.maxzoom > 30 {
+            return Err(error(
+                "minzoom..maxzoom",
+                "an ordered range within 0..=30",
+                format!("{}..{}", self.minzoom, self.maxzoom),
+            ));
+        }
+        let [w, s, e, n] = self.bounds;
+        let lat = MAX_MERCATOR_LATITUDE + 1e-9;
+        let ok = self.bounds.iter().all(|v| v.is_finite())
+            && (-180.0..=180.0).contains(&w)
+            && w <= e
+            && e <= 180.0
+            && (-lat..=lat).contains(&s)
+            && s <= n
+            && n <= lat;
+        if !ok {
+            return Err(error(
+                "bounds",
+                "west ≤ east, south ≤ north, degrees within Web Mercator",
+                format!("{:?}", self.bounds),
+            ));
+        }
+        if !(1..=4096).contains(&self.tile_size) {
+            return Err(error("tileSize", "1..=4096 pixels", self.tile_size));
+        }
+        let encoding = match self.encoding {
+            DemEncoding::Mapbox => "mapbox",
+            DemEncoding::Terrarium => "terrarium",
+        };
+        Ok(json!({
+            "tilejson": VERSION,
+            "name": self.name,
+            "description": self.description,
+            "version": self.version,
+            "attribution": self.attribution,
+            "scheme": "xyz",
+            "tiles": self.tiles,
+            "minzoom": self.minzoom,
+            "maxzoom": self.maxzoom,
+            "bounds": self.bounds,
+            "center": [(w + e) / 2.0, (s + n) / 2.0, self.maxzoom],
+            "tileSize": self.tile_size,
+            "encoding": encoding,
+        }))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn valid() -> RasterDem {
+        RasterDem {
+            name: "n44".into(),
+            tiles: vec!["http://127.0.0.1:8080/v1/datasets/n44/tiles/{z}/{x}/{y}.png".into()],
+            minzoom: 0,
+            maxzoom: 8,
+            bounds: [-72.0, 44.0, -71.0, 45.0],
+            ..RasterDem::default()
+        }
+    }
+
+    #[test]
+    fn writes_the_fields_maplibre_reads() {
+        let v = valid().to_value().unwrap();
+        assert_eq!(v["tilejson"], "3.0.0");
+        assert_eq!(v["scheme"], "xyz");
+        assert_eq!(v["tileSize"], 512);
+        assert_eq!(v["encoding"], "mapbox");
+        assert_eq!(v["bounds"], json!([-72.0, 44.0, -71.0, 45.0]));
+        assert_eq!(v["center"], json!([-71.5, 44.5, 8]));
+        let t = RasterDem {
+            encoding: DemEncoding::Terrarium,
+            ..valid()
+        };
+        assert_eq!(t.to_value().unwrap()["encoding"], "terrarium");
+    }
+
+    #[test]
+    fn refuses_what_a_client_would_misread() {
+        let relative = RasterDem {
+            tiles: vec!["tiles/{z}/{x}/{y}.png".into()],
+            ..valid()
+        };
+        assert_eq!(relative.to_value().unwrap_err().name, "tiles");
+        let untemplated = RasterDem {
+            tiles: vec!["https://a.example/tile.png".into()],
+            ..valid()
+        };
+        assert_eq!(untemplated.to_value().unwrap_err().name, "tiles");
+        let none = RasterDem {
+            tiles: vec![],
+            ..valid()
+        };
+        assert_eq!(none.to_value().unwrap_err().name, "tiles");
+        let zooms = RasterDem {
+            minzoom: 9,
+            ..valid()
+        };
+        assert_eq!(zooms.to_value().unwrap_err().name, "minzoom..maxzoom");
+        for bounds in [
+            [-72.0, 44.0, -73.0, 45.0],
+            [-72.0, 86.0, -71.0, 87.0],
+            [f64::NAN, 44.0, -71.0, 45.0],
+        ] {
+            let b = RasterDem { bounds, ..valid() };
+            assert_eq!(b.to_value().unwrap_err().name, "bounds", "{bounds:?}");
+        }
+        // The grid's own limit is in range (the world, as a mercator dataset stores it).
+        let world = RasterDem {
+            bounds: RasterDem::default().bounds,
+            ..valid()
+        };
+        assert!(world.to_value().is_ok());
+    }
+}
