@@ -299,3 +299,105 @@ fn a_partial_export_lists_only_its_zooms() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A png export told where it will be served writes the TileJSON a MapLibre `raster-dem`
+/// source reads from `url`: absolute tile URLs under that base, each naming a file the tree
+/// holds, and the exported zooms only. Without a mercator dataset or an absolute URL the
+/// export is refused before any work.
+#[test]
+fn a_png_export_with_a_base_url_writes_tilejson() {
+    let dir = scratch("tilejson");
+    let hgt = shared_data().join("dem/N44W072.hgt");
+    let hgt = hgt.to_str().unwrap();
+    for (name, scheme) in [("m", "mercator"), ("g", "geodetic")] {
+        let out = zerotile(
+            &[
+                "ingest",
+                hgt,
+                "--name",
+                name,
+                "--scheme",
+                scheme,
+                "--max-zoom",
+                "8",
+                "--quiet",
+            ],
+            &dir,
+        );
+        assert_success(&out);
+    }
+    let base = "https://cdn.example/dem/";
+    let out = zerotile(
+        &[
+            "export",
+            "m",
+            "--format",
+            "png",
+            "--zoom",
+            "0-7",
+            "--out",
+            "rgb",
+            "--base-url",
+            base,
+            "--quiet",
+        ],
+        &dir,
+    );
+    assert_success(&out);
+    let t: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("rgb/tiles.json")).unwrap()).unwrap();
+    assert_eq!(t["tilejson"], "3.0.0");
+    assert_eq!(
+        (t["minzoom"].as_u64(), t["maxzoom"].as_u64()),
+        (Some(0), Some(7))
+    );
+    assert_eq!(t["bounds"], serde_json::json!([-72.0, 44.0, -71.0, 45.0]));
+    assert_eq!(
+        (t["tileSize"].as_u64(), t["encoding"].as_str()),
+        (Some(512), Some("mapbox"))
+    );
+    let template = t["tiles"][0].as_str().unwrap();
+    let (path, query) = template
+        .strip_prefix("https://cdn.example/dem/")
+        .and_then(|p| p.split_once('?'))
+        .unwrap_or_else(|| panic!("{template}"));
+    assert!(query.starts_with("v="), "{template}");
+    // Every exported tile is where the template says.
+    let pngs = files(&dir.join("rgb"), "png");
+    assert!(!pngs.is_empty());
+    for f in &pngs {
+        let rel = f.strip_prefix(dir.join("rgb")).unwrap();
+        let parts: Vec<&str> = rel.iter().map(|c| c.to_str().unwrap()).collect();
+        let (z, x, y) = (parts[0], parts[1], parts[2].trim_end_matches(".png"));
+        let want = path.replace("{z}", z).replace("{x}", x).replace("{y}", y);
+        assert_eq!(rel.to_str().unwrap(), want);
+        assert!(z.parse::<u8>().unwrap() <= 7);
+    }
+
+    // Refused: a geodetic dataset (MapLibre tiles Web Mercator), another format, a relative
+    // URL. Nothing is written.
+    for (args, says) in [
+        (
+            vec!["g", "--format", "png", "--base-url", base],
+            "--scheme mercator",
+        ),
+        (
+            vec!["m", "--format", "terrain", "--base-url", base],
+            "--format png",
+        ),
+        (
+            vec!["m", "--format", "png", "--base-url", "dem/"],
+            "absolute",
+        ),
+    ] {
+        let mut all = vec!["export"];
+        all.extend(&args);
+        all.extend(["--out", "refused", "--quiet"]);
+        let out = zerotile(&all, &dir);
+        assert!(!out.status.success(), "{args:?} was exported");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(says), "{args:?}: {err}");
+        assert!(!dir.join("refused").exists(), "{args:?} wrote --out");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -64,6 +64,11 @@ pub struct ExportArgs {
     /// Zooms to export: A-B or Z (default: all).
     #[arg(long, value_name = "A-B", value_parser = crate::export::parse_zooms)]
     pub zoom: Option<(u8, u8)>,
+    /// Where the tree will be served from (http(s) URL of the --out folder): a png export
+    /// of a mercator dataset then also writes tiles.json (TileJSON, absolute tile URLs), the
+    /// `url` of a MapLibre raster-dem source.
+    #[arg(long, value_name = "URL")]
+    pub base_url: Option<String>,
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -347,9 +352,16 @@ fn export(a: ExportArgs) -> anyhow::Result<()> {
         format: a.format,
         out: a.out,
         zooms: a.zoom,
+        base_url: a.base_url,
         progress: !a.quiet,
     };
     let done = crate::export::run(&job)?;
+    if job.format == "png" && job.base_url.is_none() {
+        eprintln!(
+            "note: no tiles.json written; with --base-url URL (where the tree will be served) a \
+             mercator dataset's export also gets one, a MapLibre raster-dem source's url"
+        );
+    }
     if let Some((z0 @ 1.., _)) = job.zooms.filter(|_| job.format == "terrain") {
         eprintln!(
             "note: {} has no zooms below {z0}, which CesiumJS needs from level 0 on: serve it \

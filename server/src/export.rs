@@ -1,6 +1,6 @@
-//! `zerotile export`: a dataset as a static tile tree (`layer.json` + `{z}/{x}/{y}.EXT`) for
-//! a CDN or any file server, rendered exactly as `zerotile serve` renders it at each zoom's
-//! default threshold.
+//! `zerotile export`: a dataset as a static tile tree (`layer.json` + `{z}/{x}/{y}.EXT`, and
+//! for MapLibre a `tiles.json` once the tree's URL is known) for a CDN or any file server,
+//! rendered exactly as `zerotile serve` renders it at each zoom's default threshold.
 //!
 //! Written into a temporary folder beside `--out` and swapped in at the end: a failed export
 //! leaves an existing `--out` as it was. Only an empty folder or an earlier export (which
@@ -18,7 +18,7 @@ use zerotile_codec::geo::Scheme;
 use crate::serve::dataset::Dataset;
 use crate::serve::negotiate::Extensions;
 use crate::serve::pipeline::Cancel;
-use crate::serve::routes::meta::layer;
+use crate::serve::routes::meta::{layer, raster_dem};
 use crate::serve::routes::tiles::{render_tile, TileFormat, Variant};
 use crate::serve::{threshold, AppState, Catalog, Config};
 
@@ -35,6 +35,8 @@ pub struct Export {
     pub format: String,
     pub out: PathBuf,
     pub zooms: Option<(u8, u8)>,
+    /// The URL the tree will be served from: TileJSON needs absolute tile URLs.
+    pub base_url: Option<String>,
     pub progress: bool,
 }
 
@@ -134,6 +136,18 @@ pub fn run(job: &Export) -> Result<Exported> {
     if format == TileFormat::Terrain && !world {
         bail!("{}: a local grid has no georeference; quantized-mesh needs a geodetic or mercator dataset (export png or json)", d.name);
     }
+    let mercator = matches!(d.tiling.scheme(), Scheme::Mercator);
+    let base_url = match &job.base_url {
+        None => None,
+        Some(_) if format != TileFormat::Png || !mercator => bail!(
+            "--base-url writes a TileJSON for MapLibre, which tiles PNG on the mercator grid: \
+             use it with --format png on a dataset ingested with --scheme mercator"
+        ),
+        Some(u) if !(u.starts_with("http://") || u.starts_with("https://")) => {
+            bail!("--base-url {u}: give the absolute http(s) URL the tree will be served from")
+        }
+        Some(u) => Some(u.trim_end_matches('/').to_string()),
+    };
     let (z0, z1) = job.zooms.unwrap_or((m.min_zoom, m.max_zoom));
     if z1 > m.max_zoom || z0 < m.min_zoom {
         bail!(
@@ -205,6 +219,12 @@ pub fn run(job: &Export) -> Result<Exported> {
             }
             let bytes = serde_json::to_vec_pretty(&value)?;
             std::fs::write(tmp.join("layer.json"), &bytes)?;
+        }
+        if let Some(base) = &base_url {
+            // A file server ignores the query; a CDN keying on it drops an older build.
+            let template = format!("{base}/{{z}}/{{x}}/{{y}}.png?v={:016x}", d.version);
+            let doc = raster_dem(&d, template, (z0, z1), false, 512).to_value()?;
+            std::fs::write(tmp.join("tiles.json"), serde_json::to_vec_pretty(&doc)?)?;
         }
         std::fs::write(
             tmp.join(MARKER),

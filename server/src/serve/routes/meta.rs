@@ -173,26 +173,12 @@ pub async fn tilejson(
         params.push(format!("size={size}"));
     }
     let base = public_url::origin(&headers)?;
-    let doc = RasterDem {
-        name: d.name.clone(),
-        description: format!("zerotile EZW terrain from {}", m.source),
-        attribution: String::new(),
-        version,
-        tiles: vec![format!(
-            "{base}/v1/datasets/{}/tiles/{{z}}/{{x}}/{{y}}.png?{}",
-            d.name,
-            params.join("&")
-        )],
-        minzoom: m.min_zoom,
-        maxzoom: m.max_zoom,
-        bounds: m.bounds,
-        encoding: if terrarium {
-            DemEncoding::Terrarium
-        } else {
-            DemEncoding::Mapbox
-        },
-        tile_size: size,
-    };
+    let template = format!(
+        "{base}/v1/datasets/{}/tiles/{{z}}/{{x}}/{{y}}.png?{}",
+        d.name,
+        params.join("&")
+    );
+    let doc = raster_dem(&d, template, (m.min_zoom, m.max_zoom), terrarium, size);
     let value = doc.to_value().map_err(ApiError::internal)?;
     Ok((
         [
@@ -202,6 +188,33 @@ pub async fn tilejson(
         Json(value),
     )
         .into_response())
+}
+
+/// A mercator dataset's TileJSON with tiles at `template` (absolute), zooms `z0..=z1`.
+pub(crate) fn raster_dem(
+    d: &Dataset,
+    template: String,
+    (z0, z1): (u8, u8),
+    terrarium: bool,
+    size: u32,
+) -> RasterDem {
+    let m = d.metadata();
+    RasterDem {
+        name: d.name.clone(),
+        description: format!("zerotile EZW terrain from {}", m.source),
+        attribution: String::new(),
+        version: format!("{:016x}", d.version),
+        tiles: vec![template],
+        minzoom: z0,
+        maxzoom: z1,
+        bounds: m.bounds,
+        encoding: if terrarium {
+            DemEncoding::Terrarium
+        } else {
+            DemEncoding::Mapbox
+        },
+        tile_size: size,
+    }
 }
 
 /// The dataset's layer.json, tiles at `tiles/{z}/{x}/{y}.terrain` beside it.
