@@ -1,7 +1,10 @@
 //! Real clients in headless Chromium against the real binary: CesiumJS on a geodetic
 //! dataset's `layer.json`, MapLibre GL JS `raster-dem` on a mercator dataset's terrain-RGB
-//! tiles, the viewer page at `/`, and CesiumJS on a `zerotile export --format terrain` tree
-//! served by a plain file server, as a CDN would (the browser side is
+//! tiles, the viewer page at `/`, CesiumJS on a `zerotile export --format terrain` tree, and
+//! MapLibre on a `zerotile export --format png --base-url URL` tree through its `tiles.json`
+//! alone (URL a placeholder the page's `transformRequest` maps to the real host), each tree
+//! served by a plain file server on another origin, as a CDN would. Both static checks
+//! sample the SRTM source's heights from the tree (the browser side is
 //! `tests/e2e/clients.mjs`).
 //!
 //! Needs `node`, Chromium (`apt-get install -y chromium`, or `CHROMIUM=/path`) and
@@ -75,6 +78,25 @@ fn cesium_maplibre_and_the_viewer_render_in_headless_chromium() {
         ],
         &data,
     );
+    // The mercator ingest as a static terrain-RGB tree with its tiles.json, which names the
+    // tiles under a placeholder origin: the MapLibre page maps it to the real host (its
+    // transformRequest), as a page does for a tileset that moved. Every zoom: 41 tiles.
+    let png = data.with_file_name(format!("zerotile-clients-{}-png", std::process::id()));
+    let _ = std::fs::remove_dir_all(&png);
+    run_in(
+        &[
+            "export",
+            "n44m",
+            "--format",
+            "png",
+            "--base-url",
+            "http://cdn.invalid/rgb",
+            "--out",
+            png.to_str().unwrap(),
+            "--quiet",
+        ],
+        &data,
+    );
     let expect = srtm_heights(&hgt);
     eprintln!("data ready in {:.1} s", t0.elapsed().as_secs_f64());
 
@@ -86,6 +108,8 @@ fn cesium_maplibre_and_the_viewer_render_in_headless_chromium() {
         .args(["--base", server.base(), "--geodetic", "demo-ridges"])
         .args(["--mercator", "n44m", "--static"])
         .arg(&exported)
+        .arg("--static-png")
+        .arg(&png)
         .args(["--expect", &expect, "--out"])
         .arg(&out)
         .env("CHROMIUM", &chromium)
@@ -99,6 +123,7 @@ fn cesium_maplibre_and_the_viewer_render_in_headless_chromium() {
     drop(server);
     let _ = std::fs::remove_dir_all(&data);
     let _ = std::fs::remove_dir_all(&exported);
+    let _ = std::fs::remove_dir_all(&png);
     assert!(
         status.success(),
         "a browser client failed (its output is above)"

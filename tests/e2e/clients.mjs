@@ -7,11 +7,18 @@
 //            plain static file server on another origin, as a CDN would: heights sampled from
 //            it must match --expect ([[lon, lat, metres], ...], the source's own heights)
 //            within the deepest level's geometric error
+//   static-png  MapLibre GL JS on a `zerotile export --format png --base-url
+//            http://cdn.invalid/rgb` tree of the --mercator dataset (--static-png DIR), served
+//            the same way: the terrain source is only `url: "http://cdn.invalid/rgb/tiles.json"`
+//            and the map's transformRequest maps that placeholder to the real host; the tiles
+//            must come by the TileJSON's ?v= template, and queryTerrainElevation at --expect
+//            (from the deepest zoom's tiles) must be within that zoom's default threshold plus
+//            the PNG's resampling slack
 // Each saves a screenshot under --out and fails if it is blank or the client logged errors.
 //
 //   node tests/e2e/clients.mjs --base http://127.0.0.1:8080 --geodetic demo-ridges \
 //        --mercator n44m --out target/e2e [--only cesium,maplibre,viewer] \
-//        [--static DIR --expect '[[-71.3,44.27,1822]]']
+//        [--static DIR] [--static-png DIR] [--expect '[[-71.3,44.27,1822]]']
 //
 // CesiumJS and MapLibre are served from web/node_modules by a small static server started
 // here (they are not embedded in zerotile). Exit status 0 = every client passed.
@@ -32,7 +39,8 @@ const args = Object.fromEntries(
 );
 const base = (args.base || "http://127.0.0.1:8080").replace(/\/$/, "");
 const out = args.out || "target/e2e";
-const only = (args.only || `cesium,maplibre,viewer${args.static ? ",static" : ""}`).split(",");
+const only = (args.only || ["cesium,maplibre,viewer", args.static && "static", args["static-png"] && "static-png"]
+  .filter(Boolean).join(",")).split(",");
 mkdirSync(out, { recursive: true });
 
 // ---- a static server for the client libraries and their test pages ------------------------
@@ -67,28 +75,35 @@ const local = `http://127.0.0.1:${statics.address().port}`;
 
 // What a static host does: the path names a file (the query string is ignored), the type
 // comes from the extension, no content negotiation, and CORS open to any page (a CDN in front
-// of the tiles must send Access-Control-Allow-Origin, or CesiumJS cannot read them).
-const exported = args.static ? normalize(args.static) : null;
-const cdnLog = [];
-const cdn = exported && createServer((req, res) => {
-  const path = decodeURIComponent(new URL(req.url, "http://x").pathname);
-  const file = normalize(join(exported, path));
-  cdnLog.push(`${req.url}`);
-  const headers = { "access-control-allow-origin": "*" };
-  let ok = file.startsWith(exported);
-  try {
-    ok = ok && statSync(file).isFile();
-  } catch {
-    ok = false;
-  }
-  if (!ok) {
-    res.writeHead(404, headers);
-    return res.end();
-  }
-  res.writeHead(200, { ...headers, "content-type": TYPES[extname(file)] || "application/octet-stream" });
-  createReadStream(file).pipe(res);
-});
-if (cdn) await new Promise((ok) => cdn.listen(0, "127.0.0.1", ok));
+// of the tiles must send Access-Control-Allow-Origin, or CesiumJS and MapLibre cannot read
+// them). One per exported tree, on its own port: `origin` is where it is, `log` what it was
+// asked for.
+const hosts = [];
+async function host(dir) {
+  const root = normalize(dir);
+  const log = [];
+  const server = createServer((req, res) => {
+    const path = decodeURIComponent(new URL(req.url, "http://x").pathname);
+    const file = normalize(join(root, path));
+    log.push(`${req.url}`);
+    const headers = { "access-control-allow-origin": "*" };
+    let ok = file.startsWith(root);
+    try {
+      ok = ok && statSync(file).isFile();
+    } catch {
+      ok = false;
+    }
+    if (!ok) {
+      res.writeHead(404, headers);
+      return res.end();
+    }
+    res.writeHead(200, { ...headers, "content-type": TYPES[extname(file)] || "application/octet-stream" });
+    createReadStream(file).pipe(res);
+  });
+  await new Promise((ok) => server.listen(0, "127.0.0.1", ok));
+  hosts.push(server);
+  return { origin: `http://127.0.0.1:${server.address().port}`, log };
+}
 
 // ---- the browser ------------------------------------------------------------------------------
 
@@ -343,7 +358,8 @@ async function viewer() {
 // ---- (d) CesiumJS on a static export ------------------------------------------------------
 
 async function staticExport() {
-  const tiles = `http://127.0.0.1:${cdn.address().port}/`;
+  const cdn = await host(args.static);
+  const tiles = `${cdn.origin}/`;
   const expect = JSON.parse(args.expect || "[]");
   check(expect.length > 0, "static: no --expect points to compare");
   pages["/static.html"] = `<!doctype html><html><head>
@@ -410,7 +426,7 @@ async function staticExport() {
   await c.page.waitForTimeout(500);
   await c.page.waitForFunction(() => window.viewer.scene.globe.tilesLoaded, null, { timeout: 60000, polling: 250 });
   await shoot(c, "static.png");
-  const asked = cdnLog.filter((u) => /\.terrain(\?|$)/.test(u));
+  const asked = cdn.log.filter((u) => /\.terrain(\?|$)/.test(u));
   console.log(`static: ${asked.length} .terrain request(s), e.g. ${asked[0]}`);
   check(asked.length > 0, "static: no .terrain file was requested");
   for (const t of r.tileErrors) c.problems.push(`terrain provider: ${t}`);
@@ -418,7 +434,145 @@ async function staticExport() {
   await c.page.close();
 }
 
-const clients = { cesium, maplibre, viewer, static: staticExport };
+// ---- (e) MapLibre GL JS on a static PNG export ------------------------------------------
+
+// The URL `zerotile export --format png --base-url` was given (tests/clients.rs), so the one
+// tiles.json names its tiles under it; the page's transformRequest moves it to the real host.
+const PLACEHOLDER = "http://cdn.invalid/rgb";
+// docs/api.md: a 512² PNG tile resamples the stored lattice again, so it can differ from the
+// source raster by more than T where the terrain is rough (an audit measured up to 8 m).
+const RESAMPLING_SLACK = 8;
+
+async function staticPng() {
+  const cdn = await host(args["static-png"]);
+  const expect = JSON.parse(args.expect || "[]");
+  check(expect.length > 0, "static-png: no --expect points to compare");
+  const info = await describe(args.mercator || "n44m");
+  const [lon0, lat0] = expect[0] || [(info.bounds[0] + info.bounds[2]) / 2, (info.bounds[1] + info.bounds[3]) / 2];
+  // The terrain source is the TileJSON's URL and nothing else: tile template, zooms, bounds,
+  // size and encoding all come from the document.
+  const dem = { type: "raster-dem", url: `${PLACEHOLDER}/tiles.json` };
+  pages["/static-png.html"] = `<!doctype html><html><head>
+<link rel="icon" href="data:,">
+<link rel="stylesheet" href="/node_modules/maplibre-gl/dist/maplibre-gl.css">
+<style>html,body,#m{margin:0;width:100%;height:100%}</style>
+<script src="/node_modules/maplibre-gl/dist/maplibre-gl.js"></script></head><body><div id="m"></div>
+<script>
+window.mapErrors = [];
+const from = ${JSON.stringify(PLACEHOLDER)}, to = ${JSON.stringify(cdn.origin)};
+const map = new maplibregl.Map({
+  container: "m", center: [${lon0}, ${lat0}], zoom: 11.5, pitch: 0,
+  canvasContextAttributes: { preserveDrawingBuffer: true }, preserveDrawingBuffer: true,
+  // How a page points MapLibre at a tileset that moved: every URL it asks for (tiles.json,
+  // then the tiles its template names) passes through here.
+  transformRequest: (url) => ({ url: url.startsWith(from + "/") ? to + url.slice(from.length) : url }),
+  style: { version: 8, sources: { dem: ${JSON.stringify(dem)} },
+    layers: [{ id: "bg", type: "background", paint: { "background-color": "#d8d2c4" } }],
+    terrain: { source: "dem", exaggeration: 1 } },
+});
+map.on("error", (e) => { window.mapErrors.push(String(e.error && e.error.message || e)); });
+map.on("idle", () => { window.idle = true; });
+window.map = map;
+const idle = () => new Promise((ok) => map.once("idle", ok));
+// Heights at [[lon, lat], ...], each read from the deepest zoom's DEM tile: the camera looks
+// straight down at zoom deepest + 1.5 (MapLibre's terrain asks for raster-dem tiles one zoom
+// above the map's, here the deepest) over each of those tiles in turn, and samples the
+// points inside it while it is loaded. queryTerrainElevation answers relative to the
+// elevation at the centre of the view (transform.elevation) and scaled by the exaggeration.
+window.sample = async (points) => {
+  const deepest = map.getSource("dem").maxzoom;
+  const groups = new Map();
+  points.forEach(([lon, lat], i) => {
+    const m = maplibregl.MercatorCoordinate.fromLngLat([lon, lat]);
+    const key = [Math.floor(m.x * 2 ** deepest), Math.floor(m.y * 2 ** deepest)].join("/");
+    if (!groups.has(key)) groups.set(key, []);
+    groups.get(key).push(i);
+  });
+  const heights = [], zooms = [];
+  for (const [key, members] of groups) {
+    const [x, y] = key.split("/").map(Number);
+    const centre = new maplibregl.MercatorCoordinate((x + 0.5) / 2 ** deepest, (y + 0.5) / 2 ** deepest).toLngLat();
+    map.jumpTo({ center: centre, zoom: deepest + 1.5, pitch: 0, bearing: 0 });
+    await idle();
+    const exaggeration = map.getTerrain().exaggeration;
+    for (const i of members) {
+      const at = maplibregl.LngLat.convert(points[i]);
+      heights[i] = (map.queryTerrainElevation(at) + map.transform.elevation) / exaggeration;
+      // The DEM tile that answered, found as queryTerrainElevation finds it (internal API,
+      // MapLibre 4.7): it must be the deepest zoom, not a coarser parent standing in.
+      const id = map.terrain._getOverscaledTileIDFromLngLatZoom(at, map.transform.tileZoom).tileID;
+      const tile = map.terrain.sourceCache.getSourceTile(id, true);
+      zooms[i] = tile && tile.dem ? tile.tileID.canonical.z : null;
+    }
+  }
+  return { deepest, views: groups.size, heights, zooms };
+};
+// Then a view to look at: a hillshade (its own source, as MapLibre asks, from the same
+// tiles.json) on the terrain, from south of the first point.
+window.overview = async () => {
+  map.addSource("hills", ${JSON.stringify(dem)});
+  map.addLayer({ id: "hillshade", type: "hillshade", source: "hills", paint: { "hillshade-exaggeration": 0.8 } });
+  map.jumpTo({ center: [${lon0}, ${lat0 - 0.04}], zoom: 11, pitch: 60, bearing: 0 });
+  await idle();
+};
+</script></body></html>`;
+  const c = await open("static-png");
+  // A small canvas while sampling: SwiftShader draws it fast, and the heights do not depend
+  // on it (the DEM tiles do not).
+  await c.page.setViewportSize({ width: 320, height: 240 });
+  await c.page.goto(`${local}/static-png.html`);
+  // A source that cannot load (no tiles.json, a wrong host) never lets the map go idle: stop
+  // at its first error and say what the browser saw.
+  await c.page.waitForFunction(() => window.idle === true || window.mapErrors.length > 0, null, { timeout: 90000, polling: 250 });
+  if (!(await c.page.evaluate(() => window.idle === true))) {
+    await c.page.waitForTimeout(500);
+    for (const t of await c.page.evaluate(() => window.mapErrors)) c.problems.push(`map error: ${t}`);
+    noProblems(c);
+    check(false, "static-png: the map did not load");
+    return c.page.close();
+  }
+  check(await c.page.evaluate(() => !!window.map.getTerrain()), "static-png: terrain is not on");
+  const r = await c.page.evaluate((points) => window.sample(points), expect.map(([lon, lat]) => [lon, lat]));
+  const allowed = (info.default_thresholds.find((t) => t.zoom === r.deepest) || { threshold: NaN }).threshold;
+  let worst = 0;
+  expect.forEach(([lon, lat, want], i) => {
+    const got = r.heights[i];
+    const off = Math.abs(got - want);
+    worst = Math.max(worst, Number.isFinite(off) ? off : Infinity);
+    if (!(off <= allowed + RESAMPLING_SLACK) || r.zooms[i] !== r.deepest) {
+      console.error(`  static-png: ${lon}, ${lat}: ${got} m from a zoom-${r.zooms[i]} tile, source ${want} m`);
+    }
+  });
+  const shallow = r.zooms.filter((z) => z !== r.deepest).length;
+  check(shallow === 0, `static-png: ${shallow} height(s) not read from a zoom-${r.deepest} tile`);
+  console.log(`static-png: ${expect.length} heights read with queryTerrainElevation from zoom-${r.deepest} tiles in ` +
+    `${r.views} views, worst ${worst.toFixed(1)} m from the source (allowed: zoom ${r.deepest}'s threshold ` +
+    `${allowed.toFixed(1)} m + ${RESAMPLING_SLACK} m resampling)`);
+  check(worst <= allowed + RESAMPLING_SLACK,
+    `static-png: a sampled height is ${worst.toFixed(1)} m from the source (> ${(allowed + RESAMPLING_SLACK).toFixed(1)} m)`);
+
+  await c.page.setViewportSize({ width: 960, height: 600 });
+  await c.page.evaluate(() => window.overview());
+  await shoot(c, "static-png.png");
+
+  // Every request went to the real host (none to the placeholder), and the tiles were asked
+  // for by the TileJSON's versioned template.
+  const pngs = c.requests.filter((u) => /\/\d+\/\d+\/\d+\.png(\?|$)/.test(u));
+  const versioned = pngs.filter((u) => u.startsWith(`${cdn.origin}/`) && /\.png\?v=[0-9a-f]{16}$/.test(u));
+  const zooms = [...new Set(pngs.map((u) => Number(new URL(u).pathname.split("/")[1])))].sort((a, b) => a - b);
+  console.log(`static-png: tiles.json read ${cdn.log.filter((u) => u.startsWith("/tiles.json")).length} time(s), ` +
+    `${pngs.length} tile request(s) (${versioned.length} by its ?v= template; zooms ${zooms.join(",")}), e.g. ${versioned[0]}`);
+  check(cdn.log.some((u) => u.startsWith("/tiles.json")), "static-png: tiles.json was not read from the host");
+  check(versioned.length > 0, "static-png: no tile was requested through tiles.json's ?v= template");
+  check(versioned.length === pngs.length, `static-png: ${pngs.length - versioned.length} tile request(s) not by the template`);
+  const strays = c.requests.filter((u) => u.startsWith(PLACEHOLDER));
+  check(strays.length === 0, `static-png: ${strays.length} request(s) to the placeholder, e.g. ${strays[0]}`);
+  for (const t of await c.page.evaluate(() => window.mapErrors)) c.problems.push(`map error: ${t}`);
+  noProblems(c);
+  await c.page.close();
+}
+
+const clients = { cesium, maplibre, viewer, static: staticExport, "static-png": staticPng };
 try {
   for (const name of only) {
     const t0 = Date.now();
@@ -432,7 +586,7 @@ try {
 } finally {
   await browser.close();
   statics.close();
-  if (cdn) cdn.close();
+  for (const h of hosts) h.close();
 }
 console.log(failures === 0 ? "all clients passed" : `${failures} failure(s)`);
 process.exit(failures === 0 ? 0 : 1);
