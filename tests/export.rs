@@ -362,17 +362,76 @@ fn a_png_export_with_a_base_url_writes_tilejson() {
         .and_then(|p| p.split_once('?'))
         .unwrap_or_else(|| panic!("{template}"));
     assert!(query.starts_with("v="), "{template}");
-    // Every exported tile is where the template says.
-    let pngs = files(&dir.join("rgb"), "png");
-    assert!(!pngs.is_empty());
-    for f in &pngs {
-        let rel = f.strip_prefix(dir.join("rgb")).unwrap();
-        let parts: Vec<&str> = rel.iter().map(|c| c.to_str().unwrap()).collect();
-        let (z, x, y) = (parts[0], parts[1], parts[2].trim_end_matches(".png"));
-        let want = path.replace("{z}", z).replace("{x}", x).replace("{y}", y);
-        assert_eq!(rel.to_str().unwrap(), want);
-        assert!(z.parse::<u8>().unwrap() <= 7);
+    // Every tile MapLibre asks for with these bounds and zooms (its TileBounds.contains:
+    // floor of the west/north edge to ceil of the east/south one) is a file in the tree.
+    let [w, s_, e, n] = [0, 1, 2, 3].map(|i| t["bounds"][i].as_f64().unwrap());
+    let mx = |lng: f64| (180.0 + lng) / 360.0;
+    let my = |lat: f64| {
+        let r = (std::f64::consts::FRAC_PI_4 + lat.to_radians() / 2.0)
+            .tan()
+            .ln();
+        (180.0 - r.to_degrees()) / 360.0
+    };
+    let mut asked = 0;
+    for z in 0..=7u32 {
+        let size = f64::from(1u32 << z);
+        let (x0, x1) = ((mx(w) * size).floor() as u32, (mx(e) * size).ceil() as u32);
+        let (y0, y1) = ((my(n) * size).floor() as u32, (my(s_) * size).ceil() as u32);
+        for x in x0..x1 {
+            for y in y0..y1 {
+                let rel = path
+                    .replace("{z}", &z.to_string())
+                    .replace("{x}", &x.to_string())
+                    .replace("{y}", &y.to_string());
+                assert!(
+                    dir.join("rgb").join(&rel).is_file(),
+                    "MapLibre would ask for {rel}"
+                );
+                asked += 1;
+            }
+        }
     }
+    // And nothing else was written (zooms past maxzoom, tiles outside the bounds).
+    assert_eq!(files(&dir.join("rgb"), "png").len(), asked);
+
+    // A source reaching past Web Mercator's 85.05° (an SRTM cell named N85: its name places
+    // it) is stored as it came; its TileJSON stops at the grid's edge instead of failing.
+    std::fs::copy(hgt, dir.join("N85W072.hgt")).unwrap();
+    let polar = [
+        "ingest",
+        "N85W072.hgt",
+        "--name",
+        "polar",
+        "--scheme",
+        "mercator",
+        "--max-zoom",
+        "3",
+        "--quiet",
+    ];
+    assert_success(&zerotile(&polar, &dir));
+    let out = zerotile(
+        &[
+            "export",
+            "polar",
+            "--format",
+            "png",
+            "--out",
+            "polar",
+            "--base-url",
+            base,
+            "--quiet",
+        ],
+        &dir,
+    );
+    assert_success(&out);
+    let t: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("polar/tiles.json")).unwrap()).unwrap();
+    let north = t["bounds"][3].as_f64().unwrap();
+    assert!(
+        (north - 85.051_128_779_806_59).abs() < 1e-9,
+        "{}",
+        t["bounds"]
+    );
 
     // Refused: a geodetic dataset (MapLibre tiles Web Mercator), another format, a relative
     // URL. Nothing is written.
@@ -388,6 +447,20 @@ fn a_png_export_with_a_base_url_writes_tilejson() {
         (
             vec!["m", "--format", "png", "--base-url", "dem/"],
             "absolute",
+        ),
+        (
+            vec!["m", "--format", "png", "--base-url", "https://"],
+            "absolute",
+        ),
+        (
+            vec![
+                "m",
+                "--format",
+                "png",
+                "--base-url",
+                "https://a.example/?k=1",
+            ],
+            "no query",
         ),
     ] {
         let mut all = vec!["export"];

@@ -189,6 +189,16 @@ pub struct ServeArgs {
     /// (load shedding). Default 64 per core.
     #[arg(long, value_name = "N")]
     pub cpu_queue: Option<usize>,
+    /// The URL clients reach the server at, e.g. https://tiles.example.org/terrain: the
+    /// absolute tile URLs of tiles.json (TileJSON) start with it. Default: each request's
+    /// Host header, over http.
+    #[arg(long, value_name = "URL")]
+    pub public_url: Option<String>,
+    /// Take tiles.json's scheme, host and path prefix from X-Forwarded-Proto, -Host and
+    /// -Prefix (the last value of each). Only behind a proxy that sets them: any client can
+    /// send them, and the answer is cacheable.
+    #[arg(long)]
+    pub trust_forwarded: bool,
 }
 
 #[derive(Subcommand, Debug)]
@@ -356,10 +366,10 @@ fn export(a: ExportArgs) -> anyhow::Result<()> {
         progress: !a.quiet,
     };
     let done = crate::export::run(&job)?;
-    if job.format == "png" && job.base_url.is_none() {
+    if done.no_tilejson {
         eprintln!(
-            "note: no tiles.json written; with --base-url URL (where the tree will be served) a \
-             mercator dataset's export also gets one, a MapLibre raster-dem source's url"
+            "note: no tiles.json written (a MapLibre raster-dem source's url): give --base-url \
+             URL, where the tree will be served, to get one"
         );
     }
     if let Some((z0 @ 1.., _)) = job.zooms.filter(|_| job.format == "terrain") {
@@ -471,9 +481,18 @@ fn serve(a: ServeArgs) -> anyhow::Result<()> {
     if a.cpu_jobs == Some(0) {
         anyhow::bail!("--cpu-jobs 0: at least one render must be able to run");
     }
+    let public_url = match &a.public_url {
+        Some(u) => Some(
+            crate::serve::public_url::parse_base(u)
+                .map_err(|why| anyhow::anyhow!("--public-url {u:?}: {why}"))?,
+        ),
+        None => None,
+    };
     let config = crate::serve::Config {
         cache_bytes: a.cache_mb.saturating_mul(1 << 20),
         cors_origins: a.cors_origins.clone(),
+        public_url,
+        trust_forwarded: a.trust_forwarded,
         cpu_jobs: a.cpu_jobs.unwrap_or(defaults.cpu_jobs),
         cpu_queue: a.cpu_queue.unwrap_or(defaults.cpu_queue),
         ..defaults

@@ -20,7 +20,7 @@ use crate::serve::negotiate::Extensions;
 use crate::serve::pipeline::Cancel;
 use crate::serve::routes::meta::{layer, raster_dem};
 use crate::serve::routes::tiles::{render_tile, TileFormat, Variant};
-use crate::serve::{threshold, AppState, Catalog, Config};
+use crate::serve::{public_url, threshold, AppState, Catalog, Config};
 
 /// The file every export writes at its root, so that a later export knows the folder is
 /// one it may replace.
@@ -45,6 +45,8 @@ pub struct Export {
 pub struct Exported {
     pub tiles: u64,
     pub bytes: u64,
+    /// A mercator png export written without `--base-url`, so without tiles.json.
+    pub no_tilejson: bool,
 }
 
 /// Parses `A-B` or `Z`.
@@ -143,10 +145,11 @@ pub fn run(job: &Export) -> Result<Exported> {
             "--base-url writes a TileJSON for MapLibre, which tiles PNG on the mercator grid: \
              use it with --format png on a dataset ingested with --scheme mercator"
         ),
-        Some(u) if !(u.starts_with("http://") || u.starts_with("https://")) => {
-            bail!("--base-url {u}: give the absolute http(s) URL the tree will be served from")
-        }
-        Some(u) => Some(u.trim_end_matches('/').to_string()),
+        Some(u) => Some(public_url::parse_base(u).map_err(|why| {
+            anyhow::anyhow!(
+                "--base-url {u:?}: {why}; give the absolute URL the tree will be served from"
+            )
+        })?),
     };
     let (z0, z1) = job.zooms.unwrap_or((m.min_zoom, m.max_zoom));
     if z1 > m.max_zoom || z0 < m.min_zoom {
@@ -166,6 +169,15 @@ pub fn run(job: &Export) -> Result<Exported> {
     if tiles.is_empty() {
         bail!("{}: no tiles in zooms {z0}-{z1}", d.name);
     }
+    // The TileJSON, checked before any tile is rendered.
+    let tilejson = match &base_url {
+        Some(base) => {
+            // A file server ignores the query; a CDN keying on it drops an older build.
+            let template = format!("{base}/{{z}}/{{x}}/{{y}}.png?v={:016x}", d.version);
+            Some(raster_dem(&d, template, (z0, z1), false, 512).to_value()?)
+        }
+        None => None,
+    };
 
     // Render into a fresh folder beside the target.
     let parent = job
@@ -220,11 +232,8 @@ pub fn run(job: &Export) -> Result<Exported> {
             let bytes = serde_json::to_vec_pretty(&value)?;
             std::fs::write(tmp.join("layer.json"), &bytes)?;
         }
-        if let Some(base) = &base_url {
-            // A file server ignores the query; a CDN keying on it drops an older build.
-            let template = format!("{base}/{{z}}/{{x}}/{{y}}.png?v={:016x}", d.version);
-            let doc = raster_dem(&d, template, (z0, z1), false, 512).to_value()?;
-            std::fs::write(tmp.join("tiles.json"), serde_json::to_vec_pretty(&doc)?)?;
+        if let Some(doc) = &tilejson {
+            std::fs::write(tmp.join("tiles.json"), serde_json::to_vec_pretty(doc)?)?;
         }
         std::fs::write(
             tmp.join(MARKER),
@@ -233,7 +242,10 @@ pub fn run(job: &Export) -> Result<Exported> {
         Ok(n)
     });
     let exported = match result {
-        Ok(n) => n,
+        Ok(n) => Exported {
+            no_tilejson: mercator && format == TileFormat::Png && tilejson.is_none(),
+            ..n
+        },
         Err(e) => {
             let _ = std::fs::remove_dir_all(&tmp);
             return Err(e);
@@ -297,5 +309,6 @@ fn render_all(
     Ok(Exported {
         tiles: tiles.len() as u64,
         bytes: bytes.into_inner(),
+        no_tilejson: false,
     })
 }

@@ -1,42 +1,65 @@
-//! The origin (and path prefix) a client reached the server at, for the one document that
-//! must carry absolute URLs: TileJSON (its spec leaves relative tile URLs undefined and
-//! MapLibre fails on them). Everything else the server writes links relatively.
+//! The URL clients reach the server at, for the one document that must carry absolute URLs:
+//! TileJSON (its spec leaves relative tile URLs undefined and MapLibre fails on them).
+//! Everything else the server writes links relatively.
 //!
-//! Behind a proxy, `X-Forwarded-Proto`, `X-Forwarded-Host` and `X-Forwarded-Prefix` say what
-//! the client used; else the `Host` header, over plain HTTP (which is all the server speaks).
-//! The values end up in a document caches keep, so they are checked, not copied.
+//! In order: `serve --public-url` when given (the robust choice behind a CDN); else the
+//! request's `Host` (HTTP/2: `:authority`), over plain HTTP, which is all the server speaks.
+//! `X-Forwarded-Proto`, `-Host` and `-Prefix` count only with `serve --trust-forwarded`: any
+//! client can send them, and the answer is cacheable, so trusting them by default would let
+//! one request point every map at another host for as long as a cache keeps it. Values are
+//! checked, never copied as they come.
 
-use axum::http::HeaderMap;
+use axum::http::{HeaderMap, Uri};
 
 use super::error::{ApiError, ApiResult};
+use super::Config;
 
-/// The headers the answer depends on, for `Vary`.
-pub const VARY: &str = "Host, X-Forwarded-Proto, X-Forwarded-Host, X-Forwarded-Prefix";
+/// `Vary` for an answer whose URLs follow the request (none is needed with `--public-url`).
+pub fn vary(config: &Config) -> Option<&'static str> {
+    match (&config.public_url, config.trust_forwarded) {
+        (Some(_), _) => None,
+        (None, false) => Some("Host"),
+        (None, true) => Some("Host, X-Forwarded-Proto, X-Forwarded-Host, X-Forwarded-Prefix"),
+    }
+}
 
 /// `scheme://host[:port][/prefix]`, without a trailing slash.
-pub fn origin(headers: &HeaderMap) -> ApiResult<String> {
-    let first = |name: &str| -> ApiResult<Option<String>> {
+pub fn origin(config: &Config, headers: &HeaderMap, uri: &Uri) -> ApiResult<String> {
+    if let Some(u) = &config.public_url {
+        return Ok(u.clone());
+    }
+    // A proxy appends to these: the last value is the one the nearest (trusted) proxy set.
+    let forwarded = |name: &str| -> ApiResult<Option<String>> {
+        if !config.trust_forwarded {
+            return Ok(None);
+        }
         match headers.get(name) {
             None => Ok(None),
             Some(v) => {
                 let s = v.to_str().map_err(|_| bad(name, "is not ASCII"))?;
-                // A proxy chain appends: the first value is what the client sent.
-                Ok(s.split(',').next().map(|s| s.trim().to_string()))
+                Ok(s.rsplit(',').next().map(|s| s.trim().to_string()))
             }
         }
     };
-    let proto = first("x-forwarded-proto")?.unwrap_or_else(|| "http".into());
+    let proto = forwarded("x-forwarded-proto")?.unwrap_or_else(|| "http".into());
     if proto != "http" && proto != "https" {
         return Err(bad("X-Forwarded-Proto", "must be http or https"));
     }
-    let host = match first("x-forwarded-host")? {
+    let host = match forwarded("x-forwarded-host")? {
         Some(h) => h,
-        None => first("host")?.ok_or_else(|| {
-            ApiError::bad_request(
-                "missing_host",
-                "a Host header is needed to write the absolute tile URLs TileJSON holds",
-            )
-        })?,
+        None => match headers.get("host") {
+            Some(v) => v
+                .to_str()
+                .map_err(|_| bad("Host", "is not ASCII"))?
+                .to_string(),
+            None => uri.authority().map(|a| a.to_string()).ok_or_else(|| {
+                ApiError::bad_request(
+                    "missing_host",
+                    "a Host header is needed to write the absolute tile URLs TileJSON holds \
+                     (or start the server with --public-url)",
+                )
+            })?,
+        },
     };
     if !valid_host(&host) {
         return Err(bad(
@@ -44,29 +67,59 @@ pub fn origin(headers: &HeaderMap) -> ApiResult<String> {
             "must be a host name or address with an optional port",
         ));
     }
-    let prefix = first("x-forwarded-prefix")?.unwrap_or_default();
+    let prefix = forwarded("x-forwarded-prefix")?.unwrap_or_default();
     let prefix = prefix.trim_end_matches('/');
-    let path_char = |c: char| c.is_ascii_alphanumeric() || "/-._~".contains(c);
-    if !(prefix.is_empty() || prefix.starts_with('/') && prefix.chars().all(path_char)) {
+    if !valid_path(prefix) {
         return Err(bad("X-Forwarded-Prefix", "must be a path starting with /"));
     }
     Ok(format!("{proto}://{host}{prefix}"))
+}
+
+/// Checks a base URL given on the command line (`serve --public-url`, `export --base-url`):
+/// `http(s)://host[:port][/path]`, no query, fragment or user info. Returns it without a
+/// trailing slash, ready to have `/{z}/…` appended.
+pub fn parse_base(url: &str) -> Result<String, String> {
+    let rest = url
+        .strip_prefix("https://")
+        .or_else(|| url.strip_prefix("http://"))
+        .ok_or("it must start with http:// or https://")?;
+    let (host, path) = match rest.find('/') {
+        Some(i) => rest.split_at(i),
+        None => (rest, ""),
+    };
+    if !valid_host(host) {
+        return Err(format!(
+            "{host:?} is not a host name or address with an optional port"
+        ));
+    }
+    let path = path.trim_end_matches('/');
+    if !valid_path(path) {
+        return Err(format!(
+            "the path {path:?} may hold only letters, digits and / - . _ ~ (no query or fragment)"
+        ));
+    }
+    let scheme_len = url.len() - rest.len();
+    Ok(format!("{}{host}{path}", &url[..scheme_len]))
 }
 
 fn bad(header: &str, why: &str) -> ApiError {
     ApiError::bad_request("bad_header", format!("{header} {why}"))
 }
 
-/// A DNS name or IPv4 address, or a bracketed IPv6 address, then an optional `:port`.
+/// Empty, or `/`-led letters, digits and `/-._~`.
+fn valid_path(p: &str) -> bool {
+    let path_char = |c: char| c.is_ascii_alphanumeric() || "/-._~".contains(c);
+    p.is_empty() || p.starts_with('/') && p.chars().all(path_char)
+}
+
+/// A host name (labels of letters, digits, `-` and `_`, as container names have) or IPv4
+/// address, or a bracketed IPv6 address, then an optional `:port` of digits.
 fn valid_host(h: &str) -> bool {
-    let (name, port) = if let Some(rest) = h.strip_prefix('[') {
+    let (name_ok, port) = if let Some(rest) = h.strip_prefix('[') {
         let Some((addr, after)) = rest.split_once(']') else {
             return false;
         };
-        let ipv6 = |c: char| c.is_ascii_hexdigit() || c == ':' || c == '.';
-        if addr.is_empty() || !addr.chars().all(ipv6) {
-            return false;
-        }
+        let ipv6 = addr.parse::<std::net::Ipv6Addr>().is_ok();
         let port = match after {
             "" => None,
             a => match a.strip_prefix(':') {
@@ -74,20 +127,28 @@ fn valid_host(h: &str) -> bool {
                 None => return false,
             },
         };
-        (None, port)
+        (ipv6, port)
     } else {
-        match h.rsplit_once(':') {
-            Some((n, p)) => (Some(n), Some(p)),
-            None => (Some(h), None),
-        }
+        let (name, port) = match h.rsplit_once(':') {
+            Some((n, p)) => (n, Some(p)),
+            None => (h, None),
+        };
+        let label = |l: &str| {
+            !l.is_empty()
+                && l.len() <= 63
+                && !l.starts_with('-')
+                && !l.ends_with('-')
+                && l.chars()
+                    .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
+        };
+        let name = name.strip_suffix('.').unwrap_or(name);
+        (name.len() <= 253 && name.split('.').all(label), port)
     };
-    let name_ok = name.is_none_or(|n| {
-        !n.is_empty()
-            && n.len() <= 253
-            && n.chars()
-                .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '.')
+    let port_ok = port.is_none_or(|p| {
+        (1..=5).contains(&p.len())
+            && p.bytes().all(|b| b.is_ascii_digit())
+            && p.parse::<u16>().is_ok()
     });
-    let port_ok = port.is_none_or(|p| !p.is_empty() && p.len() <= 5 && p.parse::<u16>().is_ok());
     name_ok && port_ok
 }
 
@@ -103,23 +164,63 @@ mod tests {
         h
     }
 
-    #[test]
-    fn host_header_over_http() {
-        let o = origin(&headers(&[("host", "127.0.0.1:8080")])).unwrap();
-        assert_eq!(o, "http://127.0.0.1:8080");
-        let o = origin(&headers(&[("host", "[::1]:9000")])).unwrap();
-        assert_eq!(o, "http://[::1]:9000");
+    fn trusting() -> Config {
+        Config {
+            trust_forwarded: true,
+            ..Config::default()
+        }
+    }
+
+    /// A request target as HTTP/1.1 sends it: a path, no authority.
+    fn path() -> Uri {
+        Uri::from_static("/v1/datasets/a/tiles.json")
     }
 
     #[test]
-    fn a_proxy_says_what_the_client_used() {
+    fn host_header_over_http() {
+        let c = Config::default();
+        let o = origin(&c, &headers(&[("host", "127.0.0.1:8080")]), &path()).unwrap();
+        assert_eq!(o, "http://127.0.0.1:8080");
+        let o = origin(&c, &headers(&[("host", "[::1]:9000")]), &path()).unwrap();
+        assert_eq!(o, "http://[::1]:9000");
+        let o = origin(&c, &headers(&[("host", "terrain_server:8080")]), &path()).unwrap();
+        assert_eq!(o, "http://terrain_server:8080");
+        // HTTP/2 has no Host header: the authority.
+        let h2 = Uri::from_static("http://tiles.example:81/v1/datasets/a/tiles.json");
+        assert_eq!(
+            origin(&c, &headers(&[]), &h2).unwrap(),
+            "http://tiles.example:81"
+        );
+    }
+
+    #[test]
+    fn forwarded_headers_count_only_when_trusted() {
         let h = headers(&[
             ("host", "10.0.0.7:8080"),
-            ("x-forwarded-proto", "https, http"),
-            ("x-forwarded-host", "tiles.example.org"),
+            ("x-forwarded-proto", "http, https"),
+            ("x-forwarded-host", "evil.example, tiles.example.org"),
             ("x-forwarded-prefix", "/terrain/"),
         ]);
-        assert_eq!(origin(&h).unwrap(), "https://tiles.example.org/terrain");
+        assert_eq!(
+            origin(&Config::default(), &h, &path()).unwrap(),
+            "http://10.0.0.7:8080"
+        );
+        // The nearest proxy's values: the last ones.
+        assert_eq!(
+            origin(&trusting(), &h, &path()).unwrap(),
+            "https://tiles.example.org/terrain"
+        );
+        // A configured URL wins over everything.
+        let fixed = Config {
+            public_url: Some("https://cdn.example/dem".into()),
+            ..trusting()
+        };
+        assert_eq!(
+            origin(&fixed, &h, &path()).unwrap(),
+            "https://cdn.example/dem"
+        );
+        assert_eq!(vary(&fixed), None);
+        assert_eq!(vary(&Config::default()), Some("Host"));
     }
 
     #[test]
@@ -128,13 +229,40 @@ mod tests {
             headers(&[]),
             headers(&[("host", "a.example\"><script>")]),
             headers(&[("host", "a.example:99999")]),
+            headers(&[("host", "a.example:+80")]),
             headers(&[("host", "a.example:")]),
+            headers(&[("host", "-")]),
+            headers(&[("host", "...")]),
+            headers(&[("host", "[:::]")]),
             headers(&[("host", "[::1]x")]),
             headers(&[("host", "a.example"), ("x-forwarded-proto", "javascript")]),
             headers(&[("host", "a.example"), ("x-forwarded-prefix", "terrain")]),
             headers(&[("host", "a.example"), ("x-forwarded-prefix", "/a?b")]),
         ] {
-            assert!(origin(&h).is_err(), "{h:?}");
+            assert!(origin(&trusting(), &h, &path()).is_err(), "{h:?}");
+        }
+    }
+
+    #[test]
+    fn base_urls_are_checked_and_trimmed() {
+        assert_eq!(
+            parse_base("https://cdn.example/dem/").unwrap(),
+            "https://cdn.example/dem"
+        );
+        assert_eq!(
+            parse_base("http://127.0.0.1:9000").unwrap(),
+            "http://127.0.0.1:9000"
+        );
+        for bad in [
+            "https://",
+            "cdn.example/dem",
+            "ftp://cdn.example",
+            "https://cdn.example/x?token=1",
+            "https://cdn.example/a b",
+            "https://cdn.example/#frag",
+            "https://user@cdn.example/",
+        ] {
+            assert!(parse_base(bad).is_err(), "{bad}");
         }
     }
 }

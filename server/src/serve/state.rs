@@ -30,6 +30,11 @@ pub struct Config {
     pub tile_max_age: u32,
     /// Origins allowed by CORS; empty: any origin (tiles are public by default).
     pub cors_origins: Vec<String>,
+    /// The URL clients reach the server at (checked, no trailing slash): TileJSON's tile
+    /// URLs start with it. `None`: they follow each request's Host.
+    pub public_url: Option<String>,
+    /// Take the origin from `X-Forwarded-*` (only behind a proxy that sets them).
+    pub trust_forwarded: bool,
 }
 
 impl Default for Config {
@@ -42,6 +47,8 @@ impl Default for Config {
             cpu_queue: cores * 64,
             tile_max_age: 3600,
             cors_origins: Vec::new(),
+            public_url: None,
+            trust_forwarded: false,
         }
     }
 }

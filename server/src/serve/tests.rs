@@ -564,3 +564,67 @@ async fn a_bad_mesh_name_is_called_a_mesh_name() {
         "{v}"
     );
 }
+
+/// tiles.json's tile URLs by the server's setting: the request's Host by default (proxy
+/// headers ignored: any client can send them, and the answer is cached), the nearest proxy's
+/// `X-Forwarded-*` with `--trust-forwarded`, and `--public-url` over both.
+#[tokio::test]
+async fn tilejson_urls_follow_the_configured_origin() {
+    let served = |config: Config| {
+        let mut d = hill_dataset(
+            "tilejson-origin",
+            "mercator",
+            &[TileId { z: 0, x: 0, y: 0 }],
+        );
+        d.name = "merc".into();
+        let mut catalog = Catalog::default();
+        catalog.insert(d);
+        app(AppState::new(catalog, config))
+    };
+    let headers = [
+        ("host", "10.0.0.7:8080"),
+        ("x-forwarded-proto", "https"),
+        ("x-forwarded-host", "spoofed.example, tiles.example.org"),
+        ("x-forwarded-prefix", "/dem"),
+    ];
+    let template = |body: &[u8]| {
+        let v: serde_json::Value = serde_json::from_slice(body).unwrap();
+        v["tiles"][0].as_str().unwrap().to_string()
+    };
+    let uri = "/v1/datasets/merc/tiles.json";
+    let cases = [
+        (Config::default(), "http://10.0.0.7:8080/v1/", Some("Host")),
+        (
+            Config {
+                trust_forwarded: true,
+                ..Config::default()
+            },
+            "https://tiles.example.org/dem/v1/",
+            Some("Host, X-Forwarded-Proto, X-Forwarded-Host, X-Forwarded-Prefix"),
+        ),
+        (
+            Config {
+                public_url: Some("https://cdn.example/t".into()),
+                trust_forwarded: true,
+                ..Config::default()
+            },
+            "https://cdn.example/t/v1/",
+            None,
+        ),
+    ];
+    for (config, starts, vary) in cases {
+        let (status, h, body) = send(&served(config), Method::GET, uri, &headers).await;
+        assert_eq!(status, StatusCode::OK, "{}", String::from_utf8_lossy(&body));
+        let t = template(&body);
+        assert!(t.starts_with(starts), "{t} does not start with {starts}");
+        let varies: Vec<&str> = h
+            .get_all(header::VARY)
+            .iter()
+            .filter_map(|v| v.to_str().ok())
+            .collect();
+        match vary {
+            Some(v) => assert!(varies.contains(&v), "{varies:?}"),
+            None => assert!(!varies.iter().any(|v| v.contains("Host")), "{varies:?}"),
+        }
+    }
+}

@@ -7,14 +7,14 @@ use std::sync::Arc;
 use axum::extract::rejection::{PathRejection, QueryRejection};
 use axum::extract::{Path, Query, State};
 use axum::http::header::{CACHE_CONTROL, CONTENT_TYPE, VARY};
-use axum::http::HeaderMap;
+use axum::http::{HeaderMap, HeaderValue, Uri};
 use axum::response::{IntoResponse, Response};
 use axum::Json;
 use serde_json::{json, Value};
 use zerotile_codec::formats::layer_json::{
     AvailableRange, Extension, LayerJson, DEFAULT_TILES_TEMPLATE,
 };
-use zerotile_codec::formats::tilejson::{DemEncoding, RasterDem};
+use zerotile_codec::formats::tilejson::{DemEncoding, RasterDem, MAX_MERCATOR_LATITUDE};
 use zerotile_codec::geo::{Bounds, Scheme};
 
 use crate::serve::dataset::Dataset;
@@ -146,6 +146,7 @@ pub async fn tilejson(
     path: Result<Path<String>, PathRejection>,
     query: Result<Query<HashMap<String, String>>, QueryRejection>,
     headers: HeaderMap,
+    uri: Uri,
 ) -> ApiResult<Response> {
     let Path(name) = path?;
     let Query(q) = query?;
@@ -172,7 +173,7 @@ pub async fn tilejson(
     if q.contains_key("size") {
         params.push(format!("size={size}"));
     }
-    let base = public_url::origin(&headers)?;
+    let base = public_url::origin(&state.config, &headers, &uri)?;
     let template = format!(
         "{base}/v1/datasets/{}/tiles/{{z}}/{{x}}/{{y}}.png?{}",
         d.name,
@@ -180,14 +181,11 @@ pub async fn tilejson(
     );
     let doc = raster_dem(&d, template, (m.min_zoom, m.max_zoom), terrarium, size);
     let value = doc.to_value().map_err(ApiError::internal)?;
-    Ok((
-        [
-            (CACHE_CONTROL, "public, max-age=60"),
-            (VARY, public_url::VARY),
-        ],
-        Json(value),
-    )
-        .into_response())
+    let mut res = ([(CACHE_CONTROL, "public, max-age=60")], Json(value)).into_response();
+    if let Some(v) = public_url::vary(&state.config) {
+        res.headers_mut().append(VARY, HeaderValue::from_static(v));
+    }
+    Ok(res)
 }
 
 /// A mercator dataset's TileJSON with tiles at `template` (absolute), zooms `z0..=z1`.
@@ -199,15 +197,20 @@ pub(crate) fn raster_dem(
     size: u32,
 ) -> RasterDem {
     let m = d.metadata();
+    // A source reaching past Web Mercator's ±85.05° is stored as it came; the XYZ tiles
+    // (and MapLibre) end there.
+    let [w, s, e, n] = m.bounds;
+    let lat = |v: f64| v.clamp(-MAX_MERCATOR_LATITUDE, MAX_MERCATOR_LATITUDE);
     RasterDem {
         name: d.name.clone(),
         description: format!("zerotile EZW terrain from {}", m.source),
         attribution: String::new(),
-        version: format!("{:016x}", d.version),
+        // TileJSON's version is semver; the build id is in the tile URLs' `v`.
+        version: "1.0.0".into(),
         tiles: vec![template],
         minzoom: z0,
         maxzoom: z1,
-        bounds: m.bounds,
+        bounds: [w, lat(s), e, lat(n)],
         encoding: if terrarium {
             DemEncoding::Terrarium
         } else {
