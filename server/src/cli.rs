@@ -189,7 +189,7 @@ pub struct ServeArgs {
     /// (load shedding). Default 64 per core.
     #[arg(long, value_name = "N")]
     pub cpu_queue: Option<usize>,
-    /// The URL clients reach the server at, e.g. https://tiles.example.org/terrain: the
+    /// The URL clients reach the server at, e.g. `https://tiles.example.org/terrain`: the
     /// absolute tile URLs of tiles.json (TileJSON) start with it. Default: each request's
     /// Host header, over http.
     #[arg(long, value_name = "URL")]
