@@ -1,4 +1,5 @@
-//! Per-request work on a real 257² tile (N44W072 rows 300.., cols 500..): decode the EZW
+//! Per-request work on real 257² tiles (N44W072 rows 300.., cols 500..; for
+//! `decode_and_mesh_257` also fuji and jacksboro, terrain_mesh.py's other two): decode the EZW
 //! stream for an error budget T (to T/8, as `eval terrain` does; heights only, as the
 //! server decodes) and mesh it with the
 //! exact-error bintree within the rest of the budget. The peer, Martini's createTile +
@@ -24,22 +25,30 @@ fn decode_and_mesh(c: &mut Criterion) {
     let g = common::n44w072_tile(257);
     let hierarchy = Hierarchy::new(257).expect("257 = 2^8 + 1");
     let mut group = c.benchmark_group("decode_and_mesh_257");
-    for wavelet in [Wavelet::Cdf97, Wavelet::LeGall53] {
-        let enc = ezw::encode(&g, &EncodeParams::new(wavelet, 1.0)).expect("encode");
-        for budget in [4.0, 16.0, 64.0] {
-            let id = BenchmarkId::new(wavelet.name(), format!("T={budget}"));
-            group.bench_with_input(id, &budget, |b, &budget| {
-                b.iter(|| {
-                    let limit = DecodeLimit::Threshold(budget / 8.0);
-                    let d = ezw::decode_heights(&enc.bytes, limit, ezw::DEFAULT_MAX_SAMPLES)
-                        .expect("decode");
-                    // Exact wherever the tolerance it is meshed at can tell, as the server
-                    // computes them for a decode depth.
-                    let tolerance = budget * 0.75;
-                    let errors = TileErrors::exact_above(&hierarchy, &d.heights, tolerance);
-                    bintree::extract(&hierarchy, &errors, &d.heights, tolerance, None)
-                })
-            });
+    // N44W072 under the wavelet's name alone (the figures quoted since stop 9), the other
+    // two tiles of terrain_mesh.py as TILE-wavelet: one tile is no speed figure.
+    for (tile, heights, step) in common::terrain_mesh_tiles() {
+        for wavelet in [Wavelet::Cdf97, Wavelet::LeGall53] {
+            let enc = ezw::encode(&heights, &EncodeParams::new(wavelet, step)).expect("encode");
+            let name = match tile {
+                "N44W072" => wavelet.name().to_string(),
+                _ => format!("{tile}-{}", wavelet.name()),
+            };
+            for budget in [4.0, 16.0, 64.0] {
+                let id = BenchmarkId::new(&name, format!("T={budget}"));
+                group.bench_with_input(id, &budget, |b, &budget| {
+                    b.iter(|| {
+                        let limit = DecodeLimit::Threshold(budget / 8.0);
+                        let d = ezw::decode_heights(&enc.bytes, limit, ezw::DEFAULT_MAX_SAMPLES)
+                            .expect("decode");
+                        // Exact wherever the tolerance it is meshed at can tell, as the
+                        // server computes them for a decode depth.
+                        let tolerance = budget * 0.75;
+                        let errors = TileErrors::exact_above(&hierarchy, &d.heights, tolerance);
+                        bintree::extract(&hierarchy, &errors, &d.heights, tolerance, None)
+                    })
+                });
+            }
         }
     }
     group.finish();

@@ -26,6 +26,30 @@ pub fn n44w072_tile(side: usize) -> Grid<f64> {
     map.heights.crop(300, 500, side, side).expect("crop")
 }
 
+/// The three 257² tiles `../shared/bench/terrain_mesh.py` meshes (its defaults), by the
+/// names it prints, with the height step `eval terrain` codes each at (the source's
+/// quantum, else 0.01): N44W072 (SRTM, rows 300.., cols 500..), fuji (terrain-RGB PNG) and
+/// jacksboro (npz), the last two from their top-left corner.
+pub fn terrain_mesh_tiles() -> Vec<(&'static str, Grid<f64>, f64)> {
+    let read = |rel: &str, encoding, (row, col): (usize, usize)| {
+        let opts = ReadOptions {
+            encoding,
+            ..ReadOptions::default()
+        };
+        let map = raster::read_heightmap(shared(rel), &opts).expect(rel);
+        let tile = map.heights.crop(row, col, 257, 257).expect("crop");
+        (tile, map.step.unwrap_or(0.01))
+    };
+    let (n44, n44_step) = read("dem/N44W072.hgt", None, (300, 500));
+    let (fuji, fuji_step) = read("dem/fuji.png", Some(raster::Encoding::TerrainRgb), (0, 0));
+    let (jacksboro, j_step) = read("dem/jacksboro_fault_dem.npz", None, (0, 0));
+    vec![
+        ("N44W072", n44, n44_step),
+        ("fuji", fuji, fuji_step),
+        ("jacksboro", jacksboro, j_step),
+    ]
+}
+
 /// A classic test mesh from `../shared/data/meshes`.
 pub fn mesh(name: &str) -> TriMesh {
     read_path(&shared(&format!("meshes/{name}")), &MeshLimits::default())

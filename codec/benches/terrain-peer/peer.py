@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Martini beside the criterion medians of `decode_and_mesh_257` (see run.sh).
+"""Martini beside the criterion medians of `decode_and_mesh_257` (see run.sh), on the three
+257² tiles of ../shared/bench/terrain_mesh.py (N44W072, fuji, jacksboro).
 
 usage: peer.py CRITERION_DIR [REPEAT]
 
@@ -51,23 +52,22 @@ class PyMartini:
         return v, self.heights[v[:, 1], v[:, 0]], t
 
 
-def criterion_median_ms(root: Path, wavelet: str, t: float) -> float | None:
-    f = root / "decode_and_mesh_257" / wavelet / f"T={t:g}" / "new" / "estimates.json"
+def criterion_median_ms(root: Path, tile: str, wavelet: str, t: float) -> float | None:
+    # N44W072 keeps the wavelet's bare name (see the bench); the others are TILE-wavelet.
+    name = wavelet if tile == "N44W072" else f"{tile}-{wavelet}"
+    f = root / "decode_and_mesh_257" / name / f"T={t:g}" / "new" / "estimates.json"
     if not f.exists():
         return None
     return json.loads(f.read_text())["median"]["point_estimate"] / 1e6
 
 
-def main() -> int:
-    root = Path(sys.argv[1])
-    repeat = int(sys.argv[2]) if len(sys.argv) > 2 else 51
-    z, _, _ = bl.load_heightmap(bl.DEM / "N44W072.hgt")
-    tile = np.ascontiguousarray(z[300:557, 500:757], dtype=np.float32)
-
+def martini_times(z: np.ndarray, repeat: int) -> tuple[dict, dict, dict, dict]:
+    """Martini on one tile: (ms at E = T, ms at equal true error, that E and its error, the
+    true error at E = T), each per peer name and budget."""
     from pymartini import Martini
 
+    tile = np.ascontiguousarray(z, dtype=np.float32)
     martini = Martini(257)
-    peers = {}
     _, create = bl.median_ms(lambda: martini.create_tile(tile), repeat)
     t = martini.create_tile(tile)
     # Martini's E with true max error within each budget (terrain_mesh.py's search).
@@ -99,36 +99,44 @@ def main() -> int:
             if m:
                 times["@mapbox/martini"] = {g["max_error"]: m["create_tile_ms"] + g["get_mesh_ms"] for g in m["meshes"]}
     # Look-ups by the exact float passed (node echoes it back as parsed from repr).
-    peers = {name: {e: ts[e] for e in BUDGETS} for name, ts in times.items()}
-    fair_ms = {name: {e: ts[fair[e][0]] for e in fair} for name, ts in times.items()}
+    at_e = {name: {e: ts[e] for e in BUDGETS} for name, ts in times.items()}
+    at_true = {name: {e: ts[fair[e][0]] for e in fair} for name, ts in times.items()}
+    return at_e, at_true, fair, nominal
 
-    names = list(peers)
-    head = ["wavelet", "T (m)", "zerotile ms"] + [f"{p} ms" for p in names] + [f"zerotile / {p}" for p in names]
-    rows = []
-    for w in WAVELETS:
-        for e in BUDGETS:
-            zt = criterion_median_ms(root, w, e)
-            cells = [w, f"{e:g}", "-" if zt is None else f"{zt:.3f}"]
-            cells += [f"{peers[p][e]:.3f}" for p in names]
-            cells += ["-" if zt is None else f"{zt / peers[p][e]:.2f}" for p in names]
-            rows.append(cells)
+
+def main() -> int:
+    root = Path(sys.argv[1])
+    repeat = int(sys.argv[2]) if len(sys.argv) > 2 else 51
+    nominal_rows, fair_rows, names = [], [], []
+    for tile, path, spec, encoding in tm.DEFAULT_TILES:
+        z = bl.crop(bl.load_heightmap(path, encoding)[0], spec)
+        at_e, at_true, fair, nominal = martini_times(z, repeat)
+        names = list(at_e)
+        for w in WAVELETS:
+            for e in BUDGETS:
+                zt = criterion_median_ms(root, tile, w, e)
+                cells = [tile, w, f"{e:g}", "-" if zt is None else f"{zt:.3f}"]
+                cells += [f"{at_e[p][e]:.3f}" for p in names]
+                cells += ["-" if zt is None else f"{zt / at_e[p][e]:.2f}" for p in names]
+                nominal_rows.append(cells)
+            for e in fair:
+                zt = criterion_median_ms(root, tile, w, e)
+                p, err = fair[e]
+                cells = [tile, w, f"{e:g}", f"{p:.3g} ({err:.3g} m)", f"{nominal[e]:.3g} m",
+                         "-" if zt is None else f"{zt:.3f}"]
+                cells += [f"{at_true[n][e]:.3f}" for n in names]
+                cells += ["-" if zt is None else f"{zt / at_true[n][e]:.2f}" for n in names]
+                fair_rows.append(cells)
+
+    head = ["tile", "wavelet", "T (m)", "zerotile ms"] + [f"{p} ms" for p in names]
+    head += [f"zerotile / {p}" for p in names]
     print(f"# decode to T/8 + mesh (criterion median) vs Martini createTile + getMesh(T) (median of {repeat})\n")
-    print(bl.md_table(head, rows))
+    print(bl.md_table(head, nominal_rows))
 
-    # Equal true max error: Martini at the E whose mesh stays within T.
-    head = ["wavelet", "T (m)", "Martini E", "Martini true max err (at E = T)", "zerotile ms"]
+    head = ["tile", "wavelet", "T (m)", "Martini E", "Martini true max err (at E = T)", "zerotile ms"]
     head += [f"{p} ms" for p in names] + [f"zerotile / {p}" for p in names]
-    rows = []
-    for w in WAVELETS:
-        for e in fair:
-            zt = criterion_median_ms(root, w, e)
-            p, err = fair[e]
-            cells = [w, f"{e:g}", f"{p:.3g} ({err:.3g} m)", f"{nominal[e]:.3g} m", "-" if zt is None else f"{zt:.3f}"]
-            cells += [f"{fair_ms[n][e]:.3f}" for n in names]
-            cells += ["-" if zt is None else f"{zt / fair_ms[n][e]:.2f}" for n in names]
-            rows.append(cells)
     print("\n# the same, Martini at equal true max error: the largest E whose mesh is within T\n")
-    print(bl.md_table(head, rows))
+    print(bl.md_table(head, fair_rows))
     return 0
 
 

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Same-run peer figure for the terrain codec: the criterion bench's decode to T/8 + bintree
-# mesh (`decode_and_mesh_257`) and Martini's createTile + getMesh on the same 257² N44W072
-# tile, run back to back so both see the same machine load (the bench machine is shared).
+# mesh (`decode_and_mesh_257`) and Martini's createTile + getMesh on the same 257² tiles
+# (terrain_mesh.py's three: N44W072, fuji, jacksboro), run back to back so both see the
+# same machine load (the bench machine is shared).
 # Usage: codec/benches/terrain-peer/run.sh; REPEAT=n sets Martini's timed runs (default 51).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
