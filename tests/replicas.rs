@@ -1,7 +1,8 @@
 //! Two stateless replicas behind nginx `proxy_cache`, with the shipped docker/nginx.conf
 //! (only hosts, ports and paths rewritten): both replicas answer the same bytes and ETags,
 //! nginx answers `If-None-Match` with 304 from its cache, and killing one replica mid-run
-//! loses no request (nginx retries the other).
+//! loses no request (nginx retries the other); tiles.json fetched through nginx lists tiles
+//! at nginx.
 //!
 //! Without nginx the test skips with a message; with `ZEROTILE_E2E=1` (set by `.ci/run`,
 //! which installs it) its absence fails the test.
@@ -19,7 +20,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use zerotile_tests::server::Server;
-use zerotile_tests::{run_ok, tools_ready, zerotile_bin};
+use zerotile_tests::{run_ok, shared_data, tools_ready, zerotile_bin};
 
 struct Nginx {
     child: Child,
@@ -153,6 +154,15 @@ fn two_replicas_behind_nginx_agree_cache_and_survive_a_kill() {
             .args(["demo-data", "--quiet", "--data"])
             .arg(&data),
     );
+    // A mercator dataset too, for tiles.json through the proxy.
+    run_ok(
+        Command::new(zerotile_bin())
+            .arg("ingest")
+            .arg(shared_data().join("dem/N44W072.hgt"))
+            .args(["--name", "n44m", "--scheme", "mercator", "--max-zoom", "6"])
+            .args(["--quiet", "--data"])
+            .arg(&data),
+    );
 
     let mut a = Server::start(&data);
     let b = Server::start(&data);
@@ -213,6 +223,21 @@ fn two_replicas_behind_nginx_agree_cache_and_survive_a_kill() {
     let (s304, _, body) = get(&agent, &format!("{}{p}", nginx.base), e1.as_deref());
     assert_eq!(s304, 304, "ETag honoured through the cache");
     assert!(body.is_empty());
+
+    // tiles.json through nginx lists tiles at nginx, where the client asked (the shipped
+    // config passes the client's Host on), and those tiles answer there.
+    let tilejson = format!("{}/v1/datasets/n44m/tiles.json", nginx.base);
+    let (status, _, body) = get(&agent, &tilejson, None);
+    assert_eq!(status, 200, "{}", String::from_utf8_lossy(&body));
+    let doc: serde_json::Value = serde_json::from_slice(&body).unwrap();
+    let template = doc["tiles"][0].as_str().unwrap();
+    assert!(
+        template.starts_with(&format!("{}/v1/", nginx.base)),
+        "{template} is not at {}",
+        nginx.base
+    );
+    let (status, _, png) = get(&agent, &template.replace("{z}/{x}/{y}", "0/0/0"), None);
+    assert_eq!((status, &png[1..4]), (200, &b"PNG"[..]));
 
     // Kill one replica while four clients fetch every tile through nginx.
     let ok = Arc::new(AtomicUsize::new(0));
