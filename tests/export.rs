@@ -327,25 +327,16 @@ fn a_png_export_with_a_base_url_writes_tilejson() {
         assert_success(&out);
     }
     let base = "https://cdn.example/dem/";
-    let out = zerotile(
-        &[
-            "export",
-            "m",
-            "--format",
-            "png",
-            "--zoom",
-            "0-7",
-            "--out",
-            "rgb",
-            "--base-url",
-            base,
-            "--quiet",
-        ],
-        &dir,
-    );
-    assert_success(&out);
-    let t: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(dir.join("rgb/tiles.json")).unwrap()).unwrap();
+    // `export DATASET --format png --base-url base EXTRA… --out OUT`, then OUT/tiles.json.
+    let tilejson = |dataset: &str, out: &str, extra: &[&str]| -> serde_json::Value {
+        let mut args = vec!["export", dataset, "--format", "png", "--base-url", base];
+        args.extend(extra);
+        args.extend(["--out", out, "--quiet"]);
+        assert_success(&zerotile(&args, &dir));
+        let doc = std::fs::read(dir.join(out).join("tiles.json")).unwrap();
+        serde_json::from_slice(&doc).unwrap()
+    };
+    let t = tilejson("m", "rgb", &["--zoom", "0-7"]);
     assert_eq!(t["tilejson"], "3.0.0");
     assert_eq!(
         (t["minzoom"].as_u64(), t["maxzoom"].as_u64()),
@@ -409,23 +400,7 @@ fn a_png_export_with_a_base_url_writes_tilejson() {
         "--quiet",
     ];
     assert_success(&zerotile(&polar, &dir));
-    let out = zerotile(
-        &[
-            "export",
-            "polar",
-            "--format",
-            "png",
-            "--out",
-            "polar",
-            "--base-url",
-            base,
-            "--quiet",
-        ],
-        &dir,
-    );
-    assert_success(&out);
-    let t: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(dir.join("polar/tiles.json")).unwrap()).unwrap();
+    let t = tilejson("polar", "polar", &[]);
     let north = t["bounds"][3].as_f64().unwrap();
     assert!(
         (north - 85.051_128_779_806_59).abs() < 1e-9,

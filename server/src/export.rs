@@ -173,7 +173,7 @@ pub fn run(job: &Export) -> Result<Exported> {
     let tilejson = match &base_url {
         Some(base) => {
             // A file server ignores the query; a CDN keying on it drops an older build.
-            let template = format!("{base}/{{z}}/{{x}}/{{y}}.png?v={:016x}", d.version);
+            let template = format!("{base}/{{z}}/{{x}}/{{y}}.png?v={}", d.version_tag());
             Some(raster_dem(&d, template, (z0, z1), false, 512).to_value()?)
         }
         None => None,
@@ -242,9 +242,10 @@ pub fn run(job: &Export) -> Result<Exported> {
         Ok(n)
     });
     let exported = match result {
-        Ok(n) => Exported {
+        Ok((tiles, bytes)) => Exported {
+            tiles,
+            bytes,
             no_tilejson: mercator && format == TileFormat::Png && tilejson.is_none(),
-            ..n
         },
         Err(e) => {
             let _ = std::fs::remove_dir_all(&tmp);
@@ -276,7 +277,8 @@ pub fn run(job: &Export) -> Result<Exported> {
     Ok(exported)
 }
 
-/// Renders `tiles` of `d` (held by `state`, whose caches it uses) into `dir`.
+/// Renders `tiles` of `d` (held by `state`, whose caches it uses) into `dir`; returns the
+/// tiles and bytes written.
 fn render_all(
     (state, d): (&AppState, &Dataset),
     tiles: &[TileId],
@@ -285,7 +287,7 @@ fn render_all(
     ext: &str,
     dir: &Path,
     progress: bool,
-) -> Result<Exported> {
+) -> Result<(u64, u64)> {
     let bar = crate::ingest::tile_bar("exporting", progress, tiles.len() as u64);
     let bytes = AtomicU64::new(0);
     // Neighbouring tiles share decodes: go zoom by zoom, row by row.
@@ -306,9 +308,5 @@ fn render_all(
         Ok(())
     })?;
     bar.finish_and_clear();
-    Ok(Exported {
-        tiles: tiles.len() as u64,
-        bytes: bytes.into_inner(),
-        no_tilejson: false,
-    })
+    Ok((tiles.len() as u64, bytes.into_inner()))
 }

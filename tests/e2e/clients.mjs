@@ -171,6 +171,30 @@ function noProblems(c) {
   check(c.problems.length === 0, `${c.name}: ${c.problems.length} error(s) in the browser`);
 }
 
+// A page holding one MapLibre map, `window.map`, in #m: `options` is the rest of the Map's
+// options (source text), `before` and `after` more script around it. Map errors collect in
+// window.mapErrors; window.idle turns true at the first idle; the drawing buffer is kept
+// for screenshots.
+function maplibrePage({ before = "", options, after = "" }) {
+  return `<!doctype html><html><head>
+<link rel="icon" href="data:,">
+<link rel="stylesheet" href="/node_modules/maplibre-gl/dist/maplibre-gl.css">
+<style>html,body,#m{margin:0;width:100%;height:100%}</style>
+<script src="/node_modules/maplibre-gl/dist/maplibre-gl.js"></script></head><body><div id="m"></div>
+<script>
+window.mapErrors = [];
+${before}
+const map = new maplibregl.Map({
+  container: "m", canvasContextAttributes: { preserveDrawingBuffer: true }, preserveDrawingBuffer: true,
+  ${options}
+});
+map.on("error", (e) => { window.mapErrors.push(String(e.error && e.error.message || e)); });
+map.on("idle", () => { window.idle = true; });
+window.map = map;
+${after}
+</script></body></html>`;
+}
+
 async function describe(name) {
   const res = await fetch(`${base}/v1/datasets/${name}`);
   if (!res.ok) throw new Error(`GET /v1/datasets/${name}: ${res.status} ${await res.text()}`);
@@ -262,28 +286,15 @@ async function maplibre() {
   const dem = { type: "raster-dem", url: `${base}${info.tilejson}` };
   const hills = { type: "raster-dem", tiles: [tiles], tileSize: 512, encoding: "mapbox", bounds: info.bounds,
     minzoom: info.minzoom, maxzoom: info.maxzoom };
-  pages["/maplibre.html"] = `<!doctype html><html><head>
-<link rel="icon" href="data:,">
-<link rel="stylesheet" href="/node_modules/maplibre-gl/dist/maplibre-gl.css">
-<style>html,body,#m{margin:0;width:100%;height:100%}</style>
-<script src="/node_modules/maplibre-gl/dist/maplibre-gl.js"></script></head><body><div id="m"></div>
-<script>
-window.mapErrors = [];
-const map = new maplibregl.Map({
-  container: "m", center: [${(w + e) / 2}, ${(s + n) / 2}], zoom: ${Math.max(info.maxzoom - 0.5, 1)}, pitch: 60, bearing: 20,
-  canvasContextAttributes: { preserveDrawingBuffer: true }, preserveDrawingBuffer: true,
+  pages["/maplibre.html"] = maplibrePage({ options: `
+  center: [${(w + e) / 2}, ${(s + n) / 2}], zoom: ${Math.max(info.maxzoom - 0.5, 1)}, pitch: 60, bearing: 20,
   style: { version: 8,
     sources: { dem: ${JSON.stringify(dem)}, hills: ${JSON.stringify(hills)} },
     layers: [
       { id: "bg", type: "background", paint: { "background-color": "#d8d2c4" } },
       { id: "hillshade", type: "hillshade", source: "hills", paint: { "hillshade-exaggeration": 0.8 } },
     ],
-    terrain: { source: "dem", exaggeration: 1.5 } },
-});
-map.on("error", (e) => { window.mapErrors.push(String(e.error && e.error.message || e)); });
-map.on("idle", () => { window.idle = true; });
-window.map = map;
-</script></body></html>`;
+    terrain: { source: "dem", exaggeration: 1.5 } },` });
   const c = await open("maplibre");
   await c.page.goto(`${local}/maplibre.html`);
   await c.page.waitForFunction(() => window.idle === true, null, { timeout: 90000, polling: 250 });
@@ -452,27 +463,17 @@ async function staticPng() {
   // The terrain source is the TileJSON's URL and nothing else: tile template, zooms, bounds,
   // size and encoding all come from the document.
   const dem = { type: "raster-dem", url: `${PLACEHOLDER}/tiles.json` };
-  pages["/static-png.html"] = `<!doctype html><html><head>
-<link rel="icon" href="data:,">
-<link rel="stylesheet" href="/node_modules/maplibre-gl/dist/maplibre-gl.css">
-<style>html,body,#m{margin:0;width:100%;height:100%}</style>
-<script src="/node_modules/maplibre-gl/dist/maplibre-gl.js"></script></head><body><div id="m"></div>
-<script>
-window.mapErrors = [];
-const from = ${JSON.stringify(PLACEHOLDER)}, to = ${JSON.stringify(cdn.origin)};
-const map = new maplibregl.Map({
-  container: "m", center: [${lon0}, ${lat0}], zoom: 11.5, pitch: 0,
-  canvasContextAttributes: { preserveDrawingBuffer: true }, preserveDrawingBuffer: true,
+  pages["/static-png.html"] = maplibrePage({
+    before: `const from = ${JSON.stringify(PLACEHOLDER)}, to = ${JSON.stringify(cdn.origin)};`,
+    options: `
+  center: [${lon0}, ${lat0}], zoom: 11.5, pitch: 0,
   // How a page points MapLibre at a tileset that moved: every URL it asks for (tiles.json,
   // then the tiles its template names) passes through here.
   transformRequest: (url) => ({ url: url.startsWith(from + "/") ? to + url.slice(from.length) : url }),
   style: { version: 8, sources: { dem: ${JSON.stringify(dem)} },
     layers: [{ id: "bg", type: "background", paint: { "background-color": "#d8d2c4" } }],
-    terrain: { source: "dem", exaggeration: 1 } },
-});
-map.on("error", (e) => { window.mapErrors.push(String(e.error && e.error.message || e)); });
-map.on("idle", () => { window.idle = true; });
-window.map = map;
+    terrain: { source: "dem", exaggeration: 1 } },`,
+    after: `
 const idle = () => new Promise((ok) => map.once("idle", ok));
 // Heights at [[lon, lat], ...], each read from the deepest zoom's DEM tile: the camera looks
 // straight down at zoom deepest + 1.5 (MapLibre's terrain asks for raster-dem tiles one zoom
@@ -515,7 +516,7 @@ window.overview = async () => {
   map.jumpTo({ center: [${lon0}, ${lat0 - 0.04}], zoom: 11, pitch: 60, bearing: 0 });
   await idle();
 };
-</script></body></html>`;
+` });
   const c = await open("static-png");
   // A small canvas while sampling: SwiftShader draws it fast, and the heights do not depend
   // on it (the DEM tiles do not).

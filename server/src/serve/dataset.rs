@@ -133,6 +133,12 @@ impl Dataset {
         &self.container.metadata
     }
 
+    /// [`Self::version`] as clients see it: the dataset description's and layer.json's
+    /// `version`, and the `?v=` that busts caches in the tile URLs the manifests list.
+    pub fn version_tag(&self) -> String {
+        format!("{:016x}", self.version)
+    }
+
     pub fn has_tile(&self, id: TileId) -> bool {
         self.container.entry(id).is_some()
     }

@@ -83,7 +83,7 @@ pub async fn describe(
         .collect();
     let georeferenced = !matches!(d.tiling.scheme(), Scheme::Local { .. });
     let extra = json!({
-        "version": format!("{:016x}", d.version),
+        "version": d.version_tag(),
         "tile_side": m.tile_side,
         "source_size": m.source_size,
         "height_range": m.height_range,
@@ -163,10 +163,9 @@ pub async fn tilejson(
     let terrarium = png_terrarium(&q)?;
     let size = png_size(&q)?;
     let m = d.metadata();
-    let version = format!("{:016x}", d.version);
     // The tile URL repeats the options asked for here; `v` changes with every ingest, so a
     // CDN keying on the URL never serves the old dataset's tiles.
-    let mut params = vec![format!("v={version}")];
+    let mut params = vec![format!("v={}", d.version_tag())];
     if terrarium {
         params.push("encoding=terrarium".into());
     }
@@ -233,7 +232,7 @@ pub(crate) fn layer(d: &Dataset) -> anyhow::Result<LayerJson> {
     };
     let mut layer = LayerJson::for_tiling(&d.tiling, bounds, 0, m.max_zoom)?;
     layer.name = d.name.clone();
-    layer.version = format!("{:016x}", d.version);
+    layer.version = d.version_tag();
     // Not `metadata`: CesiumJS takes that as a promise of `metadataAvailability` (tile-held
     // availability every N levels) and fails every tile without it. The full availability is
     // published here instead; tiles still carry the extension when a client asks for it.
