@@ -2,7 +2,7 @@
 //! `decode_and_mesh_257` also fuji and jacksboro, terrain_mesh.py's other two): decode the EZW
 //! stream for an error budget T (to T/8, as `eval terrain` does; heights only, as the
 //! server decodes) and mesh it with the
-//! exact-error bintree within the rest of the budget. The peer, Martini's createTile +
+//! exact-error bintree within the rest of the budget, 7T/8, as the server does. The peer, Martini's createTile +
 //! getMesh on the same tile, runs in `../shared/bench/terrain_mesh.py` (pymartini and
 //! @mapbox/martini); compare its medians with these.
 
@@ -14,7 +14,7 @@
 mod common;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
-use zerotile_codec::bintree::{self, Hierarchy, TileErrors};
+use zerotile_codec::bintree::{self, Hierarchy, TileErrors, DECODE_SHARE};
 use zerotile_codec::ezw::{self, DecodeLimit, EncodeParams};
 use zerotile_codec::formats::quantized_mesh::{self, QmOptions};
 use zerotile_codec::geo::TileGeo;
@@ -38,12 +38,13 @@ fn decode_and_mesh(c: &mut Criterion) {
                 let id = BenchmarkId::new(&name, format!("T={budget}"));
                 group.bench_with_input(id, &budget, |b, &budget| {
                     b.iter(|| {
-                        let limit = DecodeLimit::Threshold(budget / 8.0);
+                        let limit = DecodeLimit::Threshold(budget * DECODE_SHARE);
                         let d = ezw::decode_heights(&enc.bytes, limit, ezw::DEFAULT_MAX_SAMPLES)
                             .expect("decode");
-                        // Exact wherever the tolerance it is meshed at can tell, as the
-                        // server computes them for a decode depth.
-                        let tolerance = budget * 0.75;
+                        // The server's split: the mesh gets the rest of the budget, and its
+                        // errors are exact above that tolerance (at these budgets, powers of
+                        // two × 8, the server's floor for the decode depth is the tolerance).
+                        let tolerance = budget * (1.0 - DECODE_SHARE);
                         let errors = TileErrors::exact_above(&hierarchy, &d.heights, tolerance);
                         bintree::extract(&hierarchy, &errors, &d.heights, tolerance, None)
                     })
@@ -58,7 +59,7 @@ fn decode_and_mesh(c: &mut Criterion) {
     // against the triangles it costs (docs/terrain-mesh.md).
     let mut group = c.benchmark_group("decode_share_257");
     let enc = ezw::encode(&g, &EncodeParams::new(Wavelet::Cdf97, 1.0)).expect("encode");
-    for share in [0.125, 0.25] {
+    for share in [DECODE_SHARE, 2.0 * DECODE_SHARE] {
         for budget in [4.0, 16.0, 64.0] {
             let id = BenchmarkId::new(format!("share={share}"), format!("T={budget}"));
             group.bench_with_input(id, &budget, |b, &budget| {

@@ -2,7 +2,7 @@
 # Same-process A/B of the EZW decoder: a base commit's codec (default 32a86f3, the coder
 # before the bitmap rewrite) against this work tree's, interleaved on the same N44W072 257²
 # tile, medians of thread CPU time (the bench machine is shared). Prints two tables: decode
-# to T, and decode to budget/8 + bintree mesh within 0.75·budget (the mesher is this work
+# to T, and decode to budget/8 + bintree mesh within 7/8·budget (the mesher is this work
 # tree's in both columns). Usage: codec/benches/ezw-ab/run.sh [BASE_COMMIT]; ROUNDS=n.
 set -euo pipefail
 base=${1:-32a86f3}

@@ -13,7 +13,7 @@ out on both sides. Times are medians of REPEAT runs, in the same run as the crit
 A second table compares at equal true max error, the measure the triangle-count figure uses:
 Martini is timed at the largest E whose mesh's true max error (every sample against the mesh,
 benchlib.mesh_error) is within T, the bound zerotile's mesh keeps (decode to T/8, mesh within
-3T/4). Only getMesh's time changes with E; createTile is the same.
+7T/8, the server's split). Only getMesh's time changes with E; createTile is the same.
 """
 from __future__ import annotations
 

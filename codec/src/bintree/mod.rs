@@ -38,5 +38,11 @@ pub use errors::TileErrors;
 pub use extract::{border_vertices, extract, Forced};
 pub use hierarchy::Hierarchy;
 
+/// Share of an error budget T spent on decoding: the stream is read to T/8 and the mesh gets
+/// the rest, so the mesh's true error stays within T. Reading deeper buys few triangles and
+/// costs bytes and time. Here, not in the server, so the server, `eval terrain` and the
+/// terrain bench split a budget by one number.
+pub const DECODE_SHARE: f64 = 0.125;
+
 #[cfg(test)]
 mod tests;

@@ -55,10 +55,9 @@ pub enum Mesher {
     Bintree,
 }
 
-/// Share of a threshold-mode error budget T spent on decoding: the stream is read to T/8 and
-/// the mesh gets what the decode left (T − its max error), so the mesh's true error stays
-/// within T. Reading deeper buys few triangles and costs bytes and time.
-pub const DECODE_SHARE: f64 = 0.125;
+/// Share of a threshold-mode error budget T spent on decoding; the mesh gets what the decode
+/// left (T − its measured max error).
+pub use zerotile_codec::bintree::DECODE_SHARE;
 
 /// One operating point, with the field names the benchmark scripts read.
 #[derive(Clone, Debug, Serialize)]

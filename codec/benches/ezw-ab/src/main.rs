@@ -92,7 +92,7 @@ fn main() {
         }
     }
     // Decode to budget / 8 and mesh with the (same, new-crate) exact-error bintree within
-    // 0.75 · budget, as codec/benches/terrain.rs does.
+    // 7/8 · budget, as the server and codec/benches/terrain.rs do.
     use new::bintree::{self, Hierarchy, TileErrors};
     let h = Hierarchy::new(side).unwrap();
     println!();
@@ -125,7 +125,7 @@ fn main() {
                     .unwrap();
                     let g = new::Grid::new(side, side, d.heights.data().to_vec()).unwrap();
                     let e = TileErrors::new(&h, &g);
-                    std::hint::black_box(bintree::extract(&h, &e, &g, budget * 0.75, None));
+                    std::hint::black_box(bintree::extract(&h, &e, &g, budget * 0.875, None));
                     to.push(s.elapsed().as_secs_f64() * 1e3);
                     let s = Instant::now();
                     let d = new::ezw::decode(
@@ -135,7 +135,13 @@ fn main() {
                     )
                     .unwrap();
                     let e = TileErrors::new(&h, &d.heights);
-                    std::hint::black_box(bintree::extract(&h, &e, &d.heights, budget * 0.75, None));
+                    std::hint::black_box(bintree::extract(
+                        &h,
+                        &e,
+                        &d.heights,
+                        budget * 0.875,
+                        None,
+                    ));
                     tn.push(s.elapsed().as_secs_f64() * 1e3);
                 }
             }
