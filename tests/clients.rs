@@ -64,38 +64,24 @@ fn cesium_maplibre_and_the_viewer_render_in_headless_chromium() {
         ],
         &data,
     );
-    let exported = data.with_file_name(format!("zerotile-clients-{}-static", std::process::id()));
-    let _ = std::fs::remove_dir_all(&exported);
-    run_in(
-        &[
-            "export",
-            "n44g",
-            "--format",
-            "terrain",
-            "--out",
-            exported.to_str().unwrap(),
-            "--quiet",
-        ],
-        &data,
-    );
+    // `export DATASET ARGS… --out` a fresh folder beside the data, named by `suffix`.
+    let export = |suffix: &str, dataset: &str, args: &[&str]| {
+        let out = data.with_file_name(format!("zerotile-clients-{}-{suffix}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&out);
+        let mut all = vec!["export", dataset];
+        all.extend(args);
+        all.extend(["--out", out.to_str().unwrap(), "--quiet"]);
+        run_in(&all, &data);
+        out
+    };
+    let exported = export("static", "n44g", &["--format", "terrain"]);
     // The mercator ingest as a static terrain-RGB tree with its tiles.json, which names the
     // tiles under a placeholder origin: the MapLibre page maps it to the real host (its
     // transformRequest), as a page does for a tileset that moved. Every zoom: 41 tiles.
-    let png = data.with_file_name(format!("zerotile-clients-{}-png", std::process::id()));
-    let _ = std::fs::remove_dir_all(&png);
-    run_in(
-        &[
-            "export",
-            "n44m",
-            "--format",
-            "png",
-            "--base-url",
-            "http://cdn.invalid/rgb",
-            "--out",
-            png.to_str().unwrap(),
-            "--quiet",
-        ],
-        &data,
+    let png = export(
+        "png",
+        "n44m",
+        &["--format", "png", "--base-url", "http://cdn.invalid/rgb"],
     );
     let expect = srtm_heights(&hgt);
     eprintln!("data ready in {:.1} s", t0.elapsed().as_secs_f64());

@@ -20,6 +20,18 @@ use zerotile_codec::formats::quantized_mesh::{self, QmOptions};
 use zerotile_codec::geo::TileGeo;
 use zerotile_codec::tile::{Neighbourhood, TileView};
 use zerotile_codec::wavelet::Wavelet;
+use zerotile_codec::zerotree::TerrainMesh;
+
+/// One request's work for budget T: read the stream to T · `share` and mesh within the rest,
+/// with errors exact above that tolerance (at the benched budgets, powers of two × 8, the
+/// server's floor for the decode depth is the tolerance).
+fn decode_and_mesh_at(bytes: &[u8], hierarchy: &Hierarchy, budget: f64, share: f64) -> TerrainMesh {
+    let limit = DecodeLimit::Threshold(budget * share);
+    let d = ezw::decode_heights(bytes, limit, ezw::DEFAULT_MAX_SAMPLES).expect("decode");
+    let tolerance = budget * (1.0 - share);
+    let errors = TileErrors::exact_above(hierarchy, &d.heights, tolerance);
+    bintree::extract(hierarchy, &errors, &d.heights, tolerance, None)
+}
 
 fn decode_and_mesh(c: &mut Criterion) {
     let g = common::n44w072_tile(257);
@@ -37,17 +49,7 @@ fn decode_and_mesh(c: &mut Criterion) {
             for budget in [4.0, 16.0, 64.0] {
                 let id = BenchmarkId::new(&name, format!("T={budget}"));
                 group.bench_with_input(id, &budget, |b, &budget| {
-                    b.iter(|| {
-                        let limit = DecodeLimit::Threshold(budget * DECODE_SHARE);
-                        let d = ezw::decode_heights(&enc.bytes, limit, ezw::DEFAULT_MAX_SAMPLES)
-                            .expect("decode");
-                        // The server's split: the mesh gets the rest of the budget, and its
-                        // errors are exact above that tolerance (at these budgets, powers of
-                        // two × 8, the server's floor for the decode depth is the tolerance).
-                        let tolerance = budget * (1.0 - DECODE_SHARE);
-                        let errors = TileErrors::exact_above(&hierarchy, &d.heights, tolerance);
-                        bintree::extract(&hierarchy, &errors, &d.heights, tolerance, None)
-                    })
+                    b.iter(|| decode_and_mesh_at(&enc.bytes, &hierarchy, budget, DECODE_SHARE))
                 });
             }
         }
@@ -63,14 +65,7 @@ fn decode_and_mesh(c: &mut Criterion) {
         for budget in [4.0, 16.0, 64.0] {
             let id = BenchmarkId::new(format!("share={share}"), format!("T={budget}"));
             group.bench_with_input(id, &budget, |b, &budget| {
-                b.iter(|| {
-                    let limit = DecodeLimit::Threshold(budget * share);
-                    let d = ezw::decode_heights(&enc.bytes, limit, ezw::DEFAULT_MAX_SAMPLES)
-                        .expect("decode");
-                    let tolerance = budget * (1.0 - share);
-                    let errors = TileErrors::exact_above(&hierarchy, &d.heights, tolerance);
-                    bintree::extract(&hierarchy, &errors, &d.heights, tolerance, None)
-                })
+                b.iter(|| decode_and_mesh_at(&enc.bytes, &hierarchy, budget, share))
             });
         }
     }

@@ -49,6 +49,10 @@ pub struct Exported {
     pub no_tilejson: bool,
 }
 
+/// The PNG tiles an export writes (and its tiles.json lists): terrain-RGB, 512 pixels a side.
+const PNG_TERRARIUM: bool = false;
+const PNG_SIZE: u32 = 512;
+
 /// Parses `A-B` or `Z`.
 pub fn parse_zooms(s: &str) -> Result<(u8, u8), String> {
     let parse = |v: &str| {
@@ -125,8 +129,8 @@ pub fn run(job: &Export) -> Result<Exported> {
             gzip: false,
         },
         TileFormat::Png => Variant::Png {
-            terrarium: false,
-            size: 512,
+            terrarium: PNG_TERRARIUM,
+            size: PNG_SIZE,
         },
         _ => Variant::Mesh { gzip: false },
     };
@@ -138,10 +142,11 @@ pub fn run(job: &Export) -> Result<Exported> {
     if format == TileFormat::Terrain && !world {
         bail!("{}: a local grid has no georeference; quantized-mesh needs a geodetic or mercator dataset (export png or json)", d.name);
     }
-    let mercator = matches!(d.tiling.scheme(), Scheme::Mercator);
+    // What MapLibre's raster-dem reads: terrain-RGB PNG on the Web Mercator grid.
+    let maplibre = format == TileFormat::Png && matches!(d.tiling.scheme(), Scheme::Mercator);
     let base_url = match &job.base_url {
         None => None,
-        Some(_) if format != TileFormat::Png || !mercator => bail!(
+        Some(_) if !maplibre => bail!(
             "--base-url writes a TileJSON for MapLibre, which tiles PNG on the mercator grid: \
              use it with --format png on a dataset ingested with --scheme mercator"
         ),
@@ -174,7 +179,7 @@ pub fn run(job: &Export) -> Result<Exported> {
         Some(base) => {
             // A file server ignores the query; a CDN keying on it drops an older build.
             let template = format!("{base}/{{z}}/{{x}}/{{y}}.png?v={}", d.version_tag());
-            Some(raster_dem(&d, template, (z0, z1), false, 512).to_value()?)
+            Some(raster_dem(&d, template, (z0, z1), PNG_TERRARIUM, PNG_SIZE).to_value()?)
         }
         None => None,
     };
@@ -245,7 +250,7 @@ pub fn run(job: &Export) -> Result<Exported> {
         Ok((tiles, bytes)) => Exported {
             tiles,
             bytes,
-            no_tilejson: mercator && format == TileFormat::Png && tilejson.is_none(),
+            no_tilejson: maplibre && tilejson.is_none(),
         },
         Err(e) => {
             let _ = std::fs::remove_dir_all(&tmp);
