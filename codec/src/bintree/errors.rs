@@ -261,13 +261,13 @@ fn finest_two_levels(h: &[f64], n: usize, value: &mut [f32]) {
 /// ⌊2⁴⁰/n⌋ + 1 the quotient is exact while `s · n < 2⁴⁰`, far above any grid the
 /// hierarchy allows (n ≤ 4097, s < n²: s · n < 2³⁷).
 #[derive(Clone, Copy, Debug)]
-struct Coords {
+pub(super) struct Coords {
     n: u64,
     magic: u64,
 }
 
 impl Coords {
-    fn new(n: usize) -> Self {
+    pub(super) fn new(n: usize) -> Self {
         let n = n as u64;
         Self {
             n,
@@ -276,7 +276,7 @@ impl Coords {
     }
 
     #[inline]
-    fn xy(self, s: u32) -> (i64, i64) {
+    pub(super) fn xy(self, s: u32) -> (i64, i64) {
         let y = (u64::from(s) * self.magic) >> 40;
         ((u64::from(s) - y * self.n) as i64, y as i64)
     }
