@@ -13,25 +13,14 @@
 
 mod common;
 
+use common::decode_and_mesh_at;
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use zerotile_codec::bintree::{self, Hierarchy, TileErrors, DECODE_SHARE};
-use zerotile_codec::ezw::{self, DecodeLimit, EncodeParams};
+use zerotile_codec::ezw::{self, EncodeParams};
 use zerotile_codec::formats::quantized_mesh::{self, QmOptions};
 use zerotile_codec::geo::TileGeo;
 use zerotile_codec::tile::{Neighbourhood, TileView};
 use zerotile_codec::wavelet::Wavelet;
-use zerotile_codec::zerotree::TerrainMesh;
-
-/// One request's work for budget T: read the stream to T · `share` and mesh within the rest,
-/// with errors exact above that tolerance (at the benched budgets, powers of two × 8, the
-/// server's floor for the decode depth is the tolerance).
-fn decode_and_mesh_at(bytes: &[u8], hierarchy: &Hierarchy, budget: f64, share: f64) -> TerrainMesh {
-    let limit = DecodeLimit::Threshold(budget * share);
-    let d = ezw::decode_heights(bytes, limit, ezw::DEFAULT_MAX_SAMPLES).expect("decode");
-    let tolerance = budget * (1.0 - share);
-    let errors = TileErrors::exact_above(hierarchy, &d.heights, tolerance);
-    bintree::extract(hierarchy, &errors, &d.heights, tolerance, None)
-}
 
 fn decode_and_mesh(c: &mut Criterion) {
     let g = common::n44w072_tile(257);

@@ -7,9 +7,12 @@
 
 use std::path::PathBuf;
 
+use zerotile_codec::bintree::{self, Hierarchy, TileErrors};
+use zerotile_codec::ezw::{self, DecodeLimit};
 use zerotile_codec::mesh::io::{read_path, MeshLimits};
 use zerotile_codec::mesh::TriMesh;
 use zerotile_codec::raster::{self, ReadOptions};
+use zerotile_codec::zerotree::TerrainMesh;
 use zerotile_codec::Grid;
 
 /// A file under `../shared/data` beside the repository.
@@ -54,4 +57,20 @@ pub fn terrain_mesh_tiles() -> Vec<(&'static str, Grid<f64>, f64)> {
 pub fn mesh(name: &str) -> TriMesh {
     read_path(&shared(&format!("meshes/{name}")), &MeshLimits::default())
         .expect("../shared/data/meshes")
+}
+
+/// One request's work for budget T, as the server does it: read the stream to T · `share`
+/// and mesh within the rest, with errors exact above that tolerance (at the benched budgets,
+/// powers of two × 8, the server's floor for the decode depth is the tolerance).
+pub fn decode_and_mesh_at(
+    bytes: &[u8],
+    hierarchy: &Hierarchy,
+    budget: f64,
+    share: f64,
+) -> TerrainMesh {
+    let limit = DecodeLimit::Threshold(budget * share);
+    let d = ezw::decode_heights(bytes, limit, ezw::DEFAULT_MAX_SAMPLES).expect("decode");
+    let tolerance = budget * (1.0 - share);
+    let errors = TileErrors::exact_above(hierarchy, &d.heights, tolerance);
+    bintree::extract(hierarchy, &errors, &d.heights, tolerance, None)
 }

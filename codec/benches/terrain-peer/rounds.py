@@ -1,0 +1,99 @@
+#!/usr/bin/env python3
+"""Paired speed rounds: zerotile's decode to T/8 + mesh against @mapbox/martini's createTile +
+getMesh at equal true max error, alternating, on terrain_mesh.py's three 257² tiles.
+
+usage: rounds.py [ROUNDS] [ITERATIONS]   (defaults 9 and 31; run from anywhere)
+
+run.sh's criterion group takes minutes before Martini runs, and load on a shared machine drifts
+in that time, on one side of the ratio only. Here each round times every case on both sides
+(the `terrain_rounds` bench binary, the same function the criterion bench times, then node, or
+node first on odd rounds), each a median of ITERATIONS after warm-up, and takes the ratio inside
+the round. The table gives the median ratio over the rounds, its range, and how many rounds came
+out below 1. Martini's E per budget is fixed once, before the rounds (peer.fair_params: the
+largest E whose mesh's true max error is within T).
+"""
+from __future__ import annotations
+
+import json
+import os
+import statistics
+import subprocess
+import sys
+from pathlib import Path
+
+sys.dont_write_bytecode = True
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, os.environ.get("ZT_BENCH", str(Path(__file__).resolve().parents[4] / "shared" / "bench")))
+import benchlib  # noqa: E402
+
+if __name__ == "__main__":
+    benchlib.use_peers_python()
+
+import peer  # noqa: E402
+
+bl, tm, np = peer.bl, peer.tm, peer.np
+
+
+def zerotile_round(repo: Path, iterations: int) -> dict:
+    out = subprocess.run(
+        ["cargo", "bench", "-q", "-p", "zerotile-codec", "--bench", "terrain_rounds", "--", str(iterations)],
+        cwd=repo, capture_output=True, text=True, check=True).stdout
+    rows = [json.loads(line) for line in out.splitlines() if line.startswith("{")]
+    return {(r["tile"], r["wavelet"], float(r["budget"])): r["ms"] for r in rows}
+
+
+def main() -> int:
+    rounds = int(sys.argv[1]) if len(sys.argv) > 1 else 9
+    iterations = int(sys.argv[2]) if len(sys.argv) > 2 else 31
+    repo = Path(__file__).resolve().parents[3]
+    from pymartini import Martini
+
+    tiles = []
+    for name, path, spec, encoding in tm.DEFAULT_TILES:
+        z = np.ascontiguousarray(bl.crop(bl.load_heightmap(path, encoding)[0], spec), dtype=np.float32)
+        fair, _ = peer.fair_params(z, Martini(257).create_tile(z))
+        tiles.append((name, z, fair))
+    # Build before the first round, so no round times a compile.
+    zerotile_round(repo, 1)
+
+    ratios: dict = {}
+    zt_ms: dict = {}
+    mt_ms: dict = {}
+    for r in range(rounds):
+        def martini():
+            return {name: peer.node_martini(z, sorted({p for p, _ in fair.values()}), iterations)
+                    for name, z, fair in tiles}
+        if r % 2:
+            m, zt = martini(), zerotile_round(repo, iterations)
+        else:
+            zt, m = zerotile_round(repo, iterations), martini()
+        for name, _, fair in tiles:
+            if m[name] is None:
+                print("@mapbox/martini not installed: run ../shared/bench/setup.sh", file=sys.stderr)
+                return 1
+            for w in peer.WAVELETS:
+                for t, (e, _) in fair.items():
+                    key = (name, w, t)
+                    zt_ms.setdefault(key, []).append(zt[key])
+                    mt_ms.setdefault(key, []).append(m[name][e])
+                    ratios.setdefault(key, []).append(zt[key] / m[name][e])
+        print(f"round {r + 1}/{rounds} done", file=sys.stderr)
+
+    rows = []
+    for (name, w, t), rs in ratios.items():
+        e, err = dict((n, f) for n, _, f in tiles)[name][t]
+        rows.append([name, w, f"{t:g}", f"{e:.3g} ({err:.3g} m)",
+                     f"{statistics.median(zt_ms[(name, w, t)]):.3f}",
+                     f"{statistics.median(mt_ms[(name, w, t)]):.3f}",
+                     f"{statistics.median(rs):.2f}", f"{min(rs):.2f}–{max(rs):.2f}",
+                     f"{sum(x < 1 for x in rs)}/{len(rs)}"])
+    head = ["tile", "wavelet", "T (m)", "Martini E (true err)", "zerotile ms", "@mapbox/martini ms",
+            "ratio (median)", "ratio range", "rounds < 1"]
+    print(f"# {rounds} paired rounds, medians of {iterations} a side a round; ratio = zerotile / Martini "
+          "at equal true max error\n")
+    print(bl.md_table(head, rows))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

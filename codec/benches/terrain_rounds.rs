@@ -1,0 +1,64 @@
+//! One round of the paired speed comparison (`terrain-peer/rounds.py`): the median time of
+//! `decode_and_mesh_257`'s work (the same function the criterion bench times) for every
+//! tile, wavelet and budget, one JSON object a line.
+//!
+//! Criterion's whole group takes minutes, and on a shared machine the load drifts between
+//! it and a peer run after it. rounds.py instead alternates short runs of this and of
+//! Martini, several times, so both sides of each ratio see the same minute of the machine.
+//!
+//! usage: `cargo bench -p zerotile-codec --bench terrain_rounds -- [ITERATIONS]` (default 31,
+//! after 5 untimed).
+
+#![allow(
+    clippy::expect_used,
+    clippy::print_stdout,
+    reason = "a bench binary: its output is the report, and a missing data file stops it"
+)]
+
+mod common;
+
+use std::hint::black_box;
+use std::time::Instant;
+
+use common::decode_and_mesh_at;
+use zerotile_codec::bintree::{Hierarchy, DECODE_SHARE};
+use zerotile_codec::ezw::{self, EncodeParams};
+use zerotile_codec::wavelet::Wavelet;
+
+const WARM_UP: usize = 5;
+
+fn main() {
+    // cargo bench appends `--bench`; the only argument of ours is the iteration count.
+    let iterations = std::env::args()
+        .skip(1)
+        .find(|a| !a.starts_with('-'))
+        .map(|a| a.parse::<usize>().expect("ITERATIONS: a positive integer"))
+        .unwrap_or(31)
+        .max(1);
+    let hierarchy = Hierarchy::new(257).expect("257 = 2^8 + 1");
+    for (tile, heights, step) in common::terrain_mesh_tiles() {
+        for wavelet in [Wavelet::Cdf97, Wavelet::LeGall53] {
+            let enc = ezw::encode(&heights, &EncodeParams::new(wavelet, step)).expect("encode");
+            for budget in [4.0, 16.0, 64.0] {
+                let run = || {
+                    let t = Instant::now();
+                    let mesh = decode_and_mesh_at(&enc.bytes, &hierarchy, budget, DECODE_SHARE);
+                    black_box(mesh);
+                    t.elapsed().as_secs_f64() * 1e3
+                };
+                for _ in 0..WARM_UP {
+                    run();
+                }
+                let mut ms: Vec<f64> = (0..iterations).map(|_| run()).collect();
+                ms.sort_by(f64::total_cmp);
+                let triangles = decode_and_mesh_at(&enc.bytes, &hierarchy, budget, DECODE_SHARE)
+                    .triangle_count();
+                println!(
+                    "{{\"tile\":\"{tile}\",\"wavelet\":\"{}\",\"budget\":{budget},\"ms\":{:.4},\"triangles\":{triangles}}}",
+                    wavelet.name(),
+                    ms[ms.len() / 2]
+                );
+            }
+        }
+    }
+}
