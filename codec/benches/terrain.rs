@@ -28,19 +28,16 @@ fn decode_and_mesh(c: &mut Criterion) {
     let mut group = c.benchmark_group("decode_and_mesh_257");
     // N44W072 under the wavelet's name alone (the figures quoted since stop 9), the other
     // two tiles of terrain_mesh.py as TILE-wavelet: one tile is no speed figure.
-    for (tile, heights, step) in common::terrain_mesh_tiles() {
-        for wavelet in [Wavelet::Cdf97, Wavelet::LeGall53] {
-            let enc = ezw::encode(&heights, &EncodeParams::new(wavelet, step)).expect("encode");
-            let name = match tile {
-                "N44W072" => wavelet.name().to_string(),
-                _ => format!("{tile}-{}", wavelet.name()),
-            };
-            for budget in [4.0, 16.0, 64.0] {
-                let id = BenchmarkId::new(&name, format!("T={budget}"));
-                group.bench_with_input(id, &budget, |b, &budget| {
-                    b.iter(|| decode_and_mesh_at(&enc.bytes, &hierarchy, budget, DECODE_SHARE))
-                });
-            }
+    for (tile, wavelet, bytes) in common::terrain_mesh_streams() {
+        let name = match tile {
+            "N44W072" => wavelet.name().to_string(),
+            _ => format!("{tile}-{}", wavelet.name()),
+        };
+        for budget in common::BUDGETS {
+            let id = BenchmarkId::new(&name, format!("T={budget}"));
+            group.bench_with_input(id, &budget, |b, &budget| {
+                b.iter(|| decode_and_mesh_at(&bytes, &hierarchy, budget, DECODE_SHARE))
+            });
         }
     }
     group.finish();
@@ -51,7 +48,7 @@ fn decode_and_mesh(c: &mut Criterion) {
     let mut group = c.benchmark_group("decode_share_257");
     let enc = ezw::encode(&g, &EncodeParams::new(Wavelet::Cdf97, 1.0)).expect("encode");
     for share in [DECODE_SHARE, 2.0 * DECODE_SHARE] {
-        for budget in [4.0, 16.0, 64.0] {
+        for budget in common::BUDGETS {
             let id = BenchmarkId::new(format!("share={share}"), format!("T={budget}"));
             group.bench_with_input(id, &budget, |b, &budget| {
                 b.iter(|| decode_and_mesh_at(&enc.bytes, &hierarchy, budget, share))

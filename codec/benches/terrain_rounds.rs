@@ -22,8 +22,6 @@ use std::time::Instant;
 
 use common::decode_and_mesh_at;
 use zerotile_codec::bintree::{Hierarchy, DECODE_SHARE};
-use zerotile_codec::ezw::{self, EncodeParams};
-use zerotile_codec::wavelet::Wavelet;
 
 const WARM_UP: usize = 5;
 
@@ -36,29 +34,23 @@ fn main() {
         .unwrap_or(31)
         .max(1);
     let hierarchy = Hierarchy::new(257).expect("257 = 2^8 + 1");
-    for (tile, heights, step) in common::terrain_mesh_tiles() {
-        for wavelet in [Wavelet::Cdf97, Wavelet::LeGall53] {
-            let enc = ezw::encode(&heights, &EncodeParams::new(wavelet, step)).expect("encode");
-            for budget in [4.0, 16.0, 64.0] {
-                let run = || {
-                    let t = Instant::now();
-                    let mesh = decode_and_mesh_at(&enc.bytes, &hierarchy, budget, DECODE_SHARE);
-                    black_box(mesh);
-                    t.elapsed().as_secs_f64() * 1e3
-                };
-                for _ in 0..WARM_UP {
-                    run();
-                }
-                let mut ms: Vec<f64> = (0..iterations).map(|_| run()).collect();
-                ms.sort_by(f64::total_cmp);
-                let triangles = decode_and_mesh_at(&enc.bytes, &hierarchy, budget, DECODE_SHARE)
-                    .triangle_count();
-                println!(
-                    "{{\"tile\":\"{tile}\",\"wavelet\":\"{}\",\"budget\":{budget},\"ms\":{:.4},\"triangles\":{triangles}}}",
-                    wavelet.name(),
-                    ms[ms.len() / 2]
-                );
+    for (tile, wavelet, bytes) in common::terrain_mesh_streams() {
+        for budget in common::BUDGETS {
+            let run = || {
+                let t = Instant::now();
+                black_box(decode_and_mesh_at(&bytes, &hierarchy, budget, DECODE_SHARE));
+                t.elapsed().as_secs_f64() * 1e3
+            };
+            for _ in 0..WARM_UP {
+                run();
             }
+            let mut ms: Vec<f64> = (0..iterations).map(|_| run()).collect();
+            ms.sort_by(f64::total_cmp);
+            println!(
+                "{{\"tile\":\"{tile}\",\"wavelet\":\"{}\",\"budget\":{budget},\"ms\":{:.4}}}",
+                wavelet.name(),
+                ms[ms.len() / 2]
+            );
         }
     }
 }

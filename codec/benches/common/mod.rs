@@ -8,10 +8,11 @@
 use std::path::PathBuf;
 
 use zerotile_codec::bintree::{self, Hierarchy, TileErrors};
-use zerotile_codec::ezw::{self, DecodeLimit};
+use zerotile_codec::ezw::{self, DecodeLimit, EncodeParams};
 use zerotile_codec::mesh::io::{read_path, MeshLimits};
 use zerotile_codec::mesh::TriMesh;
 use zerotile_codec::raster::{self, ReadOptions};
+use zerotile_codec::wavelet::Wavelet;
 use zerotile_codec::zerotree::TerrainMesh;
 use zerotile_codec::Grid;
 
@@ -57,6 +58,23 @@ pub fn terrain_mesh_tiles() -> Vec<(&'static str, Grid<f64>, f64)> {
 pub fn mesh(name: &str) -> TriMesh {
     read_path(&shared(&format!("meshes/{name}")), &MeshLimits::default())
         .expect("../shared/data/meshes")
+}
+
+/// The budgets T (m) the decode + mesh benches time: powers of two × 8, so the server's
+/// floor for each decode depth is the mesh tolerance.
+pub const BUDGETS: [f64; 3] = [4.0, 16.0, 64.0];
+
+/// [`terrain_mesh_tiles`] encoded with each wavelet at the tile's step: what
+/// `decode_and_mesh_257` and `terrain_rounds` decode.
+pub fn terrain_mesh_streams() -> Vec<(&'static str, Wavelet, Vec<u8>)> {
+    let mut out = Vec::new();
+    for (tile, heights, step) in terrain_mesh_tiles() {
+        for wavelet in [Wavelet::Cdf97, Wavelet::LeGall53] {
+            let enc = ezw::encode(&heights, &EncodeParams::new(wavelet, step)).expect("encode");
+            out.push((tile, wavelet, enc.bytes));
+        }
+    }
+    out
 }
 
 /// One request's work for budget T, as the server does it: read the stream to T · `share`

@@ -30,8 +30,8 @@ BENCH = Path(os.environ.get("ZT_BENCH", Path(__file__).resolve().parents[4] / "s
 sys.path.insert(0, str(BENCH))
 import benchlib as bl  # noqa: E402
 
-if __name__ == "__main__":
-    bl.use_peers_python()
+# Re-execs the script that was run (this one, or rounds.py importing it) under the peers' venv.
+bl.use_peers_python()
 
 import numpy as np  # noqa: E402
 

@@ -15,7 +15,6 @@ largest E whose mesh's true max error is within T).
 from __future__ import annotations
 
 import json
-import os
 import statistics
 import subprocess
 import sys
@@ -23,13 +22,7 @@ from pathlib import Path
 
 sys.dont_write_bytecode = True
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-sys.path.insert(0, os.environ.get("ZT_BENCH", str(Path(__file__).resolve().parents[4] / "shared" / "bench")))
-import benchlib  # noqa: E402
-
-if __name__ == "__main__":
-    benchlib.use_peers_python()
-
-import peer  # noqa: E402
+import peer  # noqa: E402  (benchlib, the peers' venv, Martini's fair E)
 
 bl, tm, np = peer.bl, peer.tm, peer.np
 
@@ -48,43 +41,42 @@ def main() -> int:
     repo = Path(__file__).resolve().parents[3]
     from pymartini import Martini
 
+    # Per tile: its heights, Martini's (E, true error) per budget, and those E for node.
     tiles = []
     for name, path, spec, encoding in tm.DEFAULT_TILES:
         z = np.ascontiguousarray(bl.crop(bl.load_heightmap(path, encoding)[0], spec), dtype=np.float32)
         fair, _ = peer.fair_params(z, Martini(257).create_tile(z))
-        tiles.append((name, z, fair))
+        tiles.append((name, z, fair, sorted({e for e, _ in fair.values()})))
     # Build before the first round, so no round times a compile.
     zerotile_round(repo, 1)
 
-    ratios: dict = {}
-    zt_ms: dict = {}
-    mt_ms: dict = {}
+    def martini() -> dict:
+        return {name: peer.node_martini(z, params, iterations) for name, z, _, params in tiles}
+
+    # (tile, wavelet, T) -> one (zerotile ms, Martini ms) pair per round.
+    pairs: dict = {}
     for r in range(rounds):
-        def martini():
-            return {name: peer.node_martini(z, sorted({p for p, _ in fair.values()}), iterations)
-                    for name, z, fair in tiles}
         if r % 2:
             m, zt = martini(), zerotile_round(repo, iterations)
         else:
             zt, m = zerotile_round(repo, iterations), martini()
-        for name, _, fair in tiles:
+        for name, _, fair, _ in tiles:
             if m[name] is None:
                 print("@mapbox/martini not installed: run ../shared/bench/setup.sh", file=sys.stderr)
                 return 1
             for w in peer.WAVELETS:
                 for t, (e, _) in fair.items():
-                    key = (name, w, t)
-                    zt_ms.setdefault(key, []).append(zt[key])
-                    mt_ms.setdefault(key, []).append(m[name][e])
-                    ratios.setdefault(key, []).append(zt[key] / m[name][e])
+                    pairs.setdefault((name, w, t), []).append((zt[(name, w, t)], m[name][e]))
         print(f"round {r + 1}/{rounds} done", file=sys.stderr)
 
+    fair_of = {name: fair for name, _, fair, _ in tiles}
     rows = []
-    for (name, w, t), rs in ratios.items():
-        e, err = dict((n, f) for n, _, f in tiles)[name][t]
+    for (name, w, t), ps in pairs.items():
+        e, err = fair_of[name][t]
+        rs = [a / b for a, b in ps]
         rows.append([name, w, f"{t:g}", f"{e:.3g} ({err:.3g} m)",
-                     f"{statistics.median(zt_ms[(name, w, t)]):.3f}",
-                     f"{statistics.median(mt_ms[(name, w, t)]):.3f}",
+                     f"{statistics.median(a for a, _ in ps):.3f}",
+                     f"{statistics.median(b for _, b in ps):.3f}",
                      f"{statistics.median(rs):.2f}", f"{min(rs):.2f}–{max(rs):.2f}",
                      f"{sum(x < 1 for x in rs)}/{len(rs)}"])
     head = ["tile", "wavelet", "T (m)", "Martini E (true err)", "zerotile ms", "@mapbox/martini ms",

@@ -166,10 +166,9 @@ pub fn border_vertices(
     };
     let last = (n - 1) as i64;
     let coords = Coords::new(n);
-    let xy = |s: u32| coords.xy(s);
     walk.border_leaves(n, &mut |t: &Tri| {
         for (p, q) in [(t.a, t.b), (t.b, t.c), (t.c, t.a)] {
-            let ((px, py), (qx, qy)) = (xy(p), xy(q));
+            let ((px, py), (qx, qy)) = (coords.xy(p), coords.xy(q));
             for (x, y) in [(px, py), (qx, qy)] {
                 if py == qy && py == 0 {
                     out.north[x as usize] = true;
@@ -223,9 +222,8 @@ impl Walk<'_> {
         let last = (n - 1) as i64;
         let coords = Coords::new(n);
         let on_border = |t: &Tri| {
-            let xy = |s: u32| coords.xy(s);
             [(t.a, t.b), (t.b, t.c), (t.c, t.a)].iter().any(|&(p, q)| {
-                let ((px, py), (qx, qy)) = (xy(p), xy(q));
+                let ((px, py), (qx, qy)) = (coords.xy(p), coords.xy(q));
                 (py == qy && (py == 0 || py == last)) || (px == qx && (px == 0 || px == last))
             })
         };
