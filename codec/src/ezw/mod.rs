@@ -7,7 +7,7 @@
 //! Any prefix of a stream decodes: whole passes exactly, and the cut pass up to the last
 //! symbol its bytes determine. Decoding "to threshold T" reads the passes with T_k ≥ T.
 
-mod arith;
+pub mod arith;
 mod bitmap;
 mod bound;
 mod context;
@@ -69,6 +69,9 @@ pub struct PassInfo {
     /// right after this pass, as the stream records it: measured by the encoder, rounded up
     /// by at most 4.4 %, so a server can promise a mesh error without measuring.
     pub max_error: f64,
+    /// Binary decisions (context-coded and bypass) the pass codes: what decoding it costs,
+    /// one serial step of the range decoder each.
+    pub decisions: u64,
 }
 
 /// An encoded stream and its pass table.
@@ -218,6 +221,8 @@ pub fn encode(heights: &Grid<f64>, params: &EncodeParams) -> Result<Encoded, Par
     // Found-list lengths after each plane's propagation and cleanup passes (top first):
     // the max-error search rebuilds any plane boundary's state from them.
     let mut found_after = Vec::new();
+    // Binary decisions each segment coded.
+    let mut decisions: Vec<u64> = Vec::new();
     if let Some(top) = top_plane {
         for k in (0..=top).rev() {
             // After every pass the encoder decodes itself (its state is the decoder's) and
@@ -231,19 +236,21 @@ pub fn encode(heights: &Grid<f64>, params: &EncodeParams) -> Result<Encoded, Par
                     t_k,
                 )
             };
-            let io = EncodeIo(arith::Encoder::new());
-            let (io, _) = passes::propagation(io, &plan, &mut state, Some(&truth), k);
-            segments.push(io.0.finish());
+            let (io, _) =
+                passes::propagation(EncodeIo::default(), &plan, &mut state, Some(&truth), k);
+            decisions.push(io.decisions);
+            segments.push(io.enc.finish());
             header.pass_errors.push(bound_now(&state));
             let after_propagation = state.found.len();
-            let io = EncodeIo(arith::Encoder::new());
-            let (io, _) = passes::refinement(io, &plan, &mut state, Some(&truth), k);
-            segments.push(io.0.finish());
+            let (io, _) =
+                passes::refinement(EncodeIo::default(), &plan, &mut state, Some(&truth), k);
+            decisions.push(io.decisions);
+            segments.push(io.enc.finish());
             header.pass_errors.push(bound_now(&state));
             truth.prepare(&plan, &state, k);
-            let io = EncodeIo(arith::Encoder::new());
-            let (io, _) = passes::cleanup(io, &plan, &mut state, Some(&truth), k);
-            segments.push(io.0.finish());
+            let (io, _) = passes::cleanup(EncodeIo::default(), &plan, &mut state, Some(&truth), k);
+            decisions.push(io.decisions);
+            segments.push(io.enc.finish());
             header.pass_errors.push(bound_now(&state));
             found_after.push((after_propagation, state.found.len()));
         }
@@ -293,6 +300,7 @@ pub fn encode(heights: &Grid<f64>, params: &EncodeParams) -> Result<Encoded, Par
             end: bytes.len(),
             // Always recorded for an encoded pass; infinity would only say "no bound".
             max_error: header.pass_error(s).unwrap_or(f64::INFINITY),
+            decisions: decisions[s],
         });
     }
     if let Some(cut) = residual {

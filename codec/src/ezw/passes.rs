@@ -33,20 +33,29 @@ pub trait BitIo {
     fn bypass(&mut self, bit: impl FnOnce() -> bool) -> Option<bool>;
 }
 
-pub struct EncodeIo(pub Encoder);
+/// The encoder's channel. It counts the binary decisions it codes: the decoder's work per
+/// pass is one decision after another, so the count is what a decode of the pass costs (the
+/// decoder itself does not count: an add per decision would be on its critical path).
+#[derive(Default)]
+pub struct EncodeIo {
+    pub enc: Encoder,
+    pub decisions: u64,
+}
 
 impl BitIo for EncodeIo {
     #[inline]
     fn bit(&mut self, p: &mut Prob, bit: impl FnOnce() -> bool) -> Option<bool> {
         let b = bit();
-        self.0.encode(p, b);
+        self.enc.encode(p, b);
+        self.decisions += 1;
         Some(b)
     }
 
     #[inline]
     fn bypass(&mut self, bit: impl FnOnce() -> bool) -> Option<bool> {
         let b = bit();
-        self.0.encode_bypass(b);
+        self.enc.encode_bypass(b);
+        self.decisions += 1;
         Some(b)
     }
 }

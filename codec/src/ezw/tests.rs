@@ -79,6 +79,47 @@ fn decoding_to_a_threshold_reads_exactly_the_passes_above_it() {
 
 /// The server's heights-only decode must give exactly the heights, bounds and byte counts of
 /// the full one: both wavelets, every kind of limit, cuts inside passes and the residual.
+/// The pass table's decision counts are the passes' real work: a 9/7 refinement pass codes one
+/// bit of every coefficient significant before its plane (the decode up to there says how
+/// many),
+/// and no pass fits more bits in its bytes than its decisions could carry.
+#[test]
+fn pass_decision_counts_match_the_coefficients_they_code() {
+    let g = n44w072_crop(300, 500, 129);
+    let enc = encode(&g, &EncodeParams::new(Wavelet::Cdf97, 1.0)).unwrap();
+    let mut start = enc.header_len;
+    let mut checked = 0;
+    for (s, p) in enc.passes.iter().enumerate() {
+        // A decision costs at most log2(2048 / 31) < 6.05 bits; termination adds ≤ 4 bytes.
+        let bytes = p.end - start;
+        assert!(
+            (bytes as f64) * 8.0 <= 6.05 * p.decisions as f64 + 32.0,
+            "pass {s}: {bytes} bytes from {} decisions",
+            p.decisions
+        );
+        if p.kind == PassKind::Refinement {
+            // Those found in this plane's propagation pass are not refined until the next.
+            let plane_start = s
+                .checked_sub(2)
+                .map_or(enc.header_len, |q| enc.passes[q].end);
+            let d = decode(
+                &enc.bytes,
+                DecodeLimit::Bytes(plane_start),
+                DEFAULT_MAX_SAMPLES,
+            )
+            .unwrap();
+            let before = d.significant.data().iter().filter(|&&b| b).count() as u64;
+            assert_eq!(p.decisions, before, "refinement pass {s}");
+            checked += u64::from(before > 0);
+        }
+        start = p.end;
+    }
+    assert!(
+        checked > 5,
+        "only {checked} refinement passes had coefficients to refine"
+    );
+}
+
 #[test]
 fn heights_only_decode_equals_the_full_decode() {
     let g = n44w072_crop(300, 500, 65);
