@@ -59,12 +59,7 @@ fn skewed_stream(n: usize) -> (Vec<u8>, Vec<u8>) {
 }
 
 fn main() {
-    let iterations = std::env::args()
-        .skip(1)
-        .find(|a| !a.starts_with('-'))
-        .map(|a| a.parse::<usize>().expect("ITERATIONS: a positive integer"))
-        .unwrap_or(31)
-        .max(1);
+    let iterations = common::iterations_arg();
     let hierarchy = Hierarchy::new(257).expect("257 = 2^8 + 1");
     println!("| tile | wavelet | T | decisions | decode ms | bare coder ms | decode − coder ms | errors + extract ms |");
     println!("|---|---|---|---|---|---|---|---|");

@@ -26,13 +26,7 @@ use zerotile_codec::bintree::{Hierarchy, DECODE_SHARE};
 const WARM_UP: usize = 5;
 
 fn main() {
-    // cargo bench appends `--bench`; the only argument of ours is the iteration count.
-    let iterations = std::env::args()
-        .skip(1)
-        .find(|a| !a.starts_with('-'))
-        .map(|a| a.parse::<usize>().expect("ITERATIONS: a positive integer"))
-        .unwrap_or(31)
-        .max(1);
+    let iterations = common::iterations_arg();
     let hierarchy = Hierarchy::new(257).expect("257 = 2^8 + 1");
     for (tile, wavelet, bytes) in common::terrain_mesh_streams() {
         for budget in common::BUDGETS {

@@ -92,3 +92,14 @@ pub fn decode_and_mesh_at(
     let errors = TileErrors::exact_above(hierarchy, &d.heights, tolerance);
     bintree::extract(hierarchy, &errors, &d.heights, tolerance, None)
 }
+
+/// A bench binary's timed runs per case: its one argument (cargo bench appends `--bench`,
+/// which is skipped), default 31.
+pub fn iterations_arg() -> usize {
+    std::env::args()
+        .skip(1)
+        .find(|a| !a.starts_with('-'))
+        .map(|a| a.parse::<usize>().expect("ITERATIONS: a positive integer"))
+        .unwrap_or(31)
+        .max(1)
+}
