@@ -363,3 +363,93 @@ fn info_verify_finds_a_flipped_bit_and_names_the_tile() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("local files"));
     let _ = std::fs::remove_dir_all(&data);
 }
+
+/// `zerotile ingest …` under `sh` with a file-size limit of `blocks` × 512 bytes; with
+/// `trap` the write fails with EFBIG, without it the kernel kills the ingest (SIGXFSZ)
+/// mid-write.
+fn ingest_limited(
+    input: &Path,
+    name: &str,
+    data: &Path,
+    blocks: u32,
+    trap: bool,
+) -> std::process::Output {
+    let trap = if trap { "trap '' XFSZ; " } else { "" };
+    Command::new("sh")
+        .arg("-c")
+        .arg(format!("{trap}ulimit -f {blocks}; exec \"$0\" \"$@\""))
+        .arg(zerotile_bin())
+        .arg("ingest")
+        .arg(input)
+        .args(["--name", name, "--quiet", "--precision", "1", "--data"])
+        .arg(data)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn a_write_that_fails_midway_leaves_the_previous_dataset_intact() {
+    let data = scratch("ingest-efbig");
+    assert_success(&ingest(
+        &shared_data().join("dem/terra_elev.tif"),
+        "lux",
+        &data,
+        &[],
+    ));
+    let before = std::fs::read(data.join("lux.ztd")).unwrap();
+    // The new container is far larger than 64 KiB: its write fails part-way.
+    let out = ingest_limited(
+        &shared_data().join("dem/N44W072.hgt"),
+        "lux",
+        &data,
+        128,
+        true,
+    );
+    assert_eq!(
+        out.status.code(),
+        Some(1),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(std::fs::read(data.join("lux.ztd")).unwrap(), before);
+    let names: Vec<String> = std::fs::read_dir(&data)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(names, ["lux.ztd"], "temporary files left behind");
+    let _ = std::fs::remove_dir_all(&data);
+}
+
+#[test]
+fn an_ingest_killed_mid_write_leaves_the_previous_dataset_served() {
+    use std::os::unix::process::ExitStatusExt;
+    let data = scratch("ingest-xfsz");
+    assert_success(&ingest(
+        &shared_data().join("dem/terra_elev.tif"),
+        "keep",
+        &data,
+        &[],
+    ));
+    let before = std::fs::read(data.join("keep.ztd")).unwrap();
+    let out = ingest_limited(
+        &shared_data().join("dem/N44W072.hgt"),
+        "keep",
+        &data,
+        128,
+        false,
+    );
+    assert_eq!(
+        out.status.signal(),
+        Some(25),
+        "killed by SIGXFSZ while writing: {:?}",
+        out.status
+    );
+    assert_eq!(std::fs::read(data.join("keep.ztd")).unwrap(), before);
+    let s = zerotile_tests::server::Server::start(&data);
+    let list = s.get("/v1/datasets", &[]).json();
+    assert_eq!(list["datasets"].as_array().map(Vec::len), Some(1));
+    assert_eq!(s.get("/v1/datasets/keep/tiles/0/0/0.png", &[]).status, 200);
+    drop(s);
+    let _ = std::fs::remove_dir_all(&data);
+}

@@ -942,3 +942,44 @@ fn real_geodetic_tiles_match_their_neighbours_on_every_side() {
         );
     }
 }
+
+#[test]
+fn view_and_ratio_thresholds_are_eq4() {
+    let s = Server::start(data_dir());
+    let d = s.get("/v1/datasets/crop", &[]).json();
+    let (a, b) = (
+        d["view"]["a"].as_f64().unwrap(),
+        d["view"]["b"].as_f64().unwrap(),
+    );
+    let eq4 = |ratio: f64| (a * ratio + b).clamp(0.0, 100_000.0);
+    for h in [400.0, 3000.0] {
+        let v = s
+            .get(
+                &format!("/v1/datasets/crop/view?eye=256,400,{h}&target=256,256,300&fov=60"),
+                &[],
+            )
+            .json();
+        let (t, ratio) = (
+            v["threshold"].as_f64().unwrap(),
+            v["ratio"].as_f64().unwrap(),
+        );
+        assert!(
+            (t - eq4(ratio)).abs() <= 1e-9 * t.max(1.0),
+            "h {h}: T {t}, eq. 4 gives {}",
+            eq4(ratio)
+        );
+    }
+    for ratio in [0.01, 0.5] {
+        let r = s.get(
+            &format!("/v1/datasets/crop/tiles/1/0/0.png?ratio={ratio}"),
+            &[],
+        );
+        assert_eq!(r.status, 200);
+        let t = r.number("x-threshold");
+        assert!(
+            (t - eq4(ratio)).abs() <= 1e-9 * t.max(1.0),
+            "ratio {ratio}: T {t}, eq. 4 gives {}",
+            eq4(ratio)
+        );
+    }
+}

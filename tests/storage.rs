@@ -76,6 +76,41 @@ impl Drop for Moto {
     }
 }
 
+// A loopback TCP relay to `upstream` that counts the bytes
+// the store sends back, measured outside the server under test.
+fn counting_relay(upstream: String) -> (String, std::sync::Arc<std::sync::atomic::AtomicU64>) {
+    use std::io::{Read, Write};
+    use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let base = format!("http://{}", listener.local_addr().unwrap());
+    let served = std::sync::Arc::new(AtomicU64::new(0));
+    let count = served.clone();
+    let up = upstream.trim_start_matches("http://").to_string();
+    std::thread::spawn(move || {
+        for client in listener.incoming().flatten() {
+            let Ok(server) = std::net::TcpStream::connect(&up) else {
+                continue;
+            };
+            let (mut c_in, mut s_out) = (client.try_clone().unwrap(), server.try_clone().unwrap());
+            std::thread::spawn(move || {
+                let _ = std::io::copy(&mut c_in, &mut s_out);
+            });
+            let (mut s_in, mut c_out, count) = (server, client, count.clone());
+            std::thread::spawn(move || {
+                let mut buf = [0u8; 16384];
+                while let Ok(n) = s_in.read(&mut buf) {
+                    if n == 0 || c_out.write_all(&buf[..n]).is_err() {
+                        break;
+                    }
+                    count.fetch_add(n as u64, Relaxed);
+                }
+                let _ = c_out.shutdown(std::net::Shutdown::Write);
+            });
+        }
+    });
+    (base, served)
+}
+
 fn metric(s: &Server, name: &str) -> f64 {
     let text = String::from_utf8(s.get("/metrics", &[]).body).unwrap();
     text.lines()
@@ -108,7 +143,7 @@ fn s3_datasets_serve_the_same_bytes_by_range_reads() {
     moto.put("/tiles/other/elsewhere.ztd", &file);
 
     let local = Server::start(&dir);
-    let endpoint = moto.base.clone();
+    let (endpoint, from_store) = counting_relay(moto.base.clone());
     let mut remote = Server::start_with(
         "s3://tiles/prod".as_ref(),
         &[
@@ -136,6 +171,8 @@ fn s3_datasets_serve_the_same_bytes_by_range_reads() {
     );
 
     let before = metric(&remote, "zerotile_storage_read_bytes_total");
+    let reads_before = metric(&remote, "zerotile_storage_reads_total");
+    let wire_before = from_store.load(std::sync::atomic::Ordering::Relaxed);
     let layer = local.get("/v1/datasets/srtm/layer.json", &[]).json();
     let z9 = &layer["available"][9][0];
     let (x0, y0) = (
@@ -173,7 +210,13 @@ fn s3_datasets_serve_the_same_bytes_by_range_reads() {
     }
     assert_eq!(asked, 5);
     let read = metric(&remote, "zerotile_storage_read_bytes_total") - before;
-    let reads = metric(&remote, "zerotile_storage_reads_total");
+    let reads = metric(&remote, "zerotile_storage_reads_total") - reads_before;
+    let wire = from_store.load(std::sync::atomic::Ordering::Relaxed) - wire_before;
+    assert!(
+        (wire as f64) < file.len() as f64 / 4.0,
+        "{wire} bytes came from the store for a few tiles of a {}-byte object",
+        file.len()
+    );
     assert!(read > 0.0, "tiles were read from the store");
     assert!(
         read < file.len() as f64 / 4.0,

@@ -127,11 +127,23 @@ fn border_vertices_are_the_border_leaf_corners() {
     let split = Complexity::new(&d.layout, &d.coefficients).leaves(4.0);
     let b = split.border_vertices();
     let m = triangulate(&split, &d.heights, None);
-    let on_north: Vec<bool> = (0..65)
-        .map(|c| m.positions.iter().any(|p| p[1] == 0.0 && p[0] == c as f64))
-        .collect();
-    assert_eq!(b.north, on_north);
-    assert!(b.north[0] && b.north[64] && b.west[0] && b.east[64] && b.south[0]);
+    // Mesh vertices at (x, y) = at(k) for k along one side.
+    let on = |at: &dyn Fn(f64) -> (f64, f64)| -> Vec<bool> {
+        (0..65)
+            .map(|k| {
+                let (x, y) = at(k as f64);
+                m.positions.iter().any(|p| p[0] == x && p[1] == y)
+            })
+            .collect()
+    };
+    assert_eq!(b.north, on(&|k| (k, 0.0)), "north");
+    assert_eq!(b.south, on(&|k| (k, 64.0)), "south");
+    assert_eq!(b.west, on(&|k| (0.0, k)), "west");
+    assert_eq!(b.east, on(&|k| (64.0, k)), "east");
+    // Not only the corners: each side has vertices between them.
+    for side in [&b.north, &b.south, &b.west, &b.east] {
+        assert!(side[1..64].iter().any(|&v| v));
+    }
 }
 
 #[test]
@@ -148,7 +160,15 @@ fn extra_border_vertices_are_inserted_without_t_junctions() {
     }
     let m = triangulate(&split, &d.heights, Some(&extra));
     assert_watertight(&m, "with extra border vertices");
+    let has = |x: usize, y: usize| {
+        m.positions
+            .iter()
+            .any(|p| p[0] == x as f64 && p[1] == y as f64)
+    };
     for k in [3, 7, 8, 30, 31, 33, 50] {
-        assert!(m.positions.iter().any(|p| p[1] == 0.0 && p[0] == k as f64));
+        assert!(has(k, 0), "north {k}");
+        assert!(has(64, k), "east {k}");
+        assert!(has(64 - k, 64), "south {}", 64 - k);
+        assert!(has(0, k / 2), "west {}", k / 2);
     }
 }

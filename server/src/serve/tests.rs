@@ -152,6 +152,30 @@ async fn tiles_carry_threshold_triangles_and_cache_headers() {
 }
 
 #[tokio::test]
+async fn default_threshold_is_the_geometric_error_capped_at_the_relief() {
+    // Local 257² grid, one zoom: Cesium's 0.25 · 256 samples / 65, below the 80 m relief.
+    let local = router("default-t");
+    let (_, h, _) = send(
+        &local,
+        Method::GET,
+        "/v1/datasets/hill/tiles/0/0/0.json",
+        &[],
+    )
+    .await;
+    let t: f64 = h["x-threshold"].to_str().unwrap().parse().unwrap();
+    assert!((t - 0.25 * 256.0 / 65.0).abs() < 1e-12, "{t}");
+    // A geodetic root: ~77 km of geometric error, capped at the relief (140 - 60 m).
+    let mut d = hill_dataset("default-geo", "geodetic", &[TileId { z: 0, x: 0, y: 0 }]);
+    d.name = "geo".into();
+    let mut catalog = Catalog::default();
+    catalog.insert(d);
+    let app = app(AppState::new(catalog, Config::default()));
+    let (s, h, _) = send(&app, Method::GET, "/v1/datasets/geo/tiles/0/0/0.json", &[]).await;
+    assert_eq!(s, StatusCode::OK);
+    assert_eq!(h["x-threshold"], "80");
+}
+
+#[tokio::test]
 async fn errors_are_json_with_their_codes() {
     let app = router("errors");
     for (method, uri, status, code) in [

@@ -546,6 +546,14 @@ fn truncated_extensions_are_errors() {
     )
     .unwrap();
     let full = decode(&bytes).unwrap();
+    let bare = encode(
+        &mesh,
+        &TileGeo::geodetic(0.0, 0.0, 1.0, 1.0),
+        &QmOptions::default(),
+    )
+    .unwrap()
+    .len();
+    let mut valid = Vec::new();
     for cut in 0..bytes.len() {
         // A cut between extensions is a valid tile with fewer of them; any other is an error.
         if let Ok(m) = decode(&bytes[..cut]) {
@@ -554,8 +562,13 @@ fn truncated_extensions_are_errors() {
                 (&full.u, &full.triangles, &full.north)
             );
             assert!(m.metadata.is_none(), "cut {cut}");
+            valid.push(cut);
         }
     }
+    // Exactly three cuts fall between extensions: after the bare tile and after each of the
+    // first two of the three extensions.
+    assert_eq!(valid.len(), 3, "valid cuts from {:?}", valid.first());
+    assert_eq!(valid[0], bare);
 }
 
 /// xorshift64*: a fixed-seed byte mutator, so a failure replays.
