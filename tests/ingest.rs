@@ -5,7 +5,7 @@
 )]
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::{Command, Output};
 
 use zerotile_codec::container::{Container, Limits, TileId, TileRecord};
 use zerotile_codec::ezw::{self, DecodeLimit};
@@ -364,47 +364,39 @@ fn info_verify_finds_a_flipped_bit_and_names_the_tile() {
     let _ = std::fs::remove_dir_all(&data);
 }
 
-/// `zerotile ingest …` under `sh` with a file-size limit of `blocks` × 512 bytes; with
-/// `trap` the write fails with EFBIG, without it the kernel kills the ingest (SIGXFSZ)
-/// mid-write.
-fn ingest_limited(
-    input: &Path,
-    name: &str,
-    data: &Path,
-    blocks: u32,
-    trap: bool,
-) -> std::process::Output {
+/// Ingests terra_elev.tif as `name`, then replaces it with N44W072 under a file-size limit of
+/// 64 KiB, far below the new container: with `trap` its write fails part-way (EFBIG), without
+/// it the kernel kills the ingest mid-write (SIGXFSZ). Returns the data folder, the first
+/// container's bytes and the second ingest's output.
+fn replace_under_a_size_limit(tag: &str, name: &str, trap: bool) -> (PathBuf, Vec<u8>, Output) {
+    let data = scratch(tag);
+    assert_success(&ingest(
+        &shared_data().join("dem/terra_elev.tif"),
+        name,
+        &data,
+        &[],
+    ));
+    let before = std::fs::read(data.join(format!("{name}.ztd"))).unwrap();
+    let cmd = ingest_command(
+        &shared_data().join("dem/N44W072.hgt"),
+        name,
+        &data,
+        &["--precision", "1"],
+    );
     let trap = if trap { "trap '' XFSZ; " } else { "" };
-    Command::new("sh")
+    let out = Command::new("sh")
         .arg("-c")
-        .arg(format!("{trap}ulimit -f {blocks}; exec \"$0\" \"$@\""))
-        .arg(zerotile_bin())
-        .arg("ingest")
-        .arg(input)
-        .args(["--name", name, "--quiet", "--precision", "1", "--data"])
-        .arg(data)
+        .arg(format!("{trap}ulimit -f 128; exec \"$0\" \"$@\""))
+        .arg(cmd.get_program())
+        .args(cmd.get_args())
         .output()
-        .unwrap()
+        .unwrap();
+    (data, before, out)
 }
 
 #[test]
 fn a_write_that_fails_midway_leaves_the_previous_dataset_intact() {
-    let data = scratch("ingest-efbig");
-    assert_success(&ingest(
-        &shared_data().join("dem/terra_elev.tif"),
-        "lux",
-        &data,
-        &[],
-    ));
-    let before = std::fs::read(data.join("lux.ztd")).unwrap();
-    // The new container is far larger than 64 KiB: its write fails part-way.
-    let out = ingest_limited(
-        &shared_data().join("dem/N44W072.hgt"),
-        "lux",
-        &data,
-        128,
-        true,
-    );
+    let (data, before, out) = replace_under_a_size_limit("ingest-efbig", "lux", true);
     assert_eq!(
         out.status.code(),
         Some(1),
@@ -424,21 +416,7 @@ fn a_write_that_fails_midway_leaves_the_previous_dataset_intact() {
 #[test]
 fn an_ingest_killed_mid_write_leaves_the_previous_dataset_served() {
     use std::os::unix::process::ExitStatusExt;
-    let data = scratch("ingest-xfsz");
-    assert_success(&ingest(
-        &shared_data().join("dem/terra_elev.tif"),
-        "keep",
-        &data,
-        &[],
-    ));
-    let before = std::fs::read(data.join("keep.ztd")).unwrap();
-    let out = ingest_limited(
-        &shared_data().join("dem/N44W072.hgt"),
-        "keep",
-        &data,
-        128,
-        false,
-    );
+    let (data, before, out) = replace_under_a_size_limit("ingest-xfsz", "keep", false);
     assert_eq!(
         out.status.signal(),
         Some(25),

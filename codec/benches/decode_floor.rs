@@ -17,27 +17,11 @@
 mod common;
 
 use std::hint::black_box;
-use std::time::Instant;
 
 use zerotile_codec::bintree::{self, Hierarchy, TileErrors, DECODE_SHARE};
 use zerotile_codec::ezw::arith::{Decoder, Encoder, PROB_INIT};
 use zerotile_codec::ezw::{self, DecodeLimit, EncodeParams};
 use zerotile_codec::wavelet::Wavelet;
-
-fn median_ms(iterations: usize, mut f: impl FnMut()) -> f64 {
-    for _ in 0..5 {
-        f();
-    }
-    let mut ms: Vec<f64> = (0..iterations)
-        .map(|_| {
-            let t = Instant::now();
-            f();
-            t.elapsed().as_secs_f64() * 1e3
-        })
-        .collect();
-    ms.sort_by(f64::total_cmp);
-    ms[ms.len() / 2]
-}
 
 /// `n` decisions over 16 contexts, about 0.7 bits each (the streams' own rate), coded.
 fn skewed_stream(n: usize) -> (Vec<u8>, Vec<u8>) {
@@ -76,11 +60,11 @@ fn main() {
                     .sum();
                 let limit = DecodeLimit::Threshold(depth);
                 let decode = || ezw::decode_heights(&enc.bytes, limit, ezw::DEFAULT_MAX_SAMPLES);
-                let decode_ms = median_ms(iterations, || {
+                let decode_ms = common::median_ms(iterations, || {
                     black_box(decode().expect("decode"));
                 });
                 let (bytes, contexts) = skewed_stream(decisions as usize);
-                let coder_ms = median_ms(iterations, || {
+                let coder_ms = common::median_ms(iterations, || {
                     let mut ctx = [PROB_INIT; 16];
                     let mut dec = Decoder::new(&bytes);
                     let mut ones = 0u32;
@@ -91,7 +75,7 @@ fn main() {
                 });
                 let d = decode().expect("decode");
                 let tolerance = budget * (1.0 - DECODE_SHARE);
-                let mesh_ms = median_ms(iterations, || {
+                let mesh_ms = common::median_ms(iterations, || {
                     let errors = TileErrors::exact_above(&hierarchy, &d.heights, tolerance);
                     black_box(bintree::extract(
                         &hierarchy, &errors, &d.heights, tolerance, None,

@@ -18,32 +18,22 @@
 mod common;
 
 use std::hint::black_box;
-use std::time::Instant;
 
 use common::decode_and_mesh_at;
 use zerotile_codec::bintree::{Hierarchy, DECODE_SHARE};
-
-const WARM_UP: usize = 5;
 
 fn main() {
     let iterations = common::iterations_arg();
     let hierarchy = Hierarchy::new(257).expect("257 = 2^8 + 1");
     for (tile, wavelet, bytes) in common::terrain_mesh_streams() {
         for budget in common::BUDGETS {
-            let run = || {
-                let t = Instant::now();
+            let ms = common::median_ms(iterations, || {
                 black_box(decode_and_mesh_at(&bytes, &hierarchy, budget, DECODE_SHARE));
-                t.elapsed().as_secs_f64() * 1e3
-            };
-            for _ in 0..WARM_UP {
-                run();
-            }
-            let mut ms: Vec<f64> = (0..iterations).map(|_| run()).collect();
-            ms.sort_by(f64::total_cmp);
+            });
             println!(
                 "{{\"tile\":\"{tile}\",\"wavelet\":\"{}\",\"budget\":{budget},\"ms\":{:.4}}}",
                 wavelet.name(),
-                ms[ms.len() / 2]
+                ms
             );
         }
     }

@@ -103,3 +103,19 @@ pub fn iterations_arg() -> usize {
         .unwrap_or(31)
         .max(1)
 }
+
+/// The median wall time of `iterations` runs of `f` (ms), after 5 untimed ones.
+pub fn median_ms(iterations: usize, mut f: impl FnMut()) -> f64 {
+    for _ in 0..5 {
+        f();
+    }
+    let mut ms: Vec<f64> = (0..iterations)
+        .map(|_| {
+            let t = std::time::Instant::now();
+            f();
+            t.elapsed().as_secs_f64() * 1e3
+        })
+        .collect();
+    ms.sort_by(f64::total_cmp);
+    ms[ms.len() / 2]
+}

@@ -81,7 +81,12 @@ fn hill_dataset(tag: &str, scheme: &str, tiles: &[TileId]) -> Dataset {
 
 /// The router over a one-tile local dataset named `hill`.
 fn router(tag: &str) -> Router {
-    let mut d = hill_dataset(tag, "local", &[TileId { z: 0, x: 0, y: 0 }]);
+    router_of(tag, "local")
+}
+
+/// The router over a one-tile (root) dataset of `scheme` named `hill`.
+fn router_of(tag: &str, scheme: &str) -> Router {
+    let mut d = hill_dataset(tag, scheme, &[TileId { z: 0, x: 0, y: 0 }]);
     d.name = "hill".into();
     let mut catalog = Catalog::default();
     catalog.insert(d);
@@ -165,12 +170,14 @@ async fn default_threshold_is_the_geometric_error_capped_at_the_relief() {
     let t: f64 = h["x-threshold"].to_str().unwrap().parse().unwrap();
     assert!((t - 0.25 * 256.0 / 65.0).abs() < 1e-12, "{t}");
     // A geodetic root: ~77 km of geometric error, capped at the relief (140 - 60 m).
-    let mut d = hill_dataset("default-geo", "geodetic", &[TileId { z: 0, x: 0, y: 0 }]);
-    d.name = "geo".into();
-    let mut catalog = Catalog::default();
-    catalog.insert(d);
-    let app = app(AppState::new(catalog, Config::default()));
-    let (s, h, _) = send(&app, Method::GET, "/v1/datasets/geo/tiles/0/0/0.json", &[]).await;
+    let geodetic = router_of("default-geo", "geodetic");
+    let (s, h, _) = send(
+        &geodetic,
+        Method::GET,
+        "/v1/datasets/hill/tiles/0/0/0.json",
+        &[],
+    )
+    .await;
     assert_eq!(s, StatusCode::OK);
     assert_eq!(h["x-threshold"], "80");
 }
