@@ -132,15 +132,19 @@ fn modified(path: &Path) -> Option<SystemTime> {
     std::fs::metadata(path).and_then(|m| m.modified()).ok()
 }
 
-/// The latest modification time of a Rust source under `dir` (the notes beside the code,
-/// `*.md`, do not rebuild the binary, so they do not count).
+/// The latest modification time of a Rust source under `dir`. What does not relink the
+/// binary does not count: the notes beside the code (`*.md`) and the unit-test modules
+/// (`tests.rs`, each behind `#[cfg(test)]`), whose edits cargo rebuilds only the test
+/// executables for, leaving the binary's time as it was.
 fn newest_in(dir: &Path) -> Option<SystemTime> {
     let mut newest = None;
     for entry in std::fs::read_dir(dir).ok()?.flatten() {
         let path = entry.path();
         let time = if path.is_dir() {
             newest_in(&path)
-        } else if path.extension().is_some_and(|e| e == "rs") {
+        } else if path.extension().is_some_and(|e| e == "rs")
+            && path.file_name().is_some_and(|n| n != "tests.rs")
+        {
             modified(&path)
         } else {
             None
