@@ -89,6 +89,17 @@ fn leaves_are_nested_across_thresholds() {
     let c = Complexity::new(&d.layout, &d.coefficients);
     let fine = c.leaves(1.0);
     let coarse = c.leaves(8.0);
+    // Both tile the grid, and the thresholds matter: equal sets would nest trivially.
+    for m in [&fine, &coarse] {
+        let area: usize = m.leaves().iter().map(|l| l.size() * l.size()).sum();
+        assert_eq!(area, 128 * 128);
+    }
+    assert!(
+        fine.leaves().len() > 2 * coarse.leaves().len(),
+        "{} leaves at T = 1 against {} at T = 8",
+        fine.leaves().len(),
+        coarse.leaves().len()
+    );
     for l in fine.leaves() {
         let inside = coarse.leaves().iter().any(|p| {
             let s = p.size() as u32;
