@@ -431,3 +431,28 @@ fn an_ingest_killed_mid_write_leaves_the_previous_dataset_served() {
     drop(s);
     let _ = std::fs::remove_dir_all(&data);
 }
+
+#[test]
+fn a_reingest_changes_the_tile_etags_and_the_dataset_version() {
+    // Caches key on the ETag and on layer.json's `version`: new bytes under an old tag would be
+    // served stale until they expire. (An identical re-ingest changes them too: the version
+    // hashes the header, and the header holds the ingest's `created` time.)
+    let data = scratch("reingest");
+    let src = shared_data().join("dem/terra_elev.tif");
+    let tags = |precision: &str| {
+        assert_success(&ingest(&src, "e", &data, &["--precision", precision]));
+        let s = zerotile_tests::server::Server::start(&data);
+        let tile = s.get("/v1/datasets/e/tiles/0/0/0.json?threshold=8", &[]);
+        assert_eq!(tile.status, 200, "{}", String::from_utf8_lossy(&tile.body));
+        let about = s.get("/v1/datasets/e", &[]).json();
+        (
+            tile.header("etag").unwrap().to_string(),
+            about["version"].as_str().unwrap().to_string(),
+        )
+    };
+    let first = tags("1");
+    let finer = tags("0.25");
+    assert_ne!(finer.0, first.0, "tile ETag after a re-ingest");
+    assert_ne!(finer.1, first.1, "dataset version after a re-ingest");
+    let _ = std::fs::remove_dir_all(&data);
+}

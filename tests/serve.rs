@@ -267,6 +267,19 @@ fn mesh_formats_agree_and_neighbours_share_their_edge() {
     let (a, b) = (column(&wj, 256.0), column(&ej, 256.0));
     assert!(a.len() >= 2);
     assert_eq!(a, b, "tiles 1/0/0 and 1/1/0 disagree on their shared edge");
+    // Two tiles side by side, not one served twice: columns 0..=256 and 256..=512, and the
+    // edge holds the source's column 256 (y = −row), within the budget.
+    let x_range = |v: &Value| {
+        let xs = v["positions"].as_array().unwrap().iter().step_by(3);
+        xs.map(|x| x.as_f64().unwrap())
+            .fold((f64::MAX, f64::MIN), |(lo, hi), x| (lo.min(x), hi.max(x)))
+    };
+    assert_eq!((x_range(&wj), x_range(&ej)), ((0.0, 256.0), (256.0, 512.0)));
+    let whole = crop();
+    for &(y, z) in &a {
+        let h = *whole.get(-y as usize, 256);
+        assert!((z - h).abs() <= 4.0, "edge row {}: {z} against {h}", -y);
+    }
 
     // ZTM1 holds the same triangles; OBJ and GLB are what their headers say.
     let bin = s.get(&format!("/v1/datasets/crop/tiles/1/0/0.bin{q}"), &[]);
