@@ -117,10 +117,60 @@ fn boundary_and_winding(m: &TriMesh) -> (usize, bool) {
     )
 }
 
+/// Asserts that `coarse` nests in `fine` the way a continued decimation does: vertices only
+/// leave (every coarse vertex is a fine one, unmoved, matched by its position's bits), and a
+/// face goes only with a removed vertex (every fine face whose three corners are all still
+/// there is still there, same winding). Returns how many fine faces carried over, so a caller
+/// can check the second half was not vacuous.
+fn assert_nested(fine: &TriMesh, coarse: &TriMesh, what: &str) -> usize {
+    use std::collections::HashSet;
+    let key = |p: DVec3| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
+    let keys = |m: &TriMesh| m.positions.iter().map(|&p| key(p)).collect::<HashSet<_>>();
+    let (fine_keys, coarse_keys) = (keys(fine), keys(coarse));
+    // Distinct positions, so a position names one vertex.
+    assert_eq!(
+        fine_keys.len(),
+        fine.positions.len(),
+        "{what}: repeated positions"
+    );
+    let foreign = coarse_keys.difference(&fine_keys).count();
+    assert_eq!(
+        foreign, 0,
+        "{what}: {foreign} coarse vertices are not fine vertices"
+    );
+    // A face as its corners' keys, rotated so the smallest comes first (winding kept).
+    let face = |m: &TriMesh, f: &[u32; 3]| {
+        let mut k = f.map(|v| key(m.positions[v as usize]));
+        let first = (0..3).min_by_key(|&i| k[i]).unwrap_or(0);
+        k.rotate_left(first);
+        k
+    };
+    let coarse_faces: HashSet<_> = coarse.faces.iter().map(|f| face(coarse, f)).collect();
+    let mut carried = 0;
+    for f in &fine.faces {
+        let k = face(fine, f);
+        if k.iter().all(|c| coarse_keys.contains(c)) {
+            assert!(
+                coarse_faces.contains(&k),
+                "{what}: fine face {f:?} lost though its corners stayed"
+            );
+            carried += 1;
+        }
+    }
+    carried
+}
+
 #[test]
 fn levels_nest_stay_closed_and_shrink_as_epsilon_grows() {
     let sphere = uv_sphere(30, 60, 1.0);
     let out = levels(&sphere, &PAPER_LEVELS, &CurvatureOptions::default()).unwrap();
+    // Each level continues from the one before: nested in it, and in the input.
+    let mut finer = &sphere;
+    for l in &out {
+        let carried = assert_nested(finer, &l.mesh, &format!("ε {}", l.error));
+        assert!(carried > 0, "ε {}: no face carried over", l.error);
+        finer = &l.mesh;
+    }
     let mut last = sphere.faces.len();
     for l in &out {
         assert!(

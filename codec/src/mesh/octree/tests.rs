@@ -67,6 +67,24 @@ fn canonical([a, b, c]: [u32; 3]) -> [u32; 3] {
     }
 }
 
+/// Asserts no two faces lie on the same three vertices: what a collapse that folds a sliver
+/// flat leaves, and the boundary-edge comparisons cannot see (such a pair adds two to each of
+/// its edges' counts). (An edge with more than two faces can remain: a cut keeps parity, not
+/// manifoldness; the bunny's level 3 has one.)
+fn assert_no_folded_pairs(faces: &[[u32; 3]], what: &str) {
+    let mut sets: Vec<[u32; 3]> = faces
+        .iter()
+        .map(|f| {
+            let mut k = *f;
+            k.sort_unstable();
+            k
+        })
+        .collect();
+    sets.sort_unstable();
+    let twins = sets.windows(2).filter(|w| w[0] == w[1]).count();
+    assert_eq!(twins, 0, "{what}: {twins} faces repeat another's vertices");
+}
+
 /// Checks every level of a mesh: no boundary edge the input lacks, no degenerate faces, and
 /// the deepest level is the input.
 fn check_levels(name: &str) {
@@ -85,6 +103,7 @@ fn check_levels(name: &str) {
             m.faces.iter().all(|[a, b, c]| a != b && b != c && c != a),
             "{name} level {k}: a face repeats a vertex"
         );
+        assert_no_folded_pairs(&m.faces, &format!("{name} level {k}"));
         let areas = m.face_areas();
         let tiny = mesh.diagonal().powi(2) * 1e-14;
         let flat = areas.iter().filter(|&&a| a <= tiny).count();
@@ -253,6 +272,54 @@ fn browsing_keeps_the_visible_region_exactly_and_joins_without_holes() {
     // And the rest really is coarser: smaller than the full model.
     assert!(browsed.bytes < browsed.full_bytes);
     assert!(browsed.refinement.selected > 0);
+}
+
+#[test]
+fn below_the_base_level_only_boxes_meeting_the_region_are_opened() {
+    // Fig. 9: a selected base box is opened, and each of its sub-boxes again only while it
+    // meets the region; the others stay collapsed where they left it.
+    let mesh = shared("stanford-bunny.obj");
+    let lod = build(&mesh);
+    let view = front_view(&mesh);
+    let roi = Roi {
+        x0: -0.05,
+        y0: -0.05,
+        x1: 0.05,
+        y1: 0.05,
+    };
+    let base = 3;
+    let browsed = lod.browse(base, &view, &roi).expect("browses");
+    let camera = view.camera().expect("valid view");
+    let collapsed: HashSet<u32> = browsed.refinement.collapsed.iter().copied().collect();
+    let nodes = &lod.tree.nodes;
+    // A box is open when neither it nor any box above it down from the base is collapsed
+    // (nodes are breadth-first: a parent comes before its children).
+    let mut open = vec![false; nodes.len()];
+    let (mut opened, mut left) = (0, 0);
+    for (b, node) in nodes.iter().enumerate() {
+        if node.depth < base || node.is_leaf() {
+            continue;
+        }
+        let parent_open = node.depth == base || open[node.parent as usize];
+        open[b] = parent_open && !collapsed.contains(&(b as u32));
+        if node.depth > base && parent_open {
+            if open[b] {
+                assert!(
+                    camera.box_meets(node, &roi),
+                    "box {b} at depth {} opened outside the region",
+                    node.depth
+                );
+                opened += 1;
+            } else {
+                left += 1;
+            }
+        }
+    }
+    // Both kinds occur: boxes opened in the region, sub-boxes of opened ones left outside.
+    assert!(
+        opened > 0 && left > 0,
+        "opened {opened}, left collapsed {left}"
+    );
 }
 
 #[test]
@@ -439,6 +506,7 @@ fn any_view_and_base_level_gives_a_closed_mixed_mesh() {
                     "eye {e} roi {r} base {base}"
                 );
                 assert!(browsed.bytes <= browsed.full_bytes);
+                assert_no_folded_pairs(&cut.mesh.faces, &format!("eye {e} roi {r} base {base}"));
             }
         }
     }
