@@ -102,3 +102,43 @@ fn open_and_real_meshes_keep_their_boundaries_and_bad_views_are_refused() {
     };
     assert!(vs.level_for(&far) < MAX_LEVEL);
 }
+
+#[test]
+fn degenerate_faces_stay_their_own_region() {
+    // Split one edge of the sphere at a copy of its end vertex: two zero-area faces, the mesh
+    // still closed. They have no normal, so no cell: merged into a neighbour's region they
+    // would be flattened away with it, and the vertex copy's fan reshaped through them.
+    let mut m = read("uv-sphere-5002.obj");
+    let in_first_octant = |m: &TriMesh, f: &[u32; 3]| {
+        f.iter()
+            .all(|&i| m.positions[i as usize].min_element() > 0.1)
+    };
+    let f = m.faces.iter().position(|t| in_first_octant(&m, t)).unwrap();
+    let [a, b, c] = m.faces[f];
+    let g = m
+        .faces
+        .iter()
+        .position(|t| (0..3).any(|e| t[e] == b && t[(e + 1) % 3] == a))
+        .unwrap();
+    let d = m.faces[g].into_iter().find(|&v| v != a && v != b).unwrap();
+    let copy = m.positions.len() as u32;
+    m.positions.push(m.positions[a as usize]);
+    m.faces[f] = [copy, b, c];
+    m.faces[g] = [b, copy, d];
+    m.faces.push([a, copy, c]);
+    m.faces.push([copy, a, d]);
+    assert_eq!(boundary_and_winding(&m), (0, true));
+
+    let area = |m: &TriMesh, t: &[u32; 3]| {
+        let p = |k: usize| m.positions[t[k] as usize];
+        (p(1) - p(0)).cross(p(2) - p(0)).length()
+    };
+    let vs = ViewSphere::new(&m).unwrap();
+    for level in [0, 2] {
+        let out = vs.level(level).unwrap();
+        assert!(out.faces.len() < m.faces.len() / 2, "level {level}");
+        let flat = out.faces.iter().filter(|t| area(&out, t) == 0.0).count();
+        assert_eq!(flat, 2, "level {level}: the zero-area faces");
+        assert_eq!(boundary_and_winding(&out), (0, true), "level {level}");
+    }
+}
