@@ -389,6 +389,18 @@ fn etags_give_304_and_change_with_the_threshold() {
     assert!(again.body.is_empty());
     let other = s.get("/v1/datasets/crop/tiles/0/0/0.png?threshold=9", &[]);
     assert_ne!(other.header("etag").unwrap(), etag);
+    // −0 is 0: the same tile under the same tag.
+    let zero = |t: &str| {
+        let r = s.get(
+            &format!("/v1/datasets/crop/tiles/0/0/0.png?threshold={t}"),
+            &[],
+        );
+        (
+            r.header("etag").map(str::to_string),
+            r.header("x-threshold").map(str::to_string),
+        )
+    };
+    assert_eq!(zero("-0"), zero("0"));
 }
 
 #[test]
@@ -525,6 +537,9 @@ fn bad_requests_are_4xx_json() {
         (&format!("{t}/1/7/7.png"), 404, "tile_not_found"),
         (&format!("{t}/1/x/0.png"), 400, "bad_tile_address"),
         (&format!("{t}/1/0/-1.png"), 400, "bad_tile_address"),
+        // One tile, one URL: aliases would split every cache.
+        (&format!("{t}/+1/0/0.png"), 400, "bad_tile_address"),
+        (&format!("{t}/1/00/0.png"), 400, "bad_tile_address"),
         (&format!("{t}/1/0/0.tif"), 404, "unknown_format"),
         (&format!("{t}/1/0/0"), 404, "unknown_format"),
         (&format!("{t}/1/0/0.terrain"), 404, "not_georeferenced"),
@@ -684,6 +699,50 @@ fn a_footprint_smaller_than_a_triangle_still_sees_the_terrain() {
     assert!(v["a_v"].as_f64().unwrap() < 1.0, "{v}");
     let n = v["triangles"].as_u64().unwrap();
     assert!((1..=8).contains(&n), "{n} triangles");
+
+    // A grazing view: a sliver from near the eye to far past the data, too thin for any
+    // centroid, its vertex mean off the data; the target is on the ground inside it.
+    let r = s.get(
+        "/v1/datasets/crop/view?eye=100,256,300.001&target=300,256,300&fov=0.01",
+        &[],
+    );
+    assert_eq!(r.status, 200, "{}", String::from_utf8_lossy(&r.body));
+    let v = r.json();
+    let n = v["triangles"].as_u64().unwrap();
+    assert!((1..=8).contains(&n), "{n} triangles");
+    let xs = v["mesh"]["positions"].as_array().unwrap().iter().step_by(3);
+    let xs: Vec<f64> = xs.map(|x| x.as_f64().unwrap()).collect();
+    let (lo, hi) = xs
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(l, h), &x| (l.min(x), h.max(x)));
+    assert!(
+        lo <= 300.0 && 300.0 <= hi,
+        "not under the target: x in {lo}..{hi}"
+    );
+}
+
+#[test]
+fn views_refuse_a_second_threshold_and_take_aspect_as_w_over_h() {
+    let s = Server::start(data_dir());
+    let view = "/v1/datasets/crop/view?eye=256,400,900&target=256,256,300&fov=60";
+    for extra in ["&threshold=5", "&ratio=0.1"] {
+        s.get(&format!("{view}{extra}"), &[])
+            .assert_error(400, "conflicting_threshold", extra);
+    }
+    let a_v = |aspect: &str| {
+        let r = s.get(&format!("{view}&aspect={aspect}"), &[]);
+        assert_eq!(
+            r.status,
+            200,
+            "{aspect}: {}",
+            String::from_utf8_lossy(&r.body)
+        );
+        r.json()["a_v"].as_f64().unwrap()
+    };
+    assert_eq!(a_v("16/9"), a_v(&(16.0f64 / 9.0).to_string()));
+    assert!(a_v("16/9") > a_v("1"));
+    s.get(&format!("{view}&aspect=16/0"), &[])
+        .assert_error(400, "out_of_range", "aspect 16/0");
 }
 
 #[test]

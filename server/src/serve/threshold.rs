@@ -162,6 +162,9 @@ pub struct ViewPlane {
     /// The footprint, a convex polygon in the query's own coordinates: longitude and
     /// latitude degrees, or column and row.
     pub footprint: Vec<[f64; 2]>,
+    /// The camera's target, in the same coordinates: what the view looks at, so inside the
+    /// footprint whenever the target is on the ground.
+    pub target: [f64; 2],
 }
 
 /// The view plane of the camera in the query (see docs/api.md for the model).
@@ -177,10 +180,7 @@ pub fn view_plane(d: &Dataset, q: &HashMap<String, String>) -> Result<ViewPlane,
     let eye = vec3("eye", get("eye")?)?;
     let target = vec3("target", get("target")?)?;
     let fov_deg = number("fov", get("fov")?, f64::MIN_POSITIVE, 179.0)?;
-    let aspect = match q.get("aspect") {
-        Some(s) => number("aspect", s, 1e-3, 1e3)?,
-        None => 1.0,
-    };
+    let aspect = q.get("aspect").map_or(Ok(1.0), |s| aspect(s, 1e-3, 1e3))?;
 
     // Horizontal metres around the target (degrees scaled at the target's latitude; grid
     // samples as they are, rows flipped so y points north), and back.
@@ -233,7 +233,19 @@ pub fn view_plane(d: &Dataset, q: &HashMap<String, String>) -> Result<ViewPlane,
         a_v,
         a_t,
         footprint: points.iter().map(|p| from_plane(p.x, p.y)).collect(),
+        target: [target.x, target.y],
     })
+}
+
+/// `aspect` in [lo, hi], as a number (`1.78`) or as width/height (`16/9`), the way
+/// screens are named.
+pub fn aspect(s: &str, lo: f64, hi: f64) -> Result<f64, ApiError> {
+    let Some((w, h)) = s.split_once('/') else {
+        return number("aspect", s, lo, hi);
+    };
+    let w = number("aspect width", w, f64::MIN_POSITIVE, 1e9)?;
+    let h = number("aspect height", h, f64::MIN_POSITIVE, 1e9)?;
+    number("aspect", &(w / h).to_string(), lo, hi)
 }
 
 /// A finite number in [lo, hi].
@@ -253,7 +265,8 @@ pub fn number(name: &str, s: &str, lo: f64, hi: f64) -> Result<f64, ApiError> {
             format!("{name} must be in {low}, {}], got {s}", short(hi)),
         ));
     }
-    Ok(v)
+    // −0 + 0 is +0: `-0` is the same request as `0`, under the same ETag and cache entry.
+    Ok(v + 0.0)
 }
 
 /// [`number`] that must also be whole: a count or a size, where 1.5 would otherwise be

@@ -32,7 +32,7 @@ use crate::serve::error::{ApiError, ApiResult};
 use crate::serve::meshes::{MeshAnswer, MeshEntry, MAX_UPLOAD_BYTES};
 use crate::serve::negotiate;
 use crate::serve::state::AppState;
-use crate::serve::threshold::{integer, number, vec3};
+use crate::serve::threshold::{aspect, integer, number, vec3};
 
 /// The LOD methods, as path segments.
 pub const METHODS: [&str; 5] = ["original", "curvature", "silhouette", "qem", "octree"];
@@ -239,7 +239,7 @@ fn parse_ask(method: &str, q: &HashMap<String, String>, mesh: &TriMesh) -> ApiRe
                     // in docs/api.md): browsing divides by tan(fov / 2), which the terrain's
                     // lower bound (the smallest positive f64) rounds to zero.
                     let fov = number("fov", get("fov").unwrap_or("45"), 1.0, 170.0)?;
-                    let aspect = number("aspect", get("aspect").unwrap_or("1"), 0.05, 20.0)?;
+                    let aspect = get("aspect").map_or(Ok(1.0), |s| aspect(s, 0.05, 20.0))?;
                     Some((
                         vec3("eye", e)?.to_array(),
                         vec3("target", t)?.to_array(),
@@ -374,7 +374,8 @@ pub async fn lod(
     )
         .hash(&mut h);
     let key = h.finish();
-    let etag = format!("\"m{key:016x}\"");
+    // Weak, as the tiles' are: the compression layer re-encodes the body per client.
+    let etag = format!("W/\"m{key:016x}\"");
     if negotiate::not_modified(&headers, &etag) {
         let mut res = Response::new(Body::empty());
         *res.status_mut() = StatusCode::NOT_MODIFIED;

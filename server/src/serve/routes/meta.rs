@@ -93,7 +93,7 @@ pub async fn describe(
         "decode_share": threshold::DECODE_SHARE,
         "available": m.available,
         "codec": {
-            "wavelet": format!("{:?}", m.wavelet),
+            "wavelet": m.wavelet.name(),
             "step": m.step,
             "precision": m.precision,
             "samples": m.samples,

@@ -293,9 +293,19 @@ fn parse_address(d: &Dataset, z: &str, x: &str, y_ext: &str) -> ApiResult<(TileI
             format!("{what} must be an integer from 0 to {max}, got {s:?}"),
         )
     };
-    let z: u8 = z.parse().map_err(|_| bad("z", z, u8::MAX.into()))?;
-    let x: u32 = x.parse().map_err(|_| bad("x", x, u32::MAX))?;
-    let y: u32 = y.parse().map_err(|_| bad("y", y, u32::MAX))?;
+    // Plain decimal only: `+3` or `03` would name tile 3 under a second URL, a second cache
+    // entry for every cache on the way.
+    let canonical =
+        |s: &str| s == "0" || (s.bytes().all(|b| b.is_ascii_digit()) && !s.starts_with('0'));
+    let parse = |what: &str, s: &str, max: u32| -> ApiResult<u32> {
+        s.parse::<u32>()
+            .ok()
+            .filter(|&v| canonical(s) && v <= max)
+            .ok_or_else(|| bad(what, s, max))
+    };
+    let z = parse("z", z, u8::MAX.into())? as u8;
+    let x = parse("x", x, u32::MAX)?;
+    let y = parse("y", y, u32::MAX)?;
     let id = TileId { z, x, y };
     let m = d.metadata();
     if z < m.min_zoom || z > m.max_zoom {

@@ -39,6 +39,13 @@ pub async fn view(
     let Path(name) = path?;
     let Query(q) = query?;
     let d = dataset(&state, &name)?;
+    // The camera sets a view's threshold (eq. 4); a second source would be ignored silently.
+    if q.contains_key("threshold") || q.contains_key("ratio") {
+        return Err(ApiError::bad_request(
+            "conflicting_threshold",
+            "a view's threshold comes from its camera: drop threshold and ratio",
+        ));
+    }
     let plane = view_plane(&d, &q)?;
     let t = eq4(&d, plane.ratio);
     let format = match q.get("format").map(String::as_str) {
@@ -181,21 +188,24 @@ fn view_mesh(
     cancel: &pipeline::Cancel,
 ) -> anyhow::Result<TriMesh> {
     // The footprint in the mesh's coordinates (see `render::tri_mesh`).
-    let polygon: Vec<[f64; 2]> = plane
-        .footprint
-        .iter()
-        .map(|&[x, y]| match d.tiling.scheme() {
-            Scheme::Local { .. } => [x, -y],
-            Scheme::Geodetic => [x, y],
-            Scheme::Mercator => lonlat_to_mercator([x, y]),
-        })
-        .collect();
-    // A footprint smaller than a triangle holds no centroid: the triangles under its own
-    // centroid stand in for it then, rather than an empty view over the data.
-    let middle = polygon
-        .iter()
-        .fold([0.0, 0.0], |a, p| [a[0] + p[0], a[1] + p[1]])
-        .map(|v| v / polygon.len().max(1) as f64);
+    let to_mesh = |[x, y]: [f64; 2]| match d.tiling.scheme() {
+        Scheme::Local { .. } => [x, -y],
+        Scheme::Geodetic => [x, y],
+        Scheme::Mercator => lonlat_to_mercator([x, y]),
+    };
+    let polygon: Vec<[f64; 2]> = plane.footprint.iter().copied().map(to_mesh).collect();
+    // A footprint smaller or thinner than a triangle holds no centroid: the triangles under
+    // the target stand in for it then, rather than an empty view over the data. (Not the
+    // polygon's vertex mean: a grazing view's sliver runs far past the data, and so can it.)
+    let target = to_mesh(plane.target);
+    let middle = if inside(&polygon, target) {
+        target
+    } else {
+        polygon
+            .iter()
+            .fold([0.0, 0.0], |a, p| [a[0] + p[0], a[1] + p[1]])
+            .map(|v| v / polygon.len().max(1) as f64)
+    };
     let mut positions: Vec<DVec3> = Vec::new();
     let mut faces = Vec::new();
     let mut under_middle = Vec::new();
