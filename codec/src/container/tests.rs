@@ -92,7 +92,11 @@ fn a_flipped_bit_in_a_record_fails_that_tile_only() {
 fn a_flipped_bit_in_the_header_is_detected() {
     let mut bytes = sample();
     bytes[40] ^= 1;
-    assert!(Container::parse(&bytes, &Limits::default()).is_err());
+    // In the metadata JSON: the CRC refuses it before the JSON parser sees it.
+    assert_eq!(
+        Container::parse(&bytes, &Limits::default()).unwrap_err(),
+        ContainerError::Checksum("the header".into())
+    );
 }
 
 #[test]
@@ -122,4 +126,91 @@ fn bad_magic_version_and_sizes_are_errors_not_allocations() {
         Container::parse(&b, &Limits::default()),
         Err(ContainerError::Malformed(_))
     ));
+}
+
+/// Recomputes the header CRC after a test edits the metadata or index, so only the check
+/// under test can refuse the header.
+fn reseal(bytes: &mut [u8]) {
+    let header_len = u32::from_le_bytes(bytes[8..12].try_into().unwrap()) as usize;
+    let crc = crc32fast::hash(&bytes[FIXED_LEN..header_len]);
+    bytes[20..24].copy_from_slice(&crc.to_le_bytes());
+}
+
+/// Offset of index entry `k` (25 bytes each, after the metadata).
+fn entry_at(bytes: &[u8], k: usize) -> usize {
+    let meta_len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    FIXED_LEN + meta_len + ENTRY_LEN * k
+}
+
+#[test]
+fn a_flipped_bit_in_the_index_is_a_checksum_error() {
+    // Bit 24 of the last entry's y: tile 2/3/1 would become 2/3/16777217, a well-formed
+    // entry that only the header CRC can tell from the written one.
+    let mut bytes = sample();
+    let at = entry_at(&bytes, 2);
+    assert_eq!(bytes[at], 2, "entry 2 is tile 2/3/1");
+    bytes[at + 8] ^= 1;
+    assert_eq!(
+        Container::parse(&bytes, &Limits::default()).unwrap_err(),
+        ContainerError::Checksum("the header".into())
+    );
+    // The same flip with the CRC recomputed parses: the CRC was the only guard.
+    reseal(&mut bytes);
+    let c = Container::parse(&bytes, &Limits::default()).unwrap();
+    assert!(c
+        .entry(TileId {
+            z: 2,
+            x: 3,
+            y: 1 + (1 << 24)
+        })
+        .is_some());
+}
+
+#[test]
+fn a_record_above_max_record_bytes_is_a_limit() {
+    // The sample's records are 32 + 6 ("second"), 32 + 5 and 32 + 0 bytes long.
+    let bytes = sample();
+    let limits = |max_record_bytes| Limits {
+        max_record_bytes,
+        ..Limits::default()
+    };
+    assert!(Container::parse(&bytes, &limits(38)).is_ok());
+    assert!(matches!(
+        Container::parse(&bytes, &limits(37)),
+        Err(ContainerError::Limit(m)) if m.contains("tile 0/1/0") && m.contains("38 bytes")
+    ));
+}
+
+#[test]
+fn index_entries_pointing_into_the_header_or_repeated_are_malformed() {
+    let sample = sample();
+    let header_len = Container::parse(&sample, &Limits::default())
+        .unwrap()
+        .header_len();
+    // Entry 0 (tile 0/0/0): its offset moved inside the header.
+    let mut b = sample.clone();
+    let at = entry_at(&b, 0);
+    b[at + 9..at + 17].copy_from_slice(&(header_len as u64 - 1).to_le_bytes());
+    reseal(&mut b);
+    assert_eq!(
+        Container::parse(&b, &Limits::default()).unwrap_err(),
+        ContainerError::Malformed("index entry of tile 0/0/0".into())
+    );
+    // A record too short for its four corner heights.
+    let mut b = sample.clone();
+    b[at + 17..at + 21].copy_from_slice(&31u32.to_le_bytes());
+    reseal(&mut b);
+    assert!(matches!(
+        Container::parse(&b, &Limits::default()),
+        Err(ContainerError::Malformed(_))
+    ));
+    // Entry 1 (tile 0/1/0) renamed to tile 0/0/0: indexed twice.
+    let mut b = sample;
+    let at = entry_at(&b, 1);
+    b[at + 1..at + 5].copy_from_slice(&0u32.to_le_bytes());
+    reseal(&mut b);
+    assert_eq!(
+        Container::parse(&b, &Limits::default()).unwrap_err(),
+        ContainerError::Malformed("tile 0/0/0 indexed twice".into())
+    );
 }

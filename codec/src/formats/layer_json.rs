@@ -453,4 +453,45 @@ mod tests {
         l.bounds.max_x = 181.0;
         assert!(l.to_value().is_err());
     }
+
+    #[test]
+    fn the_manifest_carries_the_callers_text_fields() {
+        // Not the defaults: a writer that ignored a field would still match "1.0.0" or "".
+        let mut layer = LayerJson::for_tiling(&geodetic(), SRTM, 0, 3).unwrap();
+        layer.name = "n44w072".into();
+        layer.description = "SRTM3, White Mountains".into();
+        layer.attribution = "SRTM (NASA)".into();
+        layer.version = "2026-12-02.1".into();
+        layer.tiles = vec!["t/{z}/{x}/{y}.terrain?v={version}".into()];
+        let j = layer.to_value().unwrap();
+        assert_eq!(j["name"], "n44w072");
+        assert_eq!(j["description"], "SRTM3, White Mountains");
+        assert_eq!(j["attribution"], "SRTM (NASA)");
+        assert_eq!(j["version"], "2026-12-02.1");
+        assert_eq!(
+            j["tiles"],
+            serde_json::json!(["t/{z}/{x}/{y}.terrain?v={version}"])
+        );
+    }
+
+    #[test]
+    fn sibling_subtrees_split_the_data_between_them() {
+        // At z8 tiles are 0.703125° wide: lon −72..−71 is x 153.6..155.02 → 153..=155, and
+        // lat 44..45 is y 190.58..192.0 → 190..=191 (45° is exactly row 192's lower edge).
+        // 7/76/95's children are x 152..=153, 7/77/95's x 154..=155 (y 190..=191 for both).
+        let t = geodetic();
+        let range = |x0, x1| AvailableRange {
+            start_x: x0,
+            start_y: 190,
+            end_x: x1,
+            end_y: 191,
+        };
+        let west = subtree_availability(&t, TileId::new(7, 76, 95), &SRTM, 1).unwrap();
+        let east = subtree_availability(&t, TileId::new(7, 77, 95), &SRTM, 1).unwrap();
+        assert_eq!(west, vec![vec![range(153, 153)]]);
+        assert_eq!(east, vec![vec![range(154, 155)]]);
+        // Together they are the whole level, as for_tiling lists it.
+        let layer = LayerJson::for_tiling(&t, SRTM, 0, 8).unwrap();
+        assert_eq!(layer.available[8], vec![range(153, 155)]);
+    }
 }

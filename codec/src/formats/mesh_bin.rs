@@ -455,4 +455,23 @@ mod tests {
         };
         assert!(encode(&grid_mesh(3, 3), MeshCrs::Geographic, &nan).is_err());
     }
+
+    #[test]
+    fn exactly_65536_vertices_keep_16_bit_indices() {
+        // The doc's boundary: 16-bit when n ≤ 65 536 (256² vertices), 32-bit above.
+        let mesh = grid_mesh(256, 256);
+        let b = Bounds {
+            min_x: 0.0,
+            min_y: 0.0,
+            max_x: 1.0,
+            max_y: 1.0,
+        };
+        let bytes = encode(&mesh, MeshCrs::Geographic, &b).unwrap();
+        assert_eq!(u16::from_le_bytes([bytes[6], bytes[7]]), 0);
+        assert_eq!(bytes.len(), 72 + 12 * 65_536 + 6 * mesh.triangles.len());
+        let tile = decode(&bytes).unwrap();
+        assert_eq!(tile.triangles, mesh.triangles);
+        // The largest index, 65 535, survives the 16-bit round trip.
+        assert!(tile.triangles.iter().flatten().any(|&i| i == 65_535));
+    }
 }

@@ -234,4 +234,42 @@ mod tests {
         };
         assert!(world.to_value().is_ok());
     }
+
+    #[test]
+    fn every_field_comes_from_the_tileset() {
+        // Values away from the defaults and from each other, so a field written from the
+        // wrong source (or a constant) shows.
+        let t = RasterDem {
+            name: "n44".into(),
+            description: "SRTM3 White Mountains".into(),
+            attribution: "SRTM (NASA)".into(),
+            version: "7".into(),
+            tiles: vec![
+                "https://a.example/{z}/{x}/{y}.png".into(),
+                "https://b.example/{z}/{x}/{y}.png".into(),
+            ],
+            minzoom: 3,
+            maxzoom: 11,
+            tile_size: 256,
+            ..valid()
+        };
+        let v = t.to_value().unwrap();
+        assert_eq!(v["name"], "n44");
+        assert_eq!(v["description"], "SRTM3 White Mountains");
+        assert_eq!(v["attribution"], "SRTM (NASA)");
+        assert_eq!(v["version"], "7");
+        assert_eq!(
+            v["tiles"],
+            json!([
+                "https://a.example/{z}/{x}/{y}.png",
+                "https://b.example/{z}/{x}/{y}.png"
+            ])
+        );
+        assert_eq!(
+            (v["minzoom"].as_u64(), v["maxzoom"].as_u64()),
+            (Some(3), Some(11))
+        );
+        assert_eq!(v["tileSize"], 256);
+        assert_eq!(v["center"], json!([-71.5, 44.5, 11]));
+    }
 }

@@ -411,4 +411,51 @@ mod tests {
         assert!(matches!(err, RasterError::Limit { .. }), "{err}");
         assert!(err.to_string().contains("huge.tif"), "{err}");
     }
+
+    /// Writes a small GeoTIFF of colour type `C` with the extra tags `tags` writes.
+    fn write_tiff_as<C: colortype::ColorType>(
+        path: &Path,
+        (width, height): (u32, u32),
+        samples: &[C::Inner],
+        tags: impl FnOnce(&mut Directory<'_, '_>),
+    ) where
+        [C::Inner]: tiff::encoder::TiffValue,
+    {
+        let mut bytes = Cursor::new(Vec::new());
+        let mut tiff = TiffEncoder::new(&mut bytes).unwrap();
+        let mut image = tiff.new_image::<C>(width, height).unwrap();
+        tags(image.encoder());
+        image.write_data(samples).unwrap();
+        std::fs::write(path, bytes.into_inner()).unwrap();
+    }
+
+    #[test]
+    fn uint16_nodata_is_matched_in_the_unsigned_type() {
+        // 65535 is the usual no-data of unsigned DEMs; 40000 is above i16::MAX, so it must
+        // read as an unsigned sample, not wrap.
+        let path = scratch_dir("tiff_u16").join("u16.tif");
+        write_tiff_as::<colortype::Gray16>(&path, (4, 1), &[100, 65535, 40000, 0], |dir| {
+            dir.write_tag(Tag::GdalNodata, "65535").unwrap();
+        });
+        let map = read(&path, &ReadOptions::default()).unwrap();
+        assert_eq!((map.nodata_count, map.step), (1, Some(1.0)));
+        assert!(map.heights.data()[1].is_nan());
+        assert_eq!(map.min_max(), Some((0.0, 40000.0)));
+    }
+
+    #[test]
+    fn float32_nodata_is_the_f32_nearest_to_the_declared_text() {
+        // GDAL writes float32 no-data as decimal text; "-3.4e+38" is not an f32, so only a
+        // comparison in the sample type (−3.4e38 rounded to f32) finds it. NaN is no-data too.
+        let path = scratch_dir("tiff_f32").join("f32.tif");
+        let samples = [12.5f32, -3.4e38, f32::NAN, 7.25, -9999.0];
+        write_tiff_as::<colortype::Gray32Float>(&path, (5, 1), &samples, |dir| {
+            dir.write_tag(Tag::GdalNodata, "-3.4e+38").unwrap();
+        });
+        let map = read(&path, &ReadOptions::default()).unwrap();
+        assert_eq!((map.nodata_count, map.step), (2, None));
+        assert!(map.heights.data()[1].is_nan() && map.heights.data()[2].is_nan());
+        // −9999 is a height here (not the declared no-data).
+        assert_eq!(map.min_max(), Some((-9999.0, 12.5)));
+    }
 }

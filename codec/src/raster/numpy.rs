@@ -547,15 +547,20 @@ mod tests {
         assert_eq!(map.heights.data(), &[1.0, 2.0, 3.0, 4.0]);
         assert_eq!(map.georef, None);
 
-        let path = write_npz("npz_several", &[("a", grid.clone()), ("b", grid)]);
+        // Two different 2-D arrays: no guess, and --key reads the one it names.
+        let other = npy_bytes("|u1", false, "(2, 2)", &[5, 6, 7, 8]);
+        let path = write_npz("npz_several", &[("a", grid.clone()), ("b", other)]);
         let err = read_npz(&path, &ReadOptions::default()).unwrap_err();
         assert!(matches!(err, RasterError::Parameter { .. }), "{err}");
         assert!(err.to_string().contains("a, b"), "{err}");
-        let opts = ReadOptions {
-            npz_key: Some("b".into()),
-            ..ReadOptions::default()
-        };
-        assert!(read_npz(&path, &opts).is_ok());
+        for (key, want) in [("a", [1.0, 2.0, 3.0, 4.0]), ("b", [5.0, 6.0, 7.0, 8.0])] {
+            let opts = ReadOptions {
+                npz_key: Some(key.into()),
+                ..ReadOptions::default()
+            };
+            let map = read_npz(&path, &opts).unwrap();
+            assert_eq!(map.heights.data(), &want, "--key {key}");
+        }
 
         let path = write_npz("npz_none", &[("scale", scalar)]);
         let err = read_npz(&path, &ReadOptions::default()).unwrap_err();

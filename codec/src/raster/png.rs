@@ -214,4 +214,32 @@ mod tests {
         let map = read(&path, &opts(Some(Encoding::TerrainRgb))).unwrap();
         assert_eq!(map.min_max(), Some((0.0, 0.0)));
     }
+
+    #[test]
+    fn reads_16_bit_gray_and_transparent_gray_as_nodata() {
+        use image::{ImageBuffer, Luma, LumaA};
+        let dir = scratch_dir("png_gray16");
+        // Values above 255 and with distinct bytes: a byte-swapped or 8-bit read differs.
+        let path = dir.join("gray16.png");
+        ImageBuffer::<Luma<u16>, Vec<u16>>::from_raw(2, 2, vec![0, 300, 0x1234, 65535])
+            .unwrap()
+            .save(&path)
+            .unwrap();
+        let map = read(&path, &opts(None)).unwrap();
+        assert_eq!(map.heights.data(), &[0.0, 300.0, 4660.0, 65535.0]);
+        assert_eq!((map.step, map.nodata_count), (Some(1.0), 0));
+
+        // Gray + alpha: alpha 0 is no-data, any other alpha keeps the height.
+        let path = dir.join("gray16_alpha.png");
+        let pixels = vec![1000, 65535, 2000, 0, 3000, 1];
+        ImageBuffer::<LumaA<u16>, Vec<u16>>::from_raw(3, 1, pixels)
+            .unwrap()
+            .save(&path)
+            .unwrap();
+        let map = read(&path, &opts(Some(Encoding::Gray))).unwrap();
+        let d = map.heights.data();
+        assert_eq!((d[0], d[2]), (1000.0, 3000.0));
+        assert!(d[1].is_nan());
+        assert_eq!(map.nodata_count, 1);
+    }
 }

@@ -781,6 +781,42 @@ fn encoder_rejects_meshes_that_break_the_contract() {
     ));
 }
 
+#[test]
+fn given_normals_follow_their_vertices_through_the_renumbering() {
+    // grid_mesh's first triangle is (sw, se, ne) = (3, 4, 1): first-use order is not the
+    // mesh's order, so each normal must be looked up by the vertex's original index.
+    let mesh = grid_mesh(3, 3, bumpy);
+    let given: Vec<DVec3> = (0..9)
+        .map(|i| {
+            DVec3::new((0.6 * f64::from(i)).cos(), (0.6 * f64::from(i)).sin(), 0.4).normalize()
+        })
+        .collect();
+    let opts = QmOptions {
+        octvertexnormals: true,
+        ..QmOptions::default()
+    };
+    let tile = TileGeo::geodetic(0.0, 0.0, 1.0, 1.0);
+    let m = decode(&encode_with_normals(&mesh, &tile, &opts, Some(&given)).unwrap()).unwrap();
+    let normals = m.normals.as_ref().unwrap();
+    assert_eq!(normals.len(), 9);
+    let mut originals = Vec::new();
+    for (k, &n) in normals.iter().enumerate() {
+        // The original vertex at this (u, v): column u / 32767 · 2, row 2 − v / 32767 · 2.
+        let c = (f64::from(m.u[k]) / 32767.0 * 2.0).round() as usize;
+        let r = 2 - (f64::from(m.v[k]) / 32767.0 * 2.0).round() as usize;
+        originals.push(r * 3 + c);
+        let want = given[r * 3 + c];
+        let angle = oct_decode(n).angle_between(want).to_degrees();
+        // Oct encoding in 8 bits per axis is within a degree; neighbours differ by 34°.
+        assert!(angle < 1.0, "vertex {k} (row {r}, col {c}): {angle}°");
+    }
+    assert_ne!(
+        originals,
+        (0..9).collect::<Vec<_>>(),
+        "renumbering is the identity"
+    );
+}
+
 mod grid_normals {
     use super::*;
     use crate::bintree::{Hierarchy, TileErrors};
