@@ -297,6 +297,14 @@ mod tests {
     use super::*;
     use crate::geo::{Scheme, TileId, Tiling};
 
+    /// The unit square: bounds for tests where the placement does not matter.
+    const UNIT: Bounds = Bounds {
+        min_x: 0.0,
+        min_y: 0.0,
+        max_x: 1.0,
+        max_y: 1.0,
+    };
+
     fn grid_mesh(rows: usize, cols: usize) -> TerrainMesh {
         let mut positions = Vec::new();
         for r in 0..rows {
@@ -385,12 +393,7 @@ mod tests {
     #[test]
     fn big_meshes_use_32_bit_indices() {
         let mesh = grid_mesh(257, 257);
-        let b = Bounds {
-            min_x: 0.0,
-            min_y: 0.0,
-            max_x: 1.0,
-            max_y: 1.0,
-        };
+        let b = UNIT;
         let bytes = encode(&mesh, MeshCrs::Geographic, &b).unwrap();
         assert_eq!(u16::from_le_bytes([bytes[6], bytes[7]]), 1);
         assert_eq!(bytes.len(), 72 + 12 * 66_049 + 12 * mesh.triangles.len());
@@ -399,12 +402,7 @@ mod tests {
 
     #[test]
     fn bad_bytes_and_meshes_are_errors() {
-        let b = Bounds {
-            min_x: 0.0,
-            min_y: 0.0,
-            max_x: 1.0,
-            max_y: 1.0,
-        };
+        let b = UNIT;
         let good = encode(&grid_mesh(3, 3), MeshCrs::Geographic, &b).unwrap();
         for cut in 0..good.len() {
             assert!(decode(&good[..cut]).is_err(), "prefix {cut}");
@@ -460,12 +458,7 @@ mod tests {
     fn exactly_65536_vertices_keep_16_bit_indices() {
         // The doc's boundary: 16-bit when n ≤ 65 536 (256² vertices), 32-bit above.
         let mesh = grid_mesh(256, 256);
-        let b = Bounds {
-            min_x: 0.0,
-            min_y: 0.0,
-            max_x: 1.0,
-            max_y: 1.0,
-        };
+        let b = UNIT;
         let bytes = encode(&mesh, MeshCrs::Geographic, &b).unwrap();
         assert_eq!(u16::from_le_bytes([bytes[6], bytes[7]]), 0);
         assert_eq!(bytes.len(), 72 + 12 * 65_536 + 6 * mesh.triangles.len());

@@ -106,16 +106,7 @@ pub fn default_threshold(d: &Dataset, z: u8) -> f64 {
 /// (+`aspect`), else the zoom's default. At most one of the three may be given.
 pub fn from_query(d: &Dataset, z: u8, q: &HashMap<String, String>) -> Result<Threshold, ApiError> {
     let has = |k: &str| q.contains_key(k);
-    let given = [has("threshold"), has("ratio"), has("eye")]
-        .iter()
-        .filter(|&&b| b)
-        .count();
-    if given > 1 {
-        return Err(ApiError::bad_request(
-            "conflicting_threshold",
-            "give one of threshold, ratio or eye/target/fov",
-        ));
-    }
+    one_source(q)?;
     if let Some(s) = q.get("threshold") {
         let t = number("threshold", s, 0.0, MAX_THRESHOLD)?;
         return Ok(Threshold {
@@ -143,6 +134,22 @@ pub fn from_query(d: &Dataset, z: u8, q: &HashMap<String, String>) -> Result<Thr
         t: default_threshold(d, z),
         choice: Choice::Default,
     })
+}
+
+/// At most one source of T in a query: `threshold`, `ratio` or a camera (`eye`). Tiles and
+/// `/view` share it, so a second source is refused everywhere rather than ignored somewhere.
+pub fn one_source(q: &HashMap<String, String>) -> Result<(), ApiError> {
+    let given = ["threshold", "ratio", "eye"]
+        .iter()
+        .filter(|k| q.contains_key(**k))
+        .count();
+    if given > 1 {
+        return Err(ApiError::bad_request(
+            "conflicting_threshold",
+            "give one of threshold, ratio or eye/target/fov",
+        ));
+    }
+    Ok(())
 }
 
 /// Paper eq. 4: T = a · ratio + b, never below the finest threshold (0) nor above the cap.

@@ -227,6 +227,16 @@ fn level_face_counts_grow_with_the_level() {
     }
 }
 
+/// The square of NDC half-width `half` round the view's centre.
+fn centred_roi(half: f64) -> Roi {
+    Roi {
+        x0: -half,
+        y0: -half,
+        x1: half,
+        y1: half,
+    }
+}
+
 /// Eye on +X at three radii from the centre of the mesh, looking at the centre.
 fn front_view(mesh: &TriMesh) -> View {
     let b = mesh.bounding_box();
@@ -239,12 +249,7 @@ fn browsing_keeps_the_visible_region_exactly_and_joins_without_holes() {
     let mesh = shared("uv-sphere-5002.obj");
     let lod = build(&mesh);
     let view = front_view(&mesh);
-    let roi = Roi {
-        x0: -0.05,
-        y0: -0.05,
-        x1: 0.05,
-        y1: 0.05,
-    };
+    let roi = centred_roi(0.05);
     let base = 3;
     let browsed = lod.browse(base, &view, &roi).expect("browses");
     let out = input_faces(&browsed.cut);
@@ -281,12 +286,7 @@ fn below_the_base_level_only_boxes_meeting_the_region_are_opened() {
     let mesh = shared("stanford-bunny.obj");
     let lod = build(&mesh);
     let view = front_view(&mesh);
-    let roi = Roi {
-        x0: -0.05,
-        y0: -0.05,
-        x1: 0.05,
-        y1: 0.05,
-    };
+    let roi = centred_roi(0.05);
     let base = 3;
     let browsed = lod.browse(base, &view, &roi).expect("browses");
     let camera = view.camera().expect("valid view");
@@ -377,12 +377,7 @@ fn browsing_a_bunny_detail_takes_at_most_six_tenths_of_the_memory() {
     let mesh = shared("stanford-bunny.obj");
     let lod = build(&mesh);
     let view = front_view(&mesh);
-    let roi = Roi {
-        x0: -0.25,
-        y0: -0.25,
-        x1: 0.25,
-        y1: 0.25,
-    };
+    let roi = centred_roi(0.25);
     // Base level 3 of 10 (the paper browsed from level 4 of 9; the bunny's levels reach full
     // detail at 6, its vertices being denser than the scans' boxes).
     let browsed = lod.browse(3, &view, &roi).expect("browses");

@@ -39,13 +39,8 @@ pub async fn view(
     let Path(name) = path?;
     let Query(q) = query?;
     let d = dataset(&state, &name)?;
-    // The camera sets a view's threshold (eq. 4); a second source would be ignored silently.
-    if q.contains_key("threshold") || q.contains_key("ratio") {
-        return Err(ApiError::bad_request(
-            "conflicting_threshold",
-            "a view's threshold comes from its camera: drop threshold and ratio",
-        ));
-    }
+    // The camera sets a view's threshold (eq. 4): a second source is refused, as on tiles.
+    threshold::one_source(&q)?;
     let plane = view_plane(&d, &q)?;
     let t = eq4(&d, plane.ratio);
     let format = match q.get("format").map(String::as_str) {
