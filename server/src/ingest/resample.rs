@@ -134,6 +134,12 @@ mod tests {
         assert_eq!(s.height_at(9.8, 50.0), 0.0);
         assert_eq!(s.height_at(9.7, 50.0), -1.0);
         assert_eq!(s.height_at(10.0, 50.2), -1.0);
+        // The same half sample on the far sides: columns 0..=4 end at lon 12, rows 0..=3 at
+        // lat 49.25 (column 4 of row 0 is 4).
+        assert_eq!(s.height_at(12.2, 50.0), 4.0);
+        assert_eq!(s.height_at(12.3, 50.0), -1.0);
+        assert_eq!(s.height_at(10.0, 49.25 - 0.1), 30.0);
+        assert_eq!(s.height_at(10.0, 49.25 - 0.15), -1.0);
     }
 
     #[test]
@@ -145,5 +151,16 @@ mod tests {
         let h = s.height_at(3.5, -2.5);
         assert!((h - (23.0 + 24.0 + 33.0) / 3.0).abs() < 1e-12, "{h}");
         assert!(h.is_finite());
+    }
+
+    #[test]
+    fn a_no_data_sample_itself_takes_a_valid_corner_not_the_fill() {
+        let mut g = ramp();
+        *g.get_mut(1, 1) = f64::NAN;
+        let geo = Georef::north_up(Crs::Geographic, 0.0, 0.0, 1.0, 1.0);
+        let s = Source::new(&g, &geo, -1.0).unwrap();
+        // On sample (1, 1) all the weight is on it; the zero-weight corners still hold data:
+        // (1, 2) = 12 comes first.
+        assert_eq!(s.height_at(1.0, -1.0), 12.0);
     }
 }

@@ -269,6 +269,8 @@ mod tests {
             RangeAsk::Part { start: 0, end: 99 }
         );
         assert_eq!(r("bytes=+5-9", 100), RangeAsk::Full);
+        // A last position before the first is not a range (RFC 9110 §14.1.1): ignored.
+        assert_eq!(r("bytes=9-0", 100), RangeAsk::Full);
     }
 
     #[test]
@@ -276,5 +278,8 @@ mod tests {
         let h = with(IF_NONE_MATCH, "\"x\", W/\"abc\"");
         assert!(not_modified(&h, "W/\"abc\""));
         assert!(!not_modified(&h, "W/\"abd\""));
+        // `*` matches any current representation (RFC 9110 §13.1.2).
+        assert!(not_modified(&with(IF_NONE_MATCH, "*"), "W/\"abd\""));
+        assert!(!not_modified(&HeaderMap::new(), "W/\"abd\""));
     }
 }

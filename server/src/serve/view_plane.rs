@@ -107,6 +107,15 @@ pub fn polygon_area(points: &[DVec2]) -> f64 {
 mod tests {
     use super::*;
 
+    #[test]
+    fn area_does_not_depend_on_the_winding() {
+        let ccw = [(0.0, 0.0), (2.0, 0.0), (2.0, 1.0), (0.0, 1.0)].map(DVec2::from);
+        let mut cw = ccw;
+        cw.reverse();
+        assert_eq!(polygon_area(&ccw), 2.0);
+        assert_eq!(polygon_area(&cw), 2.0);
+    }
+
     fn down_from(h: f64) -> Camera {
         Camera {
             eye: DVec3::new(0.0, 0.0, h),
