@@ -14,7 +14,7 @@ use zerotile_codec::Grid;
 
 use super::{app, AppState, Catalog, Config};
 use crate::serve::dataset::Dataset;
-use crate::serve::pipeline;
+use crate::serve::{pipeline, render};
 
 /// A smooth 257² hill, as every tile of a dataset of `scheme` holding `tiles`.
 fn hill_dataset(tag: &str, scheme: &str, tiles: &[TileId]) -> Dataset {
@@ -351,6 +351,14 @@ fn neighbours_follow_each_scheme_row_direction() {
         pipeline::neighbours(&d, id(0, 0, 0)),
         [None, None, Some(id(0, 1, 0)), Some(id(0, 1, 0))]
     );
+    // East of the last column is the first, on both world schemes.
+    let d = hill_dataset("merc-neighbours-east", "mercator", &all);
+    assert_eq!(pipeline::neighbours(&d, id(1, 1, 1))[3], Some(id(1, 0, 1)));
+    let d = hill_dataset("geo-roots-east", "geodetic", &roots);
+    assert_eq!(
+        pipeline::neighbours(&d, id(0, 1, 0)),
+        [None, None, Some(id(0, 0, 0)), Some(id(0, 0, 0))]
+    );
     // A local grid does not go round.
     let d = hill_dataset("local-neighbours", "local", &[id(0, 0, 0)]);
     assert_eq!(pipeline::neighbours(&d, id(0, 0, 0)), [None; 4]);
@@ -659,5 +667,101 @@ async fn tilejson_urls_follow_the_configured_origin() {
             Some(v) => assert!(varies.contains(&v), "{varies:?}"),
             None => assert!(!varies.iter().any(|v| v.contains("Host")), "{varies:?}"),
         }
+    }
+}
+
+/// The metadata extension counts child rows from the south (TMS) on every scheme, as
+/// CesiumJS reads it; mercator tile rows count from the north.
+#[test]
+fn child_availability_counts_rows_from_the_south() {
+    let id = |z, x, y| TileId { z, x, y };
+    let rows = |v: serde_json::Value| -> Vec<(u64, u64)> {
+        v["available"][0]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|r| {
+                assert_eq!(
+                    (r["startX"].clone(), r["startY"].clone()),
+                    (r["endX"].clone(), r["endY"].clone())
+                );
+                (r["startX"].as_u64().unwrap(), r["startY"].as_u64().unwrap())
+            })
+            .collect()
+    };
+    // XYZ (1, 0, 0) is the north-west child: TMS row 1. (1, 1, 1) is south-east: row 0.
+    let tiles = [id(0, 0, 0), id(1, 0, 0), id(1, 1, 1)];
+    let d = hill_dataset("merc-children", "mercator", &tiles);
+    let got = rows(render::child_availability(&d, id(0, 0, 0)).unwrap());
+    assert_eq!(got, [(0, 1), (1, 0)]);
+    // Geodetic rows already count from the south.
+    let tiles = [id(0, 0, 0), id(1, 0, 0), id(1, 1, 1)];
+    let d = hill_dataset("geo-children", "geodetic", &tiles);
+    let mut got = rows(render::child_availability(&d, id(0, 0, 0)).unwrap());
+    got.sort_unstable();
+    assert_eq!(got, [(0, 0), (1, 1)]);
+}
+
+/// Twice the signed area of triangle `t` in the x–y plane: > 0 when counter-clockwise.
+fn turn(p: &[[f64; 3]], t: [u32; 3]) -> f64 {
+    let [a, b, c] = t.map(|k| p[k as usize]);
+    (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+}
+
+/// A root without data gets two flat triangles wound like the real meshes beside it, or
+/// CesiumJS culls one kind as back faces.
+#[test]
+fn the_flat_root_mesh_winds_like_a_real_tile_mesh() {
+    use zerotile_codec::bintree::{self, Hierarchy, TileErrors};
+    let g = Grid::new(
+        257,
+        257,
+        (0..257 * 257)
+            .map(|k| ((k / 257) as f64 / 9.0).sin() * 30.0 + (k % 257) as f64 * 0.1)
+            .collect(),
+    )
+    .unwrap();
+    let h = Hierarchy::new(257).unwrap();
+    let real = bintree::extract(&h, &TileErrors::exact_above(&h, &g, 1.0), &g, 1.0, None);
+    assert!(real.triangles.len() > 100);
+    let sign = |m: &zerotile_codec::zerotree::TerrainMesh| -> Vec<f64> {
+        m.triangles
+            .iter()
+            .map(|&t| turn(&m.positions, t).signum())
+            .collect()
+    };
+    let real_signs = sign(&real);
+    let want = real_signs[0];
+    assert!(want != 0.0 && real_signs.iter().all(|&s| s == want));
+    let flat = render::flat_mesh(257, 5.0);
+    assert_eq!(sign(&flat), [want, want]);
+    assert!(flat.positions.iter().all(|p| p[2] == 5.0));
+}
+
+/// The OBJ / glTF / JSON meshes are z up with x east and y north on every scheme, so their
+/// triangles turn counter-clockwise seen from above (a local grid's rows run south: y is
+/// minus the row).
+#[test]
+fn mesh_files_are_counter_clockwise_from_above_on_every_scheme() {
+    use zerotile_codec::bintree::{self, Hierarchy, TileErrors};
+    let g = Grid::new(
+        257,
+        257,
+        (0..257 * 257)
+            .map(|k| ((k % 257) as f64 / 7.0).cos() * 20.0)
+            .collect(),
+    )
+    .unwrap();
+    let h = Hierarchy::new(257).unwrap();
+    let mesh = bintree::extract(&h, &TileErrors::exact_above(&h, &g, 1.0), &g, 1.0, None);
+    for scheme in ["local", "geodetic", "mercator"] {
+        let root = TileId { z: 0, x: 0, y: 0 };
+        let d = hill_dataset(&format!("ccw-{scheme}"), scheme, &[root]);
+        let m = render::tri_mesh(&d, root, &mesh).unwrap();
+        let p: Vec<[f64; 3]> = m.positions.iter().map(|v| v.to_array()).collect();
+        assert!(
+            m.faces.iter().all(|&t| turn(&p, t) > 0.0),
+            "{scheme}: a triangle turns clockwise"
+        );
     }
 }
