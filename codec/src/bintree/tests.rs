@@ -87,3 +87,32 @@ fn tolerances_between_f32_values_split_as_in_f64() {
     assert_eq!(extract(&h, &e, &g, f64::NAN, None).triangle_count(), 2);
     assert_eq!(extract(&h, &e, &g, f64::INFINITY, None).triangle_count(), 2);
 }
+
+/// What a neighbour must force onto a shared edge is exactly what this tile's mesh has on it.
+#[test]
+fn border_vertices_are_the_mesh_vertices_on_each_edge() {
+    let n = 65;
+    let g = n44w072_crop(300, 500, n);
+    let h = Hierarchy::new(n).unwrap();
+    let e = TileErrors::new(&h, &g);
+    let last = (n - 1) as f64;
+    for tol in [1.0, 4.0, 16.0] {
+        let m = extract(&h, &e, &g, tol, None);
+        let b = border_vertices(&h, &e, tol);
+        let on = |at: &dyn Fn(f64) -> (f64, f64)| -> Vec<bool> {
+            (0..n)
+                .map(|k| {
+                    let (x, y) = at(k as f64);
+                    m.positions.iter().any(|p| p[0] == x && p[1] == y)
+                })
+                .collect()
+        };
+        assert_eq!(b.north, on(&|k| (k, 0.0)), "north at {tol}");
+        assert_eq!(b.south, on(&|k| (k, last)), "south at {tol}");
+        assert_eq!(b.west, on(&|k| (0.0, k)), "west at {tol}");
+        assert_eq!(b.east, on(&|k| (last, k)), "east at {tol}");
+        for side in [&b.north, &b.south, &b.west, &b.east] {
+            assert!(side[1..n - 1].iter().any(|&v| v), "tolerance {tol}");
+        }
+    }
+}

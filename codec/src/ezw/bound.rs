@@ -95,4 +95,16 @@ mod tests {
         assert_eq!(quantise_up(0.0, 1.0), ZERO);
         assert_eq!(value(ZERO, 1.0), 0.0);
     }
+
+    /// A bound that is exactly a table value codes as that value's own code: `value` is
+    /// strictly increasing in q, so q is the smallest code at or above it, whatever the
+    /// logarithm's rounding says.
+    #[test]
+    fn a_table_value_quantises_to_its_own_code() {
+        for t in [1e-3, 0.0625, 1.0, 3.2, 4096.0] {
+            for q in -300..300 {
+                assert_eq!(quantise_up(value(q, t), t), q, "t {t} q {q}");
+            }
+        }
+    }
 }

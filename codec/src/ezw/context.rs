@@ -254,4 +254,37 @@ mod tests {
         assert_eq!(sign(W | N | N_NEG), 1);
         assert_eq!(sign(W | W_NEG), 2);
     }
+
+    /// The refinement context's three inputs each own a bit of the index: the first
+    /// refinement, a fine band (detail levels 1 and 2, the bands with the most zeros), and
+    /// two or more significant neighbours (one is not two; signs and the parent bit are not
+    /// neighbours).
+    #[test]
+    fn refinement_contexts_keep_their_three_inputs_apart() {
+        let patterns = [
+            (0, false),
+            (W, false),
+            (SE | W_NEG | N_NEG, false),
+            (NE | 1 << PARENT_SHIFT, false),
+            (W | E, true),
+            (N | SW, true),
+            (NEIGHBOURS, true),
+        ];
+        for first in [false, true] {
+            for level in 1..=4 {
+                for o in [None, Some(Orientation::HL), Some(Orientation::HH)] {
+                    let fine = o.is_some() && level <= 2;
+                    for (flags, two) in patterns {
+                        let c = refine(first, class(o, level), flags);
+                        assert!(c < 8);
+                        assert_eq!(
+                            (c >> 2 == 1, c >> 1 & 1 == 1, c & 1 == 1),
+                            (first, fine, two),
+                            "first {first}, {o:?} level {level}, flags {flags:#x}"
+                        );
+                    }
+                }
+            }
+        }
+    }
 }

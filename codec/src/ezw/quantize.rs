@@ -167,4 +167,49 @@ mod tests {
         assert!(reconstruct_integer(u64::MAX, 63, 24) > 0.0);
         assert!(reconstruct_integer(u64::MAX, 255, 255) > 0.0);
     }
+
+    /// A coefficient known down to plane k lies in [mag, mag + 2^k): the decoder's point is
+    /// the interval's middle, which halves the worst error of taking its low end.
+    #[test]
+    fn reconstruction_is_the_middle_of_the_known_interval() {
+        assert_eq!(reconstruct(8, 3), 12.0);
+        assert_eq!(reconstruct(1, 0), 1.5);
+        for known in 0..=40u8 {
+            for top in [1u64, 2, 3, 1000] {
+                let mag = top << known;
+                let width = (1u64 << known) as f64;
+                assert_eq!(
+                    reconstruct(mag, known),
+                    mag as f64 + width / 2.0,
+                    "{mag} {known}"
+                );
+            }
+        }
+    }
+
+    /// Bands are weighted by their synthesis L2 norm over the smallest one, so the lightest
+    /// band weighs 1, the LL band (the heaviest norm) the most, and a unit of weighted
+    /// magnitude is worth the same height energy in every band; the 5/3 shifts are those
+    /// weights' rounded log2.
+    #[test]
+    fn weights_are_the_synthesis_norms_over_the_smallest() {
+        let layout = Layout::full(257, 257);
+        for wavelet in [Wavelet::LeGall53, Wavelet::Cdf97] {
+            let norms = band_norms(wavelet, &layout);
+            let smallest = norms.iter().map(|n| n.l2).fold(f64::INFINITY, f64::min);
+            let weights = real_weights(wavelet, &layout);
+            for (k, (w, n)) in weights.iter().zip(&norms).enumerate() {
+                assert!(
+                    (w * smallest - n.l2).abs() <= 1e-12 * n.l2,
+                    "{wavelet:?} band {k}"
+                );
+                assert!(*w >= 1.0 && *w <= weights[0], "{wavelet:?} band {k}: {w}");
+            }
+            assert!(weights.contains(&1.0) && weights[0] > 10.0, "{wavelet:?}");
+        }
+        let weights = real_weights(Wavelet::LeGall53, &layout);
+        for (s, w) in integer_shifts(&layout).iter().zip(weights) {
+            assert_eq!(f64::from(*s), w.log2().round());
+        }
+    }
 }

@@ -255,3 +255,76 @@ pub fn apply(units: &mut Grid<f64>, bytes: &[u8], bound: f64) -> Result<(), Deco
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A real-valued decoded surface, as a 9/7 prefix leaves one.
+    fn surface(rows: usize, cols: usize) -> Grid<f64> {
+        let data = (0..rows * cols)
+            .map(|k| ((k / cols) as f64 * 0.37).sin() * 20.0 + (k % cols) as f64 * 0.61)
+            .collect();
+        Grid::new(rows, cols, data).unwrap()
+    }
+
+    /// JPEG-LS near-lossless: on integer heights a bin holds 2E + 1 integers, so once the
+    /// decoded surface is rounded every residual in [−E, E] is bin 0 and the section is its
+    /// mode byte alone; one beyond E costs a bin, and every sample ends within E.
+    #[test]
+    fn integer_residuals_within_the_bound_cost_nothing() {
+        let (rows, cols, e) = (17, 23, 2.0);
+        let decoded = surface(rows, cols);
+        let offsets = [-2.0, -1.0, 0.0, 1.0, 2.0];
+        let within = decoded.map(|d| d.round());
+        let mut units = within.clone();
+        for (k, u) in units.data_mut().iter_mut().enumerate() {
+            *u += offsets[k % offsets.len()];
+        }
+        let bytes = encode_residual(&units, &decoded, e, true, None).unwrap();
+        assert_eq!(bytes, vec![MODE_INTEGER]);
+        let mut back = decoded.clone();
+        apply(&mut back, &bytes, e).unwrap();
+        assert_eq!(back, within);
+
+        for (k, u) in units.data_mut().iter_mut().enumerate() {
+            *u += if k % 7 == 0 { 3.0 } else { 0.0 };
+        }
+        let bytes = encode_residual(&units, &decoded, e, true, None).unwrap();
+        assert!(bytes.len() > 1);
+        let mut back = decoded.clone();
+        apply(&mut back, &bytes, e).unwrap();
+        for (b, u) in back.data().iter().zip(units.data()) {
+            assert!(b.fract() == 0.0 && (b - u).abs() <= e, "{b} for {u}");
+        }
+    }
+
+    /// Real-valued bins are 2E wide: residuals strictly inside (−E, E) cost nothing, and
+    /// larger ones come back within E.
+    #[test]
+    fn real_residuals_come_back_within_the_bound() {
+        let (rows, cols, e) = (19, 11, 0.25);
+        let decoded = surface(rows, cols);
+        let near = decoded.map(|d| d + 0.2);
+        let bytes = encode_residual(&near, &decoded, e, false, None).unwrap();
+        assert_eq!(bytes, vec![MODE_REAL]);
+        let far = Grid::new(
+            rows,
+            cols,
+            (0..rows * cols)
+                .map(|k| (k % 13) as f64 * 0.9 - 5.0)
+                .collect(),
+        )
+        .unwrap();
+        let mut units = decoded.map(|d| d.round());
+        for (u, f) in units.data_mut().iter_mut().zip(far.data()) {
+            *u += f;
+        }
+        let bytes = encode_residual(&units, &decoded, e, false, None).unwrap();
+        let mut back = decoded.clone();
+        apply(&mut back, &bytes, e).unwrap();
+        for (b, u) in back.data().iter().zip(units.data()) {
+            assert!((b - u).abs() <= e, "{b} for {u}");
+        }
+    }
+}

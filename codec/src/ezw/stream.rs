@@ -587,4 +587,41 @@ mod tests {
             Err(DecodeError::Limit(_))
         ));
     }
+
+    /// Numbers no encoder writes are refused, not decoded: more than three segments per
+    /// plane, a top plane above 62 (magnitudes stay below 2^63), a quantiser exponent
+    /// outside ±30 (thresholds 2^(k + qexp) would leave f64's range).
+    #[test]
+    fn impossible_planes_and_exponents_are_refused() {
+        let read = |h: &Header| {
+            let mut out = Vec::new();
+            h.write(&mut out);
+            Header::read(&out, 1 << 20)
+        };
+        assert!(read(&sample()).is_ok());
+        let mut h = sample();
+        h.segments = vec![1; 3 * 21 + 1];
+        h.pass_errors = vec![bound::ZERO; h.segments.len()];
+        assert!(
+            matches!(read(&h), Err(DecodeError::Malformed(_))),
+            "64 segments"
+        );
+        h.segments.pop();
+        h.pass_errors.pop();
+        assert!(read(&h).is_ok(), "63 segments for 21 planes");
+        let mut h = sample();
+        h.top_plane = Some(63);
+        assert!(
+            matches!(read(&h), Err(DecodeError::Malformed(_))),
+            "top plane 63"
+        );
+        for qexp in [31, -31] {
+            let mut h = sample();
+            h.qexp = qexp;
+            assert!(
+                matches!(read(&h), Err(DecodeError::Malformed(_))),
+                "qexp {qexp}"
+            );
+        }
+    }
 }

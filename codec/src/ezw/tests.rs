@@ -488,3 +488,141 @@ fn whole_len_tells_a_cut_stream_from_a_whole_one() {
         assert_eq!(whole_len(&padded, DEFAULT_MAX_SAMPLES).unwrap(), Some(n));
     }
 }
+
+/// Every coefficient's flag word names which of its eight in-band neighbours are significant
+/// and whether the west and north ones are negative. Encoder and decoder update the flags
+/// alike, so a neighbour both forget passes every round trip and only costs bits: check the
+/// words against the significance map itself, which after a whole plane k is exactly the
+/// magnitudes ≥ 2^k.
+#[test]
+fn neighbour_flags_follow_the_significance_map_after_every_plane() {
+    let g = n44w072_crop(300, 500, 65);
+    let layout = Layout::full(65, 65);
+    let cols = layout.cols();
+    let (lo, hi) = g
+        .data()
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
+    let centered = g.map(|h| h - ((lo + hi) / 2.0).round());
+    for wavelet in [Wavelet::Cdf97, Wavelet::LeGall53] {
+        let (mags, negs, _) = quantize::forward(&centered, wavelet, &layout);
+        let plan = Plan::new(Tree::new(&layout), Plan::shifts_for(wavelet, &layout));
+        let mut state = State::new(&plan);
+        let mut truth = Truth {
+            mag: &mags,
+            neg: &negs,
+            parent: plan.tree.parents(),
+            sub_new: Vec::new(),
+        };
+        let top = 63 - mags.iter().max().unwrap().leading_zeros();
+        for k in (0..=top).rev() {
+            let _ = passes::propagation(EncodeIo::default(), &plan, &mut state, Some(&truth), k);
+            let _ = passes::refinement(EncodeIo::default(), &plan, &mut state, Some(&truth), k);
+            truth.prepare(&plan, &state, k);
+            let _ = passes::cleanup(EncodeIo::default(), &plan, &mut state, Some(&truth), k);
+            for b in &plan.tree.bands {
+                let (rows, bcols) = (b.rows as isize, b.cols as isize);
+                let idx = |i: isize, j: isize| (b.row0 + i as usize) * cols + b.col0 + j as usize;
+                let sig = |i: isize, j: isize| {
+                    (0..rows).contains(&i)
+                        && (0..bcols).contains(&j)
+                        && state.is_significant(b, i as usize, j as usize)
+                };
+                for i in 0..rows {
+                    for j in 0..bcols {
+                        let at = format!(
+                            "{wavelet:?} plane {k}, band at ({}, {}), ({i}, {j})",
+                            b.row0, b.col0
+                        );
+                        assert_eq!(sig(i, j), mags[idx(i, j)] >> k != 0, "{at}");
+                        let mut want = 0;
+                        for (di, dj, flag) in [
+                            (0, -1, context::W),
+                            (0, 1, context::E),
+                            (-1, 0, context::N),
+                            (1, 0, context::S),
+                            (-1, -1, context::NW),
+                            (-1, 1, context::NE),
+                            (1, -1, context::SW),
+                            (1, 1, context::SE),
+                        ] {
+                            if sig(i + di, j + dj) {
+                                want |= flag;
+                            }
+                        }
+                        if sig(i, j - 1) && negs[idx(i, j - 1)] {
+                            want |= context::W_NEG;
+                        }
+                        if sig(i - 1, j) && negs[idx(i - 1, j)] {
+                            want |= context::N_NEG;
+                        }
+                        assert_eq!(u32::from(state.flags[idx(i, j)]), want, "{at}");
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// A plane's 5/3 details are all zero (linear interpolation reproduces it), so on 257² only
+/// the 2 × 2 LL band and the five level-8 coefficients are ever outside a zerotree; no pass
+/// codes more than significance, sign and a zerotree decision for each of those nine. Without
+/// zerotrees the first cleanup pass alone would code 257² significance decisions.
+#[test]
+fn a_plane_codes_only_its_coarsest_coefficients() {
+    let n = 257;
+    let data = (0..n * n)
+        .map(|k| 3.0 * (k / n) as f64 - 2.0 * (k % n) as f64 + 100.0)
+        .collect();
+    let g = Grid::new(n, n, data).unwrap();
+    let enc = encode(&g, &EncodeParams::new(Wavelet::LeGall53, 1.0)).unwrap();
+    assert!(enc.passes.len() >= 3);
+    for (s, p) in enc.passes.iter().enumerate() {
+        assert!(
+            p.decisions <= 3 * 9,
+            "pass {s} ({:?} of plane {}): {} decisions",
+            p.kind,
+            p.plane,
+            p.decisions
+        );
+    }
+    let d = decode(&enc.bytes, DecodeLimit::All, DEFAULT_MAX_SAMPLES).unwrap();
+    assert_eq!(d.heights, g);
+}
+
+/// A prefix that ends inside the residual section lacks bytes the max-error bound rests on:
+/// its decode is an error or an unbounded one, never a panic and never `bounded`.
+#[test]
+fn a_prefix_cut_inside_the_residual_section_is_never_bounded() {
+    let g = n44w072_crop(300, 500, 65);
+    for wavelet in [Wavelet::Cdf97, Wavelet::LeGall53] {
+        let params = EncodeParams {
+            max_error: Some(2.0),
+            ..EncodeParams::new(wavelet, 1.0)
+        };
+        let enc = encode(&g, &params).unwrap();
+        let (header, _) = Header::read(&enc.bytes, DEFAULT_MAX_SAMPLES).unwrap();
+        let (_, len) = header.residual.unwrap();
+        let start = enc.passes.last().map_or(enc.header_len, |p| p.end);
+        assert!(len > 1, "{wavelet:?}: residual section of {len} bytes");
+        for cut in start..start + len {
+            let decodes = [
+                decode(&enc.bytes[..cut], DecodeLimit::All, DEFAULT_MAX_SAMPLES),
+                decode(&enc.bytes, DecodeLimit::Bytes(cut), DEFAULT_MAX_SAMPLES),
+            ];
+            for d in decodes.into_iter().flatten() {
+                assert!(
+                    !d.bounded,
+                    "{wavelet:?}: cut at {cut} of {start}..{}",
+                    start + len
+                );
+            }
+        }
+        let whole = decode(
+            &enc.bytes[..start + len],
+            DecodeLimit::All,
+            DEFAULT_MAX_SAMPLES,
+        );
+        assert!(whole.unwrap().bounded, "{wavelet:?}");
+    }
+}

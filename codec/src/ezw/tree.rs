@@ -228,4 +228,24 @@ mod tests {
         );
         assert!(t.bands[1..].iter().all(|b| b.depth <= 1));
     }
+
+    /// A band's `depth` is the level distance to the band it hangs from (the LL band counts
+    /// as the top level), also when the bands between are empty: on 2 × 40 only LH1 and
+    /// HH1 have rows, and they hang from LL four levels up.
+    #[test]
+    fn depth_is_the_level_distance_to_the_parent_band() {
+        for (r, c) in [(257, 257), (2, 40), (40, 2), (1, 257), (300, 17), (5, 3)] {
+            let layout = Layout::full(r, c);
+            let t = Tree::new(&layout);
+            for (bi, b) in t.bands.iter().enumerate() {
+                let Some(pi) = b.parent else { continue };
+                let p = &t.bands[pi];
+                assert_eq!(b.depth as usize, p.level - b.level, "{r}x{c} band {bi}");
+                assert!(!p.is_empty(), "{r}x{c} band {bi} hangs from an empty band");
+            }
+        }
+        let t = Tree::new(&Layout::full(2, 40));
+        let lh1 = t.bands.len() - 2;
+        assert_eq!((t.bands[lh1].parent, t.bands[lh1].depth), (Some(0), 4));
+    }
 }

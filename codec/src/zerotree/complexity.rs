@@ -268,4 +268,56 @@ mod tests {
             assert!(map.leaves(0.0).leaves().is_empty());
         }
     }
+
+    /// The definition: a cell's value is the largest magnitude on its closed square, its four
+    /// corners excluded (edges included, so both cells of an edge judge it alike), +∞ for a
+    /// cell that is not wholly inside the grid. Random coefficients make every sample count.
+    #[test]
+    fn cell_maxima_are_the_closed_square_maxima() {
+        for (r, c) in [(65, 65), (40, 70)] {
+            let layout = layout_with(r, c);
+            let coefficients = crate::wavelet::testutil::grid_f64(r, c, 100.0, (r * c) as u64);
+            let map = Complexity::new(&layout, &coefficients);
+            let magnitude = sample_magnitudes(&layout, &coefficients);
+            for m in 1..=layout.levels() {
+                let (cr, cc) = map.cells(m);
+                let size = 1usize << m;
+                for i in 0..cr {
+                    for j in 0..cc {
+                        let (r0, c0) = (i * size, j * size);
+                        let got = map.cell_max(m, i, j);
+                        if r0 + size >= r || c0 + size >= c {
+                            assert_eq!(got, f32::INFINITY, "{r}×{c} level {m} ({i}, {j})");
+                            continue;
+                        }
+                        let corner = |y: usize, x: usize| {
+                            (y == r0 || y == r0 + size) && (x == c0 || x == c0 + size)
+                        };
+                        let mut want = 0f32;
+                        for y in r0..=r0 + size {
+                            for x in (c0..=c0 + size).filter(|&x| !corner(y, x)) {
+                                want = want.max(magnitude[y * c + x]);
+                            }
+                        }
+                        assert_eq!(got, want, "{r}×{c} level {m} ({i}, {j})");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_sample_on_a_horizontal_edge_splits_both_cells_of_that_edge() {
+        // Sample (128, 64) of 257²: on the edge y = 128 between level-7 cells (0, 0) and
+        // (1, 0); it is the HL coefficient (1, 0) of level 7.
+        let layout = layout_with(257, 257);
+        let mut coefficients = Grid::<f64>::zeros(257, 257);
+        let b = layout.band(7, Orientation::HL);
+        *coefficients.get_mut(b.row0 + 1, b.col0) = 5.0;
+        let map = Complexity::new(&layout, &coefficients);
+        assert_eq!(map.cell_max(7, 0, 0), 5.0);
+        assert_eq!(map.cell_max(7, 1, 0), 5.0);
+        assert_eq!(map.cell_max(7, 0, 1), 0.0);
+        assert_eq!(map.cell_max(7, 1, 1), 0.0);
+    }
 }

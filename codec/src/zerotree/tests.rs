@@ -183,3 +183,55 @@ fn extra_border_vertices_are_inserted_without_t_junctions() {
         assert!(has(0, k / 2), "west {}", k / 2);
     }
 }
+
+/// One leaf over a 3 × 3 grid (level 1), or a 2 × 2 grid (level 0).
+fn one_leaf(heights: &[f64]) -> (Grid<f64>, TerrainMesh) {
+    let n = if heights.len() == 9 { 3 } else { 2 };
+    let g = Grid::new(n, n, heights.to_vec()).unwrap();
+    let leaf = Leaf {
+        row: 0,
+        col: 0,
+        level: (n - 2) as u8,
+    };
+    let m = triangulate(&SplitMap::new(n, n, vec![leaf]), &g, None);
+    (g, m)
+}
+
+/// Whether the mesh has an edge between grid samples (x, y) = a and b.
+fn has_edge(m: &TerrainMesh, a: (f64, f64), b: (f64, f64)) -> bool {
+    let at = |p: (f64, f64)| m.positions.iter().position(|q| (q[0], q[1]) == p).unwrap() as u32;
+    let (a, b) = (at(a), at(b));
+    m.triangles.iter().any(|t| {
+        (0..3).any(|k| (t[k], t[(k + 1) % 3]) == (a, b) || (t[k], t[(k + 1) % 3]) == (b, a))
+    })
+}
+
+/// A bare leaf splits along the diagonal whose midpoint is nearer the centre sample (which
+/// lies on it), so the centre is interpolated with the smaller error; a 1 × 1 cell takes the
+/// diagonal with the smaller height step.
+#[test]
+fn a_bare_leaf_splits_along_the_diagonal_nearer_its_centre() {
+    // Row-major 3 × 3, centre 2: the tl–br diagonal's midpoint is 1, the bl–tr one's 9.
+    let (_, m) = one_leaf(&[0.0, 0.0, 18.0, 0.0, 2.0, 0.0, 0.0, 0.0, 2.0]);
+    assert_eq!(m.triangle_count(), 2);
+    assert!(has_edge(&m, (0.0, 0.0), (2.0, 2.0)));
+    let (_, m) = one_leaf(&[18.0, 0.0, 0.0, 0.0, 2.0, 0.0, 2.0, 0.0, 0.0]);
+    assert!(has_edge(&m, (2.0, 0.0), (0.0, 2.0)));
+    // 2 × 2: tl 0, tr 9, bl 5, br 1: |0 − 1| < |5 − 9|.
+    let (_, m) = one_leaf(&[0.0, 9.0, 5.0, 1.0]);
+    assert!(has_edge(&m, (0.0, 0.0), (1.0, 1.0)));
+    let (_, m) = one_leaf(&[0.0, 1.0, 5.0, 9.0]);
+    assert!(has_edge(&m, (1.0, 0.0), (0.0, 1.0)));
+}
+
+/// The measure on a mesh worked by hand: two triangles over a 3 × 3 grid that is flat but
+/// for its centre, which lies on their shared diagonal and is interpolated as 0: its error
+/// is the largest, the eight other samples are exact, RMS = √(6² / 9) = 2.
+#[test]
+fn mesh_error_of_a_hand_worked_mesh() {
+    let (g, m) = one_leaf(&[0.0, 0.0, 0.0, 0.0, 6.0, 0.0, 0.0, 0.0, 0.0]);
+    let e = mesh_error(&m, &g);
+    assert_eq!(e.uncovered, 0);
+    assert!((e.max_abs - 6.0).abs() < 1e-12, "{e:?}");
+    assert!((e.rmse - 2.0).abs() < 1e-12, "{e:?}");
+}
