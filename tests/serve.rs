@@ -966,18 +966,19 @@ fn real_geodetic_tiles_match_their_neighbours_on_every_side() {
         "north edge",
     );
 
-    // Lighting: the normals of every shared edge vertex but the corners agree across the
+    // Lighting: the normals of every shared edge vertex agree across the
     // border (they came from each tile's own triangles once, and differed by up to tens of
     // degrees: a lit seam along every tile edge in CesiumJS).
-    let lit = |x: u32, y: u32| {
+    let lit_at = |x: u32, y: u32, t: f64| {
         let accept = "application/vnd.quantized-mesh;extensions=octvertexnormals";
         let r = s.get(
-            &format!("/v1/datasets/srtm/tiles/10/{x}/{y}.terrain?threshold=4"),
+            &format!("/v1/datasets/srtm/tiles/10/{x}/{y}.terrain?threshold={t}"),
             &[("Accept", accept)],
         );
         assert_eq!(r.status, 200);
         qm::read(&r.body).unwrap()
     };
+    let lit = |x, y| lit_at(x, y, 4.0);
     let (a, east, north) = (
         lit(x0 + 1, y0 + 1),
         lit(x0 + 2, y0 + 1),
@@ -1013,6 +1014,35 @@ fn real_geodetic_tiles_match_their_neighbours_on_every_side() {
             "{what} edge normals differ by up to {worst:.1}°"
         );
     }
+
+    // The corner the four tiles share gets one normal: each tile reads the samples next to
+    // it from the same decodes (its diagonal neighbour's included), so the oct bytes match.
+    // Coarse decodes (T = 200 m), where reading the two far arms from one tile's decode
+    // alone, as before, moved the bytes by two steps.
+    let coarse = |x, y| lit_at(x, y, 200.0);
+    let (a, east, north, north_east) = (
+        coarse(x0 + 1, y0 + 1),
+        coarse(x0 + 2, y0 + 1),
+        coarse(x0 + 1, y0 + 2),
+        coarse(x0 + 2, y0 + 2),
+    );
+    let corner = |t: &qm::Tile, u: u16, v: u16| -> [u8; 2] {
+        let oct = &t.extensions.iter().find(|(id, _)| *id == 1).unwrap().1;
+        let i = (0..t.u.len())
+            .find(|&i| t.u[i] == u && t.v[i] == v)
+            .expect("a tile corner is a vertex");
+        [oct[2 * i], oct[2 * i + 1]]
+    };
+    let seen = [
+        corner(&a, 32767, 32767),
+        corner(&east, 0, 32767),
+        corner(&north, 32767, 0),
+        corner(&north_east, 0, 0),
+    ];
+    assert!(
+        seen.iter().all(|&o| o == seen[0]),
+        "the corner's oct normals differ: {seen:?}"
+    );
 }
 
 #[test]

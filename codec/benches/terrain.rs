@@ -97,7 +97,12 @@ fn decode_and_mesh(c: &mut Criterion) {
         let mesh = bintree::extract(&hierarchy, &errors, &g, tolerance, None);
         group.bench_function(format!("qm_grid_normals_tol_{tolerance}"), |b| {
             b.iter(|| {
-                let normals = quantized_mesh::grid_normals(&tile, &hood, &mesh);
+                let normals = quantized_mesh::grid_normals(
+                    &tile,
+                    &hood,
+                    &quantized_mesh::Diagonals::default(),
+                    &mesh,
+                );
                 quantized_mesh::encode_with_normals(&mesh, &tile, &opts, Some(&normals))
             })
         });

@@ -167,7 +167,7 @@ fn flags(v: &[bool]) -> impl Iterator<Item = usize> + '_ {
 
 /// The mean of two border samples, the same bits whichever tile computes it.
 #[inline]
-fn mean(a: f64, b: f64) -> f64 {
+pub(crate) fn mean(a: f64, b: f64) -> f64 {
     (a + b) / 2.0
 }
 

@@ -9,6 +9,7 @@ use anyhow::{Context, Result};
 use zerotile_codec::bintree::TileErrors;
 use zerotile_codec::container::TileId;
 use zerotile_codec::ezw;
+use zerotile_codec::formats::quantized_mesh::Diagonals;
 use zerotile_codec::geo::Scheme;
 use zerotile_codec::tile::{stitched_mesh, Neighbourhood, TileView};
 use zerotile_codec::zerotree::TerrainMesh;
@@ -121,16 +122,9 @@ fn view(t: &DecodedTile) -> TileView<'_> {
     }
 }
 
-/// Edge neighbours that exist: north, south, west, east.
-pub fn neighbours(d: &Dataset, id: TileId) -> [Option<TileId>; 4] {
-    let at = |x: Option<u32>, y: Option<u32>| {
-        let t = TileId {
-            z: id.z,
-            x: x?,
-            y: y?,
-        };
-        d.has_tile(t).then_some(t)
-    };
+/// The rows north and south of `id` and the columns west and east of it, where the tiling
+/// has them (whether a tile is there is the caller's question).
+fn steps(d: &Dataset, id: TileId) -> [Option<u32>; 4] {
     // Row 0 of a tile is its north edge; geodetic tile rows count from the south.
     let (north_y, south_y) = match d.tiling.scheme() {
         Scheme::Geodetic => (id.y.checked_add(1), id.y.checked_sub(1)),
@@ -148,19 +142,71 @@ pub fn neighbours(d: &Dataset, id: TileId) -> [Option<TileId>; 4] {
         Some(n) if id.x + 1 >= n => Some(0),
         _ => id.x.checked_add(1),
     };
+    [north_y, south_y, west_x, east_x]
+}
+
+/// The tile at column `x`, row `y` of `id`'s zoom, if both exist and the dataset holds it.
+fn existing(d: &Dataset, z: u8, x: Option<u32>, y: Option<u32>) -> Option<TileId> {
+    let t = TileId { z, x: x?, y: y? };
+    d.has_tile(t).then_some(t)
+}
+
+/// Edge neighbours that exist: north, south, west, east.
+pub fn neighbours(d: &Dataset, id: TileId) -> [Option<TileId>; 4] {
+    let [north, south, west, east] = steps(d, id);
+    let at = |x, y| existing(d, id.z, x, y);
     [
-        at(Some(id.x), north_y),
-        at(Some(id.x), south_y),
-        at(west_x, Some(id.y)),
-        at(east_x, Some(id.y)),
+        at(Some(id.x), north),
+        at(Some(id.x), south),
+        at(west, Some(id.y)),
+        at(east, Some(id.y)),
     ]
+}
+
+/// Corner neighbours that exist: north-west, north-east, south-west, south-east.
+pub fn diagonal_neighbours(d: &Dataset, id: TileId) -> [Option<TileId>; 4] {
+    let [north, south, west, east] = steps(d, id);
+    let at = |x, y| existing(d, id.z, x, y);
+    [
+        at(west, north),
+        at(east, north),
+        at(west, south),
+        at(east, south),
+    ]
+}
+
+/// Decodes of `ids` at `depth`. One that cannot be read (a corrupt record) is left out:
+/// it costs this tile its match there, not the tile itself.
+fn decoded_around<const N: usize>(
+    state: &AppState,
+    d: &Dataset,
+    id: TileId,
+    ids: [Option<TileId>; N],
+    depth: Depth,
+    cancel: &Cancel,
+) -> Result<[Option<Arc<DecodedTile>>; N]> {
+    let mut out: [Option<Arc<DecodedTile>>; N] = std::array::from_fn(|_| None);
+    for (slot, n) in out.iter_mut().zip(ids) {
+        if let Some(n) = n {
+            match decoded(state, d, n, depth, cancel) {
+                Ok(t) => *slot = Some(t),
+                Err(e) if e.is::<Cancelled>() => return Err(e),
+                Err(e) => tracing::warn!("meshing {id} of {} without neighbour {n}: {e:#}", d.name),
+            }
+        }
+    }
+    Ok(out)
 }
 
 /// A tile meshed against its neighbours, with the decodes it was meshed from.
 pub struct Stitched {
+    pub id: TileId,
     pub center: Arc<DecodedTile>,
     /// North, south, west, east, where they exist and read.
     around: [Option<Arc<DecodedTile>>; 4],
+    /// North-west, north-east, south-west, south-east, once [`Stitched::add_diagonals`] ran.
+    diagonals: [Option<Arc<DecodedTile>>; 4],
+    depth: Depth,
     pub mesh: TerrainMesh,
 }
 
@@ -177,6 +223,25 @@ impl Stitched {
             corners: Some(self.center.corners),
         }
     }
+
+    /// Decodes the corner neighbours too: the vertex normals read one sample of each, so
+    /// the four tiles at a corner give it one normal. The mesh does not need them.
+    pub fn add_diagonals(&mut self, state: &AppState, d: &Dataset, cancel: &Cancel) -> Result<()> {
+        let ids = diagonal_neighbours(d, self.id);
+        self.diagonals = decoded_around(state, d, self.id, ids, self.depth, cancel)?;
+        Ok(())
+    }
+
+    /// The corner neighbours as the normals read them (none before `add_diagonals`).
+    pub fn diagonals(&self) -> Diagonals<'_> {
+        let [nw, ne, sw, se] = &self.diagonals;
+        Diagonals {
+            nw: nw.as_deref().map(view),
+            ne: ne.as_deref().map(view),
+            sw: sw.as_deref().map(view),
+            se: se.as_deref().map(view),
+        }
+    }
 }
 
 /// The tile's mesh at threshold `t`, crack-free against its neighbours' meshes at the same
@@ -191,21 +256,13 @@ pub fn stitched(
     // The tile and each neighbour at one depth: the stitch needs them decoded alike.
     let depth = Depth::for_threshold(t);
     let center = decoded(state, d, id, depth, cancel)?;
-    let mut around: [Option<Arc<DecodedTile>>; 4] = Default::default();
-    for (slot, n) in around.iter_mut().zip(neighbours(d, id)) {
-        if let Some(n) = n {
-            // A neighbour that cannot be read (a corrupt record) costs this tile its match
-            // on that edge, not the tile itself.
-            match decoded(state, d, n, depth, cancel) {
-                Ok(t) => *slot = Some(t),
-                Err(e) if e.is::<Cancelled>() => return Err(e),
-                Err(e) => tracing::warn!("meshing {id} of {} without neighbour {n}: {e:#}", d.name),
-            }
-        }
-    }
+    let around = decoded_around(state, d, id, neighbours(d, id), depth, cancel)?;
     let mut out = Stitched {
+        id,
         center,
         around,
+        diagonals: Default::default(),
+        depth,
         mesh: TerrainMesh::default(),
     };
     cancel.check()?;

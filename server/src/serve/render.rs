@@ -6,7 +6,7 @@ use glam::DVec3;
 use zerotile_codec::container::TileId;
 use zerotile_codec::formats::layer_json::AvailableRange;
 use zerotile_codec::formats::mesh_bin::{self, MeshCrs};
-use zerotile_codec::formats::quantized_mesh::{self, QmOptions};
+use zerotile_codec::formats::quantized_mesh::{self, Diagonals, QmOptions};
 use zerotile_codec::formats::terrain_rgb::{self, RgbOptions};
 use zerotile_codec::geo::{self, Scheme};
 use zerotile_codec::mesh::{io, Format, TriMesh};
@@ -22,19 +22,20 @@ fn geo_id(id: TileId) -> geo::TileId {
 }
 
 /// A quantized-mesh-1.0 tile (the tiling must be georeferenced). With the decodes `mesh`
-/// was stitched from, its normals come from their height grid, so they agree across tile
-/// borders (`quantized_mesh::grid_normals`); without, from its own triangles.
+/// was stitched from (and the corner neighbours'), its normals come from their height grid,
+/// so they agree across tile borders and corners (`quantized_mesh::grid_normals`);
+/// without, from its own triangles.
 pub fn quantized_mesh(
     d: &Dataset,
     id: TileId,
     mesh: &TerrainMesh,
     opts: &QmOptions,
-    around: Option<&Neighbourhood>,
+    around: Option<(&Neighbourhood, &Diagonals)>,
 ) -> Result<Vec<u8>> {
     let tile = d.tiling.tile_geo(geo_id(id))?;
     let normals = around
         .filter(|_| opts.octvertexnormals)
-        .map(|n| quantized_mesh::grid_normals(&tile, n, mesh));
+        .map(|(n, diagonals)| quantized_mesh::grid_normals(&tile, n, diagonals, mesh));
     Ok(quantized_mesh::encode_with_normals(
         mesh,
         &tile,

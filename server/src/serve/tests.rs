@@ -351,6 +351,24 @@ fn neighbours_follow_each_scheme_row_direction() {
         pipeline::neighbours(&d, id(0, 0, 0)),
         [None, None, Some(id(0, 1, 0)), Some(id(0, 1, 0))]
     );
+    // Corner neighbours follow the same rows and columns (the normals read them).
+    let geo_all: Vec<TileId> = (0..4)
+        .flat_map(|x| (0..2).map(move |y| id(1, x, y)))
+        .collect();
+    let d = hill_dataset("geo-diagonals", "geodetic", &geo_all);
+    assert_eq!(
+        pipeline::diagonal_neighbours(&d, id(1, 1, 0)),
+        [Some(id(1, 0, 1)), Some(id(1, 2, 1)), None, None]
+    );
+    assert_eq!(
+        pipeline::diagonal_neighbours(&d, id(1, 3, 1)),
+        [None, None, Some(id(1, 2, 0)), Some(id(1, 0, 0))]
+    );
+    let d = hill_dataset("merc-diagonals", "mercator", &all);
+    assert_eq!(
+        pipeline::diagonal_neighbours(&d, id(1, 0, 0)),
+        [None, None, Some(id(1, 1, 1)), Some(id(1, 1, 1))]
+    );
     // East of the last column is the first, on both world schemes.
     let d = hill_dataset("merc-neighbours-east", "mercator", &all);
     assert_eq!(pipeline::neighbours(&d, id(1, 1, 1))[3], Some(id(1, 0, 1)));

@@ -52,7 +52,7 @@ mod tests;
 
 pub use decode::decode;
 pub use encode::{encode, encode_with_normals};
-pub use normals::grid_normals;
+pub use normals::{grid_normals, Diagonals};
 pub use oct::{oct_decode, oct_encode};
 
 use crate::geo::TileGeo;

@@ -9,21 +9,39 @@
 //! sample rather than of the mesh's facets.
 //!
 //! Each normal is the cross product of the central differences east–west and north–south
-//! of the vertex's sample, in ECEF. An edge sample's height is the stitched one (the mean of
-//! the two decodes, as [`stitched_heights`] gives); past an edge without a neighbour the
-//! difference is one-sided. At a tile corner the sample past the corner lies on an edge the
-//! tile does not share, so the two tiles' corner normals can differ slightly.
+//! of the vertex's sample, in ECEF. Every sample the stencils read is the one value all tiles
+//! holding it agree on: inside, the stitched height (the mean of the two decodes on an edge,
+//! as [`stitched_heights`] gives); one past an edge, the neighbour's sample, or on the line of
+//! a corner the mean of that neighbour's and the diagonal tile's decodes, since that sample
+//! sits on their shared edge. So the four tiles at a corner give it one normal when each is
+//! handed its diagonal neighbours ([`Diagonals`]); without them the corner's normal may differ
+//! slightly between tiles. Past an edge without a neighbour the difference is one-sided.
 
 use glam::DVec3;
 
 use crate::geo::{Ellipsoid, TileGeo};
-use crate::tile::{stitched_heights, Neighbourhood};
+use crate::tile::{mean, stitched_heights, Neighbourhood, TileView};
 use crate::zerotree::TerrainMesh;
+
+/// The tiles across the centre's corners: north-west, north-east, south-west, south-east.
+/// Only the samples next to a corner are read from them.
+#[derive(Clone, Copy, Default)]
+pub struct Diagonals<'a> {
+    pub nw: Option<TileView<'a>>,
+    pub ne: Option<TileView<'a>>,
+    pub sw: Option<TileView<'a>>,
+    pub se: Option<TileView<'a>>,
+}
 
 /// ECEF normals of `mesh`'s vertices (in the mesh's own order), for `encode_with_normals`.
 /// `mesh` is in grid coordinates (x = column, y = row from the north edge) over
 /// `n.center`'s grid, as `stitched_mesh` makes it; `tile` places that grid.
-pub fn grid_normals(tile: &TileGeo, n: &Neighbourhood, mesh: &TerrainMesh) -> Vec<DVec3> {
+pub fn grid_normals(
+    tile: &TileGeo,
+    n: &Neighbourhood,
+    diagonals: &Diagonals,
+    mesh: &TerrainMesh,
+) -> Vec<DVec3> {
     let heights = stitched_heights(n);
     let side = heights.rows();
     if side < 2 || heights.cols() != side {
@@ -31,15 +49,52 @@ pub fn grid_normals(tile: &TileGeo, n: &Neighbourhood, mesh: &TerrainMesh) -> Ve
     }
     let last = side - 1;
     let geo = GridGeo::new(tile, side);
+    let sample = |v: Option<TileView>, r: usize, c: usize| v.map(|v| *v.heights.get(r, c));
+    // A neighbour's sample, averaged with the diagonal tile's copy of it when it lies on
+    // their shared edge (`across`), as the stitch averages an edge.
+    let shared = |own: Option<f64>, across: Option<f64>| match (own, across) {
+        (Some(a), Some(b)) => Some(mean(a, b)),
+        (a, b) => a.or(b),
+    };
+    let d = diagonals;
     // Height at (row, col), one past each edge included where a neighbour holds it.
     let at = |r: isize, c: isize| -> Option<f64> {
         let inside = |k: isize| (0..side as isize).contains(&k);
+        let (ru, cu) = (r as usize, c as usize);
         match (inside(r), inside(c)) {
-            (true, true) => Some(*heights.get(r as usize, c as usize)),
-            (false, true) if r < 0 => n.north.map(|v| *v.heights.get(last - 1, c as usize)),
-            (false, true) => n.south.map(|v| *v.heights.get(1, c as usize)),
-            (true, false) if c < 0 => n.west.map(|v| *v.heights.get(r as usize, last - 1)),
-            (true, false) => n.east.map(|v| *v.heights.get(r as usize, 1)),
+            (true, true) => Some(*heights.get(ru, cu)),
+            (false, true) if r < 0 => {
+                let own = sample(n.north, last - 1, cu);
+                match cu {
+                    0 => shared(own, sample(d.nw, last - 1, last)),
+                    c if c == last => shared(own, sample(d.ne, last - 1, 0)),
+                    _ => own,
+                }
+            }
+            (false, true) => {
+                let own = sample(n.south, 1, cu);
+                match cu {
+                    0 => shared(own, sample(d.sw, 1, last)),
+                    c if c == last => shared(own, sample(d.se, 1, 0)),
+                    _ => own,
+                }
+            }
+            (true, false) if c < 0 => {
+                let own = sample(n.west, ru, last - 1);
+                match ru {
+                    0 => shared(own, sample(d.nw, last, last - 1)),
+                    r if r == last => shared(own, sample(d.sw, 0, last - 1)),
+                    _ => own,
+                }
+            }
+            (true, false) => {
+                let own = sample(n.east, ru, 1);
+                match ru {
+                    0 => shared(own, sample(d.ne, last, 1)),
+                    r if r == last => shared(own, sample(d.se, 0, 1)),
+                    _ => own,
+                }
+            }
             (false, false) => None,
         }
     };

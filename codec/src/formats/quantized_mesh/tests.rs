@@ -821,6 +821,7 @@ mod grid_normals {
     use super::*;
     use crate::bintree::{Hierarchy, TileErrors};
     use crate::tile::{stitched_mesh, Neighbourhood, TileView};
+    use crate::Grid;
 
     /// A tile with no neighbour on any side.
     fn alone(center: TileView<'_>) -> Neighbourhood<'_> {
@@ -852,7 +853,10 @@ mod grid_normals {
             TileGeo::geodetic(30.0, 60.0, 30.1, 60.1),
             tiling.tile_geo(TileId::new(6, 20, 30)).unwrap(),
         ] {
-            for (i, v) in grid_normals(&tile, &hood, &mesh).iter().enumerate() {
+            for (i, v) in grid_normals(&tile, &hood, &Diagonals::default(), &mesh)
+                .iter()
+                .enumerate()
+            {
                 let [x, y, _] = mesh.positions[i];
                 let lon = tile.west + x / 16.0 * (tile.east - tile.west);
                 let lat = tile.latitude_at(y / 16.0);
@@ -881,7 +885,7 @@ mod grid_normals {
         });
         let mesh = grid_mesh(n, n, |r, c| *g.get(r, c));
         let tile = TileGeo::geodetic(0.0, -90.0, 180.0, 90.0);
-        let normals = grid_normals(&tile, &hood, &mesh);
+        let normals = grid_normals(&tile, &hood, &Diagonals::default(), &mesh);
         for (i, v) in normals
             .iter()
             .enumerate()
@@ -896,7 +900,8 @@ mod grid_normals {
 
     /// Two real tiles side by side, each meshed with the other as its east or west
     /// neighbour: every shared edge vertex gets the same normal from both (the corners
-    /// aside, whose samples past the corner lie in tiles neither holds).
+    /// aside: their samples past the corner lie in the diagonal tiles, which this test does
+    /// not hand over; see the 3×3 test below).
     #[test]
     fn neighbours_give_a_shared_edge_the_same_normals() {
         let n = 17;
@@ -928,8 +933,8 @@ mod grid_normals {
             stitched_mesh(&h, &b, 4.0).unwrap(),
         );
         let (na, nb) = (
-            grid_normals(&tile_a, &a, &ma),
-            grid_normals(&tile_b, &b, &mb),
+            grid_normals(&tile_a, &a, &Diagonals::default(), &ma),
+            grid_normals(&tile_b, &b, &Diagonals::default(), &mb),
         );
         let edge = |m: &TerrainMesh, normals: &[DVec3], x: f64| -> Vec<(u64, DVec3)> {
             let mut v: Vec<(u64, DVec3)> = m
@@ -969,6 +974,131 @@ mod grid_normals {
         assert!(
             worst > 2.0,
             "facet normals agreed anyway ({worst}°): the test shows nothing"
+        );
+    }
+
+    /// A 3×3 block of real tiles, each decoded with its own error (a different ripple on
+    /// every tile, shared samples included), each meshed with every neighbour it has: the
+    /// four tiles at each corner of the middle one give that corner one normal when they
+    /// are handed their diagonal neighbours, and not without.
+    #[test]
+    fn the_four_tiles_at_a_corner_agree_on_its_normal_given_their_diagonals() {
+        let n = 17;
+        let last = n - 1;
+        let h = Hierarchy::new(n).unwrap();
+        let step = 16.0 / 1200.0;
+        let raw: Vec<Vec<Grid<f64>>> = (0..3)
+            .map(|i| {
+                (0..3)
+                    .map(|j| n44w072_crop(700 + 16 * i, 700 + 16 * j, n))
+                    .collect()
+            })
+            .collect();
+        let decoded: Vec<Vec<Grid<f64>>> = (0..3)
+            .map(|i| {
+                (0..3)
+                    .map(|j| {
+                        let mut g = raw[i][j].clone();
+                        let seed = (3 * i + j) as f64 * 1.7;
+                        for r in 0..n {
+                            for c in 0..n {
+                                *g.get_mut(r, c) +=
+                                    0.4 * (seed + 0.37 * r as f64 + 0.91 * c as f64).sin();
+                            }
+                        }
+                        g
+                    })
+                    .collect()
+            })
+            .collect();
+        let errors: Vec<Vec<TileErrors>> = decoded
+            .iter()
+            .map(|row| row.iter().map(|g| TileErrors::new(&h, g)).collect())
+            .collect();
+        let view = |i: isize, j: isize| -> Option<TileView<'_>> {
+            let (i, j) = (usize::try_from(i).ok()?, usize::try_from(j).ok()?);
+            Some(TileView {
+                heights: decoded.get(i)?.get(j)?,
+                errors: &errors[i][j],
+            })
+        };
+        // Per tile (row i from the north, column j), the normal at each of its corners:
+        // NW, NE, SW, SE.
+        let corner_normals = |i: usize, j: usize, with_diagonals: bool| -> [DVec3; 4] {
+            let (si, sj) = (i as isize, j as isize);
+            let g = &raw[i][j];
+            let hood = Neighbourhood {
+                center: view(si, sj).unwrap(),
+                north: view(si - 1, sj),
+                south: view(si + 1, sj),
+                west: view(si, sj - 1),
+                east: view(si, sj + 1),
+                corners: Some([
+                    *g.get(0, 0),
+                    *g.get(0, last),
+                    *g.get(last, 0),
+                    *g.get(last, last),
+                ]),
+            };
+            let diagonals = if with_diagonals {
+                Diagonals {
+                    nw: view(si - 1, sj - 1),
+                    ne: view(si - 1, sj + 1),
+                    sw: view(si + 1, sj - 1),
+                    se: view(si + 1, sj + 1),
+                }
+            } else {
+                Diagonals::default()
+            };
+            let west = -72.0 + (700 + 16 * j) as f64 / 1200.0;
+            let north = 45.0 - (700 + 16 * i) as f64 / 1200.0;
+            let tile = TileGeo::geodetic(west, north - step, west + step, north);
+            let mesh = stitched_mesh(&h, &hood, 4.0).unwrap();
+            let normals = grid_normals(&tile, &hood, &diagonals, &mesh);
+            let l = last as f64;
+            [(0.0, 0.0), (l, 0.0), (0.0, l), (l, l)].map(|(x, y)| {
+                let k = mesh
+                    .positions
+                    .iter()
+                    .position(|p| p[0] == x && p[1] == y)
+                    .expect("a tile corner is a mesh vertex");
+                normals[k]
+            })
+        };
+        let spread = |with_diagonals: bool| -> f64 {
+            let all: Vec<Vec<[DVec3; 4]>> = (0..3)
+                .map(|i| {
+                    (0..3)
+                        .map(|j| corner_normals(i, j, with_diagonals))
+                        .collect()
+                })
+                .collect();
+            // The middle tile's corners, each seen from the four tiles around it (as their
+            // SE, SW, NE and NW corners).
+            let mut worst: f64 = 0.0;
+            for (ci, cj) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
+                let seen = [
+                    all[ci][cj][3],
+                    all[ci][cj + 1][2],
+                    all[ci + 1][cj][1],
+                    all[ci + 1][cj + 1][0],
+                ];
+                // Unit vectors: their difference is the angle (acos near 1 cannot resolve
+                // below 1.5e-8).
+                for v in &seen[1..] {
+                    worst = worst.max((seen[0] - *v).length());
+                }
+            }
+            worst
+        };
+        let with = spread(true);
+        // Each tile places the samples from its own bounds: ECEF agrees to ~1e-11 relative.
+        assert!(with < 1e-9, "corner normals differ by {with} rad");
+        let without = spread(false);
+        eprintln!("corner normal spread: {with:e} rad with diagonals, {without:e} without");
+        assert!(
+            without > 1e-4,
+            "without diagonals the corners agree anyway ({without} rad): the test shows nothing"
         );
     }
 }

@@ -400,8 +400,12 @@ pub(crate) fn render_tile(
     let mesh_of = || -> anyhow::Result<_> { Ok(stitched()?.map_or_else(flat, |s| s.mesh)) };
     let (bytes, triangles) = match (format, variant) {
         (TileFormat::Terrain, Variant::Terrain { ext, .. }) => {
-            // The decodes stay beside the mesh: its normals are read from them.
-            let s = stitched()?;
+            // The decodes stay beside the mesh: its normals are read from them, and from
+            // the corner neighbours' (decoded only for normals).
+            let mut s = stitched()?;
+            if let Some(s) = s.as_mut().filter(|_| ext.octvertexnormals) {
+                s.add_diagonals(state, d, cancel)?;
+            }
             let mesh = s
                 .as_ref()
                 .map_or_else(|| Cow::Owned(flat()), |s| Cow::Borrowed(&s.mesh));
@@ -414,9 +418,9 @@ pub(crate) fn render_tile(
                     None
                 },
             };
-            let around = s.as_ref().map(pipeline::Stitched::neighbourhood);
+            let around = s.as_ref().map(|s| (s.neighbourhood(), s.diagonals()));
             (
-                render::quantized_mesh(d, id, &mesh, &opts, around.as_ref())?,
+                render::quantized_mesh(d, id, &mesh, &opts, around.as_ref().map(|(n, g)| (n, g)))?,
                 Some(mesh.triangle_count()),
             )
         }
