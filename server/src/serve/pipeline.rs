@@ -177,15 +177,15 @@ pub fn diagonal_neighbours(d: &Dataset, id: TileId) -> [Option<TileId>; 4] {
 
 /// Decodes of `ids` at `depth`. One that cannot be read (a corrupt record) is left out:
 /// it costs this tile its match there, not the tile itself.
-fn decoded_around<const N: usize>(
+fn decoded_around(
     state: &AppState,
     d: &Dataset,
     id: TileId,
-    ids: [Option<TileId>; N],
+    ids: [Option<TileId>; 4],
     depth: Depth,
     cancel: &Cancel,
-) -> Result<[Option<Arc<DecodedTile>>; N]> {
-    let mut out: [Option<Arc<DecodedTile>>; N] = std::array::from_fn(|_| None);
+) -> Result<[Option<Arc<DecodedTile>>; 4]> {
+    let mut out: [Option<Arc<DecodedTile>>; 4] = Default::default();
     for (slot, n) in out.iter_mut().zip(ids) {
         if let Some(n) = n {
             match decoded(state, d, n, depth, cancel) {
@@ -200,7 +200,7 @@ fn decoded_around<const N: usize>(
 
 /// A tile meshed against its neighbours, with the decodes it was meshed from.
 pub struct Stitched {
-    pub id: TileId,
+    id: TileId,
     pub center: Arc<DecodedTile>,
     /// North, south, west, east, where they exist and read.
     around: [Option<Arc<DecodedTile>>; 4],

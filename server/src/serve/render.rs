@@ -30,12 +30,12 @@ pub fn quantized_mesh(
     id: TileId,
     mesh: &TerrainMesh,
     opts: &QmOptions,
-    around: Option<(&Neighbourhood, &Diagonals)>,
+    around: Option<(Neighbourhood, Diagonals)>,
 ) -> Result<Vec<u8>> {
     let tile = d.tiling.tile_geo(geo_id(id))?;
     let normals = around
         .filter(|_| opts.octvertexnormals)
-        .map(|(n, diagonals)| quantized_mesh::grid_normals(&tile, n, diagonals, mesh));
+        .map(|(n, diagonals)| quantized_mesh::grid_normals(&tile, &n, &diagonals, mesh));
     Ok(quantized_mesh::encode_with_normals(
         mesh,
         &tile,

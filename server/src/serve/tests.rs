@@ -720,32 +720,31 @@ fn child_availability_counts_rows_from_the_south() {
     assert_eq!(got, [(0, 0), (1, 1)]);
 }
 
-/// Twice the signed area of triangle `t` in the x–y plane: > 0 when counter-clockwise.
-fn turn(p: &[[f64; 3]], t: [u32; 3]) -> f64 {
-    let [a, b, c] = t.map(|k| p[k as usize]);
-    (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+/// A real-looking tile mesh: the bintree mesh of `height(row, col)` at 1 m.
+fn bintree_mesh(height: impl Fn(f64, f64) -> f64) -> zerotile_codec::zerotree::TerrainMesh {
+    use zerotile_codec::bintree::{self, Hierarchy, TileErrors};
+    let g = Grid::new(
+        257,
+        257,
+        (0..257 * 257)
+            .map(|k| height((k / 257) as f64, (k % 257) as f64))
+            .collect(),
+    )
+    .unwrap();
+    let h = Hierarchy::new(257).unwrap();
+    bintree::extract(&h, &TileErrors::exact_above(&h, &g, 1.0), &g, 1.0, None)
 }
 
 /// A root without data gets two flat triangles wound like the real meshes beside it, or
 /// CesiumJS culls one kind as back faces.
 #[test]
 fn the_flat_root_mesh_winds_like_a_real_tile_mesh() {
-    use zerotile_codec::bintree::{self, Hierarchy, TileErrors};
-    let g = Grid::new(
-        257,
-        257,
-        (0..257 * 257)
-            .map(|k| ((k / 257) as f64 / 9.0).sin() * 30.0 + (k % 257) as f64 * 0.1)
-            .collect(),
-    )
-    .unwrap();
-    let h = Hierarchy::new(257).unwrap();
-    let real = bintree::extract(&h, &TileErrors::exact_above(&h, &g, 1.0), &g, 1.0, None);
+    let real = bintree_mesh(|r, c| (r / 9.0).sin() * 30.0 + c * 0.1);
     assert!(real.triangles.len() > 100);
     let sign = |m: &zerotile_codec::zerotree::TerrainMesh| -> Vec<f64> {
         m.triangles
             .iter()
-            .map(|&t| turn(&m.positions, t).signum())
+            .map(|&t| m.signed_area2(t).signum())
             .collect()
     };
     let real_signs = sign(&real);
@@ -761,24 +760,14 @@ fn the_flat_root_mesh_winds_like_a_real_tile_mesh() {
 /// minus the row).
 #[test]
 fn mesh_files_are_counter_clockwise_from_above_on_every_scheme() {
-    use zerotile_codec::bintree::{self, Hierarchy, TileErrors};
-    let g = Grid::new(
-        257,
-        257,
-        (0..257 * 257)
-            .map(|k| ((k % 257) as f64 / 7.0).cos() * 20.0)
-            .collect(),
-    )
-    .unwrap();
-    let h = Hierarchy::new(257).unwrap();
-    let mesh = bintree::extract(&h, &TileErrors::exact_above(&h, &g, 1.0), &g, 1.0, None);
+    let mesh = bintree_mesh(|_, c| (c / 7.0).cos() * 20.0);
     for scheme in ["local", "geodetic", "mercator"] {
         let root = TileId { z: 0, x: 0, y: 0 };
         let d = hill_dataset(&format!("ccw-{scheme}"), scheme, &[root]);
         let m = render::tri_mesh(&d, root, &mesh).unwrap();
-        let p: Vec<[f64; 3]> = m.positions.iter().map(|v| v.to_array()).collect();
+        // A face normal points up exactly when the face turns counter-clockwise from above.
         assert!(
-            m.faces.iter().all(|&t| turn(&p, t) > 0.0),
+            m.face_normals().iter().all(|n| n.z > 0.0),
             "{scheme}: a triangle turns clockwise"
         );
     }

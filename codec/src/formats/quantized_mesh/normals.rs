@@ -49,54 +49,32 @@ pub fn grid_normals(
     }
     let last = side - 1;
     let geo = GridGeo::new(tile, side);
-    let sample = |v: Option<TileView>, r: usize, c: usize| v.map(|v| *v.heights.get(r, c));
-    // A neighbour's sample, averaged with the diagonal tile's copy of it when it lies on
-    // their shared edge (`across`), as the stitch averages an edge.
-    let shared = |own: Option<f64>, across: Option<f64>| match (own, across) {
-        (Some(a), Some(b)) => Some(mean(a, b)),
-        (a, b) => a.or(b),
-    };
     let d = diagonals;
-    // Height at (row, col), one past each edge included where a neighbour holds it.
+    // The 3×3 block of tiles around the centre (rows north to south), the centre left out:
+    // its own samples are the stitched ones.
+    let block = [
+        [d.nw, n.north, d.ne],
+        [n.west, None, n.east],
+        [d.sw, n.south, d.se],
+    ];
+    let l = last as isize;
+    // Height at (row, col), one past each edge included where a neighbour holds it. Such a
+    // sample is held by one neighbour, or on a corner's line by two (the neighbour and the
+    // diagonal tile, on their shared edge): then the mean of both, as the stitch takes.
     let at = |r: isize, c: isize| -> Option<f64> {
-        let inside = |k: isize| (0..side as isize).contains(&k);
-        let (ru, cu) = (r as usize, c as usize);
-        match (inside(r), inside(c)) {
-            (true, true) => Some(*heights.get(ru, cu)),
-            (false, true) if r < 0 => {
-                let own = sample(n.north, last - 1, cu);
-                match cu {
-                    0 => shared(own, sample(d.nw, last - 1, last)),
-                    c if c == last => shared(own, sample(d.ne, last - 1, 0)),
-                    _ => own,
-                }
-            }
-            (false, true) => {
-                let own = sample(n.south, 1, cu);
-                match cu {
-                    0 => shared(own, sample(d.sw, 1, last)),
-                    c if c == last => shared(own, sample(d.se, 1, 0)),
-                    _ => own,
-                }
-            }
-            (true, false) if c < 0 => {
-                let own = sample(n.west, ru, last - 1);
-                match ru {
-                    0 => shared(own, sample(d.nw, last, last - 1)),
-                    r if r == last => shared(own, sample(d.sw, 0, last - 1)),
-                    _ => own,
-                }
-            }
-            (true, false) => {
-                let own = sample(n.east, ru, 1);
-                match ru {
-                    0 => shared(own, sample(d.ne, last, 1)),
-                    r if r == last => shared(own, sample(d.se, 0, 1)),
-                    _ => own,
-                }
-            }
-            (false, false) => None,
+        let inside = |k: isize| (0..=l).contains(&k);
+        if inside(r) && inside(c) {
+            return Some(*heights.get(r as usize, c as usize));
         }
+        let mut held = (0..3)
+            .flat_map(|i| (0..3).map(move |j| (i, j)))
+            .filter_map(|(i, j)| {
+                let (lr, lc) = (r - (i as isize - 1) * l, c - (j as isize - 1) * l);
+                let v: TileView = block[i][j].filter(|_| inside(lr) && inside(lc))?;
+                Some(*v.heights.get(lr as usize, lc as usize))
+            });
+        let first = held.next()?;
+        Some(held.next().map_or(first, |second| mean(first, second)))
     };
     mesh.positions
         .iter()

@@ -420,7 +420,7 @@ pub(crate) fn render_tile(
             };
             let around = s.as_ref().map(|s| (s.neighbourhood(), s.diagonals()));
             (
-                render::quantized_mesh(d, id, &mesh, &opts, around.as_ref().map(|(n, g)| (n, g)))?,
+                render::quantized_mesh(d, id, &mesh, &opts, around)?,
                 Some(mesh.triangle_count()),
             )
         }
