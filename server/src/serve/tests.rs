@@ -14,10 +14,20 @@ use zerotile_codec::Grid;
 
 use super::{app, AppState, Catalog, Config};
 use crate::serve::dataset::Dataset;
-use crate::serve::{pipeline, render};
+use crate::serve::{pipeline, render, threshold};
 
 /// A smooth 257² hill, as every tile of a dataset of `scheme` holding `tiles`.
 fn hill_dataset(tag: &str, scheme: &str, tiles: &[TileId]) -> Dataset {
+    let bounds = if scheme == "local" {
+        [0.0, 256.0, 256.0, 0.0]
+    } else {
+        [-180.0, -85.0, 180.0, 85.0]
+    };
+    hill_dataset_in(tag, scheme, tiles, bounds)
+}
+
+/// [`hill_dataset`] with its metadata bounds set to `bounds` (west, south, east, north).
+fn hill_dataset_in(tag: &str, scheme: &str, tiles: &[TileId], bounds: [f64; 4]) -> Dataset {
     let dir = std::env::temp_dir().join(format!("zerotile-router-{}-{tag}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
@@ -50,11 +60,7 @@ fn hill_dataset(tag: &str, scheme: &str, tiles: &[TileId]) -> Dataset {
         tile_side: 257,
         min_zoom: 0,
         max_zoom,
-        bounds: if scheme == "local" {
-            [0.0, 256.0, 256.0, 0.0]
-        } else {
-            [-180.0, -85.0, 180.0, 85.0]
-        },
+        bounds,
         source_size: [257, 257],
         wavelet: Wavelet::Cdf97,
         step: 0.01,
@@ -771,4 +777,106 @@ fn mesh_files_are_counter_clockwise_from_above_on_every_scheme() {
             "{scheme}: a triangle turns clockwise"
         );
     }
+}
+
+/// A view query from `key=value` pairs.
+fn view_query(pairs: &[(&str, &str)]) -> std::collections::HashMap<String, String> {
+    pairs
+        .iter()
+        .map(|(k, v)| ((*k).to_string(), (*v).to_string()))
+        .collect()
+}
+
+const ROOT: TileId = TileId { z: 0, x: 0, y: 0 };
+
+/// Paper eq. 4 is capped: the largest ratio accepted would ask for more than any relief,
+/// and gets [`threshold::MAX_THRESHOLD`] rather than an unbounded T.
+#[test]
+fn eq4_is_capped_at_the_largest_threshold() {
+    let d = hill_dataset("eq4cap", "local", &[ROOT]);
+    // The hill's view parameters: a = 2.5, b = 0.
+    assert_eq!(threshold::eq4(&d, 10.0), 25.0);
+    assert_eq!(threshold::eq4(&d, 0.0), 0.0);
+    assert_eq!(
+        threshold::eq4(&d, threshold::MAX_RATIO),
+        threshold::MAX_THRESHOLD
+    );
+}
+
+/// Degrees of longitude shrink with the cosine of the latitude: the square footprint of a
+/// camera looking straight down at 60°N spans twice as many degrees east–west as
+/// north–south, and its area is the square's in metres.
+#[test]
+fn a_nadir_view_at_60_north_spans_twice_the_degrees_east_as_north() {
+    let d = hill_dataset_in("nadir60", "geodetic", &[ROOT], [10.0, 59.0, 12.0, 61.0]);
+    let q = view_query(&[("eye", "11,60,1000"), ("target", "11,60,0"), ("fov", "90")]);
+    let v = threshold::view_plane(&d, &q).unwrap();
+    let extent = |axis: usize| {
+        let (lo, hi) = v
+            .footprint
+            .iter()
+            .fold((f64::MAX, f64::MIN), |(lo, hi), p| {
+                (lo.min(p[axis]), hi.max(p[axis]))
+            });
+        hi - lo
+    };
+    // tan(45°) = 1: the square's side is twice the height, 2000 m.
+    let metres_per_degree = 111_319.490_793_273_57;
+    assert!(
+        (extent(1) - 2000.0 / metres_per_degree).abs() < 1e-9,
+        "{}",
+        extent(1)
+    );
+    assert!(
+        (extent(0) / extent(1) - 2.0).abs() < 1e-9,
+        "{}",
+        extent(0) / extent(1)
+    );
+    assert!((v.a_v - 2000.0 * 2000.0).abs() < 1e-3, "{}", v.a_v);
+}
+
+/// A_t is the area of the bounds on the sphere whose degree is 111.3 km: the degrees east
+/// are scaled by the cosine of the middle latitude, not of an edge. A local grid's is its
+/// size in samples.
+#[test]
+fn the_terrain_area_is_the_bounds_area_on_the_sphere() {
+    let nadir = view_query(&[("eye", "12,55,1000"), ("target", "12,55,0"), ("fov", "60")]);
+    let d = hill_dataset_in("area", "geodetic", &[ROOT], [10.0, 50.0, 14.0, 60.0]);
+    let a_t = threshold::view_plane(&d, &nadir).unwrap().a_t;
+    let radius = 111_319.490_793_273_57 * 180.0 / std::f64::consts::PI;
+    let (south, north) = (50f64.to_radians(), 60f64.to_radians());
+    let sphere = radius * radius * 4f64.to_radians() * (north.sin() - south.sin());
+    assert!((a_t / sphere - 1.0).abs() < 5e-3, "{a_t} against {sphere}");
+
+    let local = hill_dataset("area-local", "local", &[ROOT]);
+    let q = view_query(&[
+        ("eye", "128,128,50"),
+        ("target", "128,128,0"),
+        ("fov", "60"),
+    ]);
+    assert_eq!(
+        threshold::view_plane(&local, &q).unwrap().a_t,
+        256.0 * 256.0
+    );
+}
+
+/// The view past the horizon stops at the terrain's own diagonal, √(2 A_t), from the eye's
+/// foot: a grazing camera's footprint reaches that far (the disk's polygon, within its
+/// sides' sag) and no farther.
+#[test]
+fn a_grazing_view_stops_at_the_terrains_diagonal() {
+    let d = hill_dataset("far", "local", &[ROOT]);
+    let q = view_query(&[("eye", "128,128,1"), ("target", "200,128,0"), ("fov", "60")]);
+    let v = threshold::view_plane(&d, &q).unwrap();
+    let reach = v
+        .footprint
+        .iter()
+        .map(|p| (p[0] - 128.0).hypot(p[1] - 128.0))
+        .fold(0.0, f64::max);
+    let far = (2.0 * 256.0 * 256.0_f64).sqrt();
+    let sag = (std::f64::consts::PI / 64.0).cos();
+    assert!(
+        reach <= far * (1.0 + 1e-12) && reach >= far * sag,
+        "{reach} against {far}"
+    );
 }

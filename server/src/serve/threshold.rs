@@ -376,6 +376,16 @@ mod tests {
         assert_eq!(number("t", "0.5", 0.0, 1.0), Ok(0.5));
     }
 
+    /// A fourth number is a mistake (a 4-vector, a typo), not something to drop.
+    #[test]
+    fn vectors_take_exactly_three_numbers() {
+        assert_eq!(vec3("eye", "1,2,3"), Ok(DVec3::new(1.0, 2.0, 3.0)));
+        for bad in ["1,2", "1,2,3,4", "", "1,2,3,"] {
+            let err = vec3("eye", bad).unwrap_err().to_string();
+            assert!(err.contains("eye must be x,y,z"), "{bad:?}: {err}");
+        }
+    }
+
     #[test]
     fn ranges_and_numbers_read_short() {
         let message = |r: Result<f64, ApiError>| r.unwrap_err().to_string();
