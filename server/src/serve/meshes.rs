@@ -142,7 +142,8 @@ impl MeshCatalog {
     }
 
     /// Opens `data/meshes` (absent: an empty catalog). A mesh that fails to read is logged
-    /// and skipped.
+    /// and skipped; of two files of one name, the first in name order (obj, ply, stl) is
+    /// served.
     pub fn open(data: &Path, answer_bytes: u64) -> Self {
         let dir = data.join(MESH_DIR);
         let mut entries = BTreeMap::new();
@@ -300,6 +301,55 @@ mod tests {
             panic!("a mesh beyond f32 was accepted");
         };
         assert!(format!("{err:#}").contains("vertex 2 at"), "{err:#}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    const QUAD_PLY: &[u8] = b"ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\n\
+        property float y\nproperty float z\nelement face 2\nproperty list uchar int \
+        vertex_indices\nend_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n3 0 2 3\n";
+
+    /// Of two files of one name the first in name order (obj, ply, stl) is served, so an
+    /// upload in another format removes the older file: it would shadow the upload at the
+    /// next start.
+    #[test]
+    fn an_upload_in_another_format_replaces_the_older_file() {
+        let dir = scratch("formats");
+        let meshes = dir.join(MESH_DIR);
+        std::fs::write(meshes.join("a.obj"), TRI).unwrap();
+        std::fs::write(meshes.join("a.ply"), QUAD_PLY).unwrap();
+        let cat = MeshCatalog::open(&dir, 1 << 20);
+        assert_eq!(cat.get("a").unwrap().mesh.face_count(), 1);
+
+        std::fs::remove_file(meshes.join("a.ply")).unwrap();
+        let e = cat.upload("a", QUAD_PLY, Some(Format::Ply)).unwrap();
+        assert_eq!(e.source, meshes.join("a.ply"));
+        assert!(!meshes.join("a.obj").exists());
+        let reopened = MeshCatalog::open(&dir, 1 << 20);
+        assert_eq!(reopened.get("a").unwrap().mesh.face_count(), 2);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// Answers are cached under (name, generation): an upload that replaces a mesh read at
+    /// start, the last one read included, must get a generation no entry has had.
+    #[test]
+    fn a_replacing_upload_gets_a_new_generation() {
+        let dir = scratch("generation");
+        std::fs::write(dir.join(MESH_DIR).join("a.obj"), TRI).unwrap();
+        std::fs::write(dir.join(MESH_DIR).join("b.obj"), TRI).unwrap();
+        let cat = MeshCatalog::open(&dir, 1 << 20);
+        let before: Vec<u64> = cat.list().iter().map(|e| e.generation).collect();
+        let quad = b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3\nf 1 3 4\n";
+        for name in ["b", "a"] {
+            let e = cat.upload(name, quad, Some(Format::Obj)).unwrap();
+            assert!(
+                !before.contains(&e.generation),
+                "{name}: {} reused",
+                e.generation
+            );
+            assert_eq!(cat.get(name).unwrap().mesh.face_count(), 2);
+        }
+        let after: Vec<u64> = cat.list().iter().map(|e| e.generation).collect();
+        assert_ne!(after[0], after[1]);
         let _ = std::fs::remove_dir_all(&dir);
     }
 }
