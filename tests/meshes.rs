@@ -96,6 +96,14 @@ fn lods_come_in_every_format_with_their_counts() {
     assert_eq!(r.status, 200);
     assert!(r.body.starts_with(b"ply"));
     assert!(r.number("x-faces") <= 978.0 && r.number("x-faces") >= 970.0);
+    // ratio=0 is in range: QEM's smallest answer, never an empty mesh or an error.
+    let r = s.get("/v1/meshes/fandisk/qem?ratio=0&format=obj", &[]);
+    assert_eq!(r.status, 200, "{}", String::from_utf8_lossy(&r.body));
+    let (v, f) = obj_counts(&r.body);
+    assert!(
+        f >= 1 && f as f64 == r.number("x-faces") && v >= 3,
+        "{v} vertices, {f} faces"
+    );
     let r = s.get("/v1/meshes/fandisk/qem?ratio=0.1&format=glb", &[]);
     assert_eq!(&r.body[..4], b"glTF");
     assert_eq!(r.header("content-type"), Some("model/gltf-binary"));
@@ -272,6 +280,16 @@ fn uploads_are_validated_limited_and_never_replace_a_mesh_with_a_bad_one() {
     let r = s.post("/v1/meshes/plain", "text/plain", &cow);
     assert_eq!(r.status, 201, "{}", String::from_utf8_lossy(&r.body));
     assert!(data.join("meshes/plain.obj").exists());
+
+    // A replacement is served at once: an answer cached for the old mesh under the same
+    // ask never comes back, and its ETag no longer matches.
+    let old = s.get("/v1/meshes/plain/original?format=obj", &[]);
+    let old_faces = obj_counts(&old.body).1;
+    let tri = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    assert_eq!(s.post("/v1/meshes/plain", "model/obj", tri).status, 201);
+    let new = s.get("/v1/meshes/plain/original?format=obj", &[]);
+    assert_eq!((old_faces > 1, obj_counts(&new.body).1), (true, 1));
+    assert_ne!(new.header("etag"), old.header("etag"));
     s.post("/v1/meshes/cow2", "image/png", b"\x89PNG")
         .error(415, "unsupported_media_type");
     s.post("/v1/meshes/..%2Fescape", "model/obj", &cow)
