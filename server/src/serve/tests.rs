@@ -573,6 +573,45 @@ async fn an_upload_that_breaks_off_is_the_clients_fault() {
     );
 }
 
+/// The limit is 64 MiB exactly, whether the body declares its length or not: the byte after
+/// it is refused (413), by the declared length before a byte is read, else by the first
+/// frame that would pass it.
+#[tokio::test]
+async fn an_upload_may_be_64_mib_and_not_a_byte_more() {
+    use super::meshes::MAX_UPLOAD_BYTES;
+    use super::routes::meshes::read_upload;
+    let declaring = |n: usize| {
+        let mut h = axum::http::HeaderMap::new();
+        h.insert(header::CONTENT_LENGTH, n.into());
+        h
+    };
+    let second = std::time::Duration::from_secs(5);
+    let over = read_upload(
+        &declaring(MAX_UPLOAD_BYTES + 1),
+        Body::from("v 0 0 0\n"),
+        second,
+    )
+    .await
+    .unwrap_err();
+    assert_eq!(over.status, StatusCode::PAYLOAD_TOO_LARGE);
+    assert!(over.to_string().contains("declares"), "{over}");
+    let whole = vec![b' '; MAX_UPLOAD_BYTES];
+    let at = read_upload(
+        &declaring(MAX_UPLOAD_BYTES),
+        Body::from(whole.clone()),
+        second,
+    )
+    .await;
+    assert_eq!(at.map(|b| b.len()), Ok(MAX_UPLOAD_BYTES));
+
+    let none = axum::http::HeaderMap::new();
+    let at = read_upload(&none, Body::from(whole), second).await;
+    assert_eq!(at.map(|b| b.len()), Ok(MAX_UPLOAD_BYTES));
+    let big = Body::from(vec![b' '; MAX_UPLOAD_BYTES + 1]);
+    let over = read_upload(&none, big, second).await.unwrap_err();
+    assert_eq!(over.status, StatusCode::PAYLOAD_TOO_LARGE);
+}
+
 #[tokio::test]
 async fn an_upload_that_stalls_is_a_408_not_a_503() {
     // The upload's own reader with a short deadline: the route's is 20 s.
