@@ -474,3 +474,75 @@ fn a_png_export_with_a_base_url_writes_tilejson() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A local grid has no place on the globe: quantized-mesh is refused before any work, while
+/// meshes export as one file per stored tile and no layer.json (a CesiumJS manifest).
+#[test]
+fn a_local_dataset_exports_meshes_and_refuses_quantized_mesh() {
+    let dir = scratch("local");
+    let tif = shared_data().join("dem/terra_elev.tif");
+    let tif = tif.to_str().unwrap();
+    assert_success(&zerotile(
+        &["ingest", tif, "--name", "lux", "--quiet"],
+        &dir,
+    ));
+    let out = zerotile(&["export", "lux", "--out", "qm", "--quiet"], &dir);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("local grid"), "{err}");
+    assert!(!dir.join("qm").exists());
+
+    let out = zerotile(
+        &[
+            "export", "lux", "--format", "json", "--out", "mesh", "--quiet",
+        ],
+        &dir,
+    );
+    assert_success(&out);
+    let bytes = std::fs::read(dir.join("data/lux.ztd")).unwrap();
+    let c = Container::parse(&bytes, &Limits::default()).unwrap();
+    let mut want: Vec<PathBuf> = c
+        .tiles()
+        .map(|(id, _)| dir.join(format!("mesh/{}/{}/{}.json", id.z, id.x, id.y)))
+        .collect();
+    want.sort();
+    assert_eq!(files(&dir.join("mesh"), "json"), want);
+    assert!(!dir.join("mesh/layer.json").exists());
+    assert!(dir.join("mesh/.zerotile-export").is_file());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A mercator png tree without --base-url has no tiles.json, and the export says how to get one.
+#[test]
+fn a_mercator_png_export_without_a_base_url_says_it_wrote_no_tilejson() {
+    let dir = scratch("no-tilejson");
+    let tif = shared_data().join("dem/terra_elev.tif");
+    let tif = tif.to_str().unwrap();
+    let ingest = [
+        "ingest",
+        tif,
+        "--name",
+        "lux",
+        "--scheme",
+        "mercator",
+        "--max-zoom",
+        "3",
+        "--quiet",
+    ];
+    assert_success(&zerotile(&ingest, &dir));
+    let out = zerotile(
+        &[
+            "export", "lux", "--format", "png", "--out", "rgb", "--quiet",
+        ],
+        &dir,
+    );
+    assert_success(&out);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("no tiles.json") && err.contains("--base-url"),
+        "{err}"
+    );
+    assert!(!dir.join("rgb/tiles.json").exists());
+    assert!(!files(&dir.join("rgb"), "png").is_empty());
+    let _ = std::fs::remove_dir_all(&dir);
+}

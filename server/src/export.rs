@@ -315,3 +315,32 @@ fn render_all(
     bar.finish_and_clear();
     Ok((tiles.len() as u64, bytes.into_inner()))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `--zoom` is one zoom or an ascending range; a backwards range is refused.
+    #[test]
+    fn zoom_ranges_are_one_zoom_or_ascending() {
+        assert_eq!(parse_zooms("7"), Ok((7, 7)));
+        assert_eq!(parse_zooms("3-5"), Ok((3, 5)));
+        assert_eq!(parse_zooms("4-4"), Ok((4, 4)));
+        assert!(parse_zooms("5-3").unwrap_err().contains("must not exceed"));
+        assert!(parse_zooms("3-256").is_err());
+    }
+
+    /// A symbolic link as --out is refused for what it is (the swap would replace the link).
+    #[test]
+    fn an_out_that_is_a_symbolic_link_is_refused_as_one() {
+        let dir = std::env::temp_dir().join(format!("zerotile-check-out-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(dir.join("real")).unwrap();
+        std::os::unix::fs::symlink(dir.join("real"), dir.join("link")).unwrap();
+        let err = check_out(&dir.join("link")).unwrap_err().to_string();
+        assert!(err.contains("symbolic link"), "{err}");
+        assert!(check_out(&dir.join("real")).is_ok());
+        assert!(check_out(&dir.join("absent")).is_ok());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

@@ -457,4 +457,223 @@ mod tests {
         assert_eq!(t.len(), 20);
         assert!(t.starts_with("20") && t.ends_with('Z'));
     }
+
+    /// Seconds since the epoch of a UTC civil time, counted day by day from 1970-01-01.
+    fn epoch_seconds(y: u64, m: u64, d: u64, hh: u64, mm: u64, ss: u64) -> u64 {
+        let leap =
+            |y: u64| (y.is_multiple_of(4) && !y.is_multiple_of(100)) || y.is_multiple_of(400);
+        let month_days = |y: u64, m: u64| match m {
+            2 if leap(y) => 29,
+            2 => 28,
+            4 | 6 | 9 | 11 => 30,
+            _ => 31,
+        };
+        let days = (1970..y)
+            .map(|y| if leap(y) { 366 } else { 365 })
+            .sum::<u64>()
+            + (1..m).map(|m| month_days(y, m)).sum::<u64>()
+            + (d - 1);
+        ((days * 24 + hh) * 60 + mm) * 60 + ss
+    }
+
+    /// `created` must name the actual UTC second, not just look like a timestamp.
+    #[test]
+    fn rfc3339_names_the_current_utc_second() {
+        let secs = || {
+            std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .unwrap()
+                .as_secs()
+        };
+        let before = secs();
+        let t = now_rfc3339();
+        let after = secs();
+        let n = |a: usize, b: usize| t[a..b].parse::<u64>().unwrap();
+        let got = epoch_seconds(n(0, 4), n(5, 7), n(8, 10), n(11, 13), n(14, 16), n(17, 19));
+        assert!(
+            (before..=after).contains(&got),
+            "{t}: {got} not in {before}..={after}"
+        );
+    }
+
+    /// The name rule allows up to 64 characters: the 64th must not be refused.
+    #[test]
+    fn a_64_character_name_is_accepted() {
+        assert!(check_name(&"x".repeat(64)).is_ok());
+        assert!(check_name("a").is_ok());
+    }
+
+    fn job(name: &str, scheme: &str, data: &Path) -> Ingest {
+        Ingest {
+            input: PathBuf::from(format!("{name}.hgt")),
+            name: name.into(),
+            data: data.to_path_buf(),
+            scheme: scheme.into(),
+            wavelet: Wavelet::LeGall53,
+            precision: None,
+            encoding: None,
+            npz_key: None,
+            fill: None,
+            max_zoom: None,
+            progress: false,
+        }
+    }
+
+    fn scratch(tag: &str) -> PathBuf {
+        let dir =
+            std::env::temp_dir().join(format!("zerotile-ingest-{}-{tag}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        dir
+    }
+
+    /// A fill or precision that is not a finite number would poison every tile: refused up front.
+    #[test]
+    fn non_finite_fill_and_precision_are_refused() {
+        let data = scratch("finite");
+        for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            let j = Ingest {
+                fill: Some(bad),
+                ..job("f", "local", &data)
+            };
+            assert!(
+                check(&j).unwrap_err().to_string().contains("--fill"),
+                "{bad}"
+            );
+            let j = Ingest {
+                precision: Some(bad),
+                ..job("p", "local", &data)
+            };
+            assert!(
+                check(&j).unwrap_err().to_string().contains("--precision"),
+                "{bad}"
+            );
+        }
+        let j = Ingest {
+            fill: Some(-5.0),
+            precision: Some(0.5),
+            ..job("ok", "local", &data)
+        };
+        assert_eq!(check(&j).unwrap(), "local");
+    }
+
+    /// Record corners are, by the container's definition, NW, NE, SW, SE.
+    #[test]
+    fn corners_are_north_west_north_east_south_west_south_east() {
+        // 3×3 samples numbered row by row from the north-west: corners 0, 2, 6, 8.
+        let g = Grid::new(3, 3, (0..9).map(f64::from).collect()).unwrap();
+        assert_eq!(corners(&g), [0.0, 2.0, 6.0, 8.0]);
+    }
+
+    /// Reads back tile `id` of the container at `path`, every pass decoded.
+    fn stored_tile(path: &Path, id: TileId) -> Grid<f64> {
+        use zerotile_codec::container::{Container, Limits, TileRecord};
+        let bytes = std::fs::read(path).unwrap();
+        let c = Container::parse(&bytes, &Limits::default()).unwrap();
+        let e = c.entry(id).unwrap();
+        let rec = TileRecord::parse(id, &bytes[e.offset as usize..][..e.len as usize], &e).unwrap();
+        ezw::decode(rec.stream, ezw::DecodeLimit::All, ezw::DEFAULT_MAX_SAMPLES)
+            .unwrap()
+            .heights
+    }
+
+    /// A local hole takes the lowest valid height by default, and the stored tile holds it.
+    #[test]
+    fn local_holes_get_the_lowest_height() {
+        let data = scratch("holes");
+        let h = [
+            10.0,
+            20.0,
+            30.0,
+            40.0,
+            50.0,
+            f64::NAN,
+            70.0,
+            80.0,
+            90.0,
+            100.0,
+            110.0,
+            120.0,
+        ];
+        let map = Heightmap::new(Grid::new(3, 4, h.to_vec()).unwrap(), Some(1.0), None);
+        let (path, m) = build(&job("holes", "local", &data), &map).unwrap();
+        assert_eq!((m.fill, m.height_range), (10.0, [10.0, 120.0]));
+        let t = stored_tile(&path, TileId { z: 0, x: 0, y: 0 });
+        assert_eq!(
+            (*t.get(1, 1), *t.get(1, 2), *t.get(2, 3)),
+            (10.0, 70.0, 120.0)
+        );
+        let _ = std::fs::remove_dir_all(&data);
+    }
+
+    /// A local grid without holes stores no fill, so a far-off --fill stays out of the range.
+    #[test]
+    fn a_fill_that_is_never_stored_stays_out_of_the_height_range() {
+        let data = scratch("unused-fill");
+        let map = Heightmap::new(
+            Grid::new(2, 2, vec![5.0, 6.0, 7.0, 8.0]).unwrap(),
+            Some(1.0),
+            None,
+        );
+        let j = Ingest {
+            fill: Some(1000.0),
+            ..job("full", "local", &data)
+        };
+        let (_, m) = build(&j, &map).unwrap();
+        assert_eq!(m.height_range, [5.0, 8.0]);
+        let _ = std::fs::remove_dir_all(&data);
+    }
+
+    /// A world tiling stores the fill around the source, so its range reaches the fill.
+    #[test]
+    fn a_world_height_range_takes_in_the_fill() {
+        use zerotile_codec::raster::Georef;
+        let data = scratch("world-range");
+        let grid = Grid::new(3, 3, (100..109).map(f64::from).collect()).unwrap();
+        let georef = Georef::north_up(Crs::Geographic, 10.0, 50.0, 0.01, 0.01);
+        let map = Heightmap::new(grid, Some(1.0), Some(georef));
+        let j = Ingest {
+            max_zoom: Some(1),
+            ..job("w", "geodetic", &data)
+        };
+        let (_, m) = build(&j, &map).unwrap();
+        assert_eq!((m.fill, m.height_range), (0.0, [0.0, 108.0]));
+        let _ = std::fs::remove_dir_all(&data);
+    }
+
+    /// One sample is still one whole tile at zoom 0, published as the only one.
+    #[test]
+    fn a_one_sample_source_is_one_tile() {
+        let data = scratch("one");
+        let map = Heightmap::new(Grid::new(1, 1, vec![42.0]).unwrap(), Some(1.0), None);
+        let (path, m) = build(&job("one", "local", &data), &map).unwrap();
+        assert_eq!((m.max_zoom, m.bounds), (0, [0.0, 0.0, 0.0, 0.0]));
+        let a = m.available[0][0];
+        assert_eq!((m.available.len(), a.end_x, a.end_y), (1, 0, 0));
+        assert_eq!(
+            *stored_tile(&path, TileId { z: 0, x: 0, y: 0 }).get(256, 256),
+            42.0
+        );
+        let _ = std::fs::remove_dir_all(&data);
+    }
+
+    /// A 300-row, 600-column grid: 3×2 tiles of 256 steps, then 2×1, then 1; bounds are
+    /// [west 0, south rows − 1, east cols − 1, north 0] in samples.
+    #[test]
+    fn the_local_plan_counts_tiles_per_axis() {
+        let g = Grid::new(300, 600, vec![1.0; 300 * 600]).unwrap();
+        let plan = local_plan(&g);
+        assert_eq!(plan.max_zoom, 2);
+        assert_eq!(plan.bounds, [0.0, 299.0, 599.0, 0.0]);
+        let ends: Vec<(u32, u32)> = plan
+            .available
+            .iter()
+            .map(|z| (z[0].end_x, z[0].end_y))
+            .collect();
+        assert_eq!(ends, [(0, 0), (1, 0), (2, 1)]);
+        assert_eq!(plan.jobs.len(), 1 + 2 + 6);
+        assert!(plan
+            .jobs
+            .iter()
+            .all(|&(k, x, y, id)| { plan.levels[k].zoom == id.z && (x, y) == (id.x, id.y) }));
+    }
 }

@@ -251,3 +251,109 @@ fn widen(level: &Level, nx: u32, ny: u32, fill: f64) -> Level {
         heights: Grid::new(rows, cols, data).unwrap_or_else(|_| Grid::zeros(rows, cols)),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use zerotile_codec::raster::Georef;
+
+    fn grid(rows: usize, cols: usize, f: impl Fn(usize, usize) -> f64) -> Grid<f64> {
+        Grid::new(
+            rows,
+            cols,
+            (0..rows * cols).map(|k| f(k / cols, k % cols)).collect(),
+        )
+        .unwrap()
+    }
+
+    /// A source reaching past a pole is not on the globe: refused, not clamped.
+    #[test]
+    fn sources_past_the_pole_are_refused() {
+        let g = grid(3, 3, |_, _| 1.0);
+        let georef = Georef::north_up(Crs::Geographic, 10.0, 91.0, 0.01, 0.01);
+        let source = Source::new(&g, &georef, 0.0).unwrap();
+        let err = build(&source, Scheme::Geodetic, Some(1)).err().unwrap();
+        assert!(err.to_string().contains("outside the world"), "{err}");
+    }
+
+    /// A lattice too big for memory is refused with what to do, before it is allocated.
+    #[test]
+    fn a_lattice_past_the_limit_is_refused() {
+        // 10° × 10° at zoom 20: ~58 000 geodetic tiles a side.
+        let g = grid(3, 3, |_, _| 1.0);
+        let georef = Georef::north_up(Crs::Geographic, 0.0, 10.0, 5.0, 5.0);
+        let source = Source::new(&g, &georef, 0.0).unwrap();
+        let err = build(&source, Scheme::Geodetic, Some(20)).err().unwrap();
+        assert!(err.to_string().contains("smaller --max-zoom"), "{err}");
+    }
+
+    /// An EPSG:3857 source is sampled at each mercator sample's own metres, and its metre
+    /// spacing picks the zoom.
+    #[test]
+    fn a_web_mercator_source_is_sampled_where_it_lies() {
+        // 21 × 21 samples 1 km apart from (1 000 km, 5 000 km), height = 100 + column.
+        let (x0, y0, dx) = (1.0e6, 5.0e6, 1000.0);
+        let g = grid(21, 21, |_, c| 100.0 + c as f64);
+        let georef = Georef::north_up(Crs::WebMercator, x0, y0, dx, dx);
+        let source = Source::new(&g, &georef, 0.0).unwrap();
+        let w = build(&source, Scheme::Mercator, None).unwrap();
+        // 2π · 6 378 137 m / 256 samples = 156 543 m at zoom 0; / 2^8 = 611 m ≤ 1 km < / 2^7.
+        assert_eq!(w.max_zoom, 8);
+        let deepest = &w.levels[0];
+        assert_eq!(deepest.zoom, 8);
+        let half = std::f64::consts::PI * 6_378_137.0;
+        let per = 2.0 * half / f64::from(256u32 << 8);
+        let mut checked = 0;
+        for r in 0..deepest.heights.rows() {
+            for c in 0..deepest.heights.cols() {
+                let x = -half + (deepest.tile_x0 as usize * 256 + c) as f64 * per;
+                let y = half - (deepest.tile_y0 as usize * 256 + r) as f64 * per;
+                let (col, row) = ((x - x0) / dx, (y0 - y) / dx);
+                if (0.0..=20.0).contains(&col) && (0.0..=20.0).contains(&row) {
+                    let got = *deepest.heights.get(r, c);
+                    assert!(
+                        (got - (100.0 + col)).abs() < 1e-6,
+                        "{r},{c}: {got} vs {col}"
+                    );
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 1000, "{checked} samples inside the source");
+    }
+
+    /// A source ending on the antimeridian and the south pole ends in the world's last tile:
+    /// the lattice's last sample is that tile's, not one of a tile past the edge.
+    #[test]
+    fn a_source_at_the_world_edge_fills_the_last_tile() {
+        // Lon 178..180, lat −88..−90, 1° apart; the south-east sample is 108.
+        let g = grid(3, 3, |r, c| 100.0 + (r * 3 + c) as f64);
+        let georef = Georef::north_up(Crs::Geographic, 178.0, -88.0, 1.0, 1.0);
+        let source = Source::new(&g, &georef, 0.0).unwrap();
+        let w = build(&source, Scheme::Geodetic, Some(1)).unwrap();
+        let deepest = &w.levels[0];
+        let (rows, cols) = (deepest.heights.rows(), deepest.heights.cols());
+        assert_eq!(*deepest.heights.get(rows - 1, cols - 1), 108.0);
+    }
+
+    /// Zoom 0 covers the whole world: the root tile away from the source is all fill.
+    #[test]
+    fn root_tiles_beyond_the_source_hold_the_fill() {
+        // 2° × 2° at lon 10..12, lat 48..50: a few samples even at zoom 0.
+        let g = grid(3, 3, |r, c| 500.0 + (r * 3 + c) as f64);
+        let georef = Georef::north_up(Crs::Geographic, 10.0, 50.0, 1.0, 1.0);
+        let source = Source::new(&g, &georef, 7.0).unwrap();
+        let w = build(&source, Scheme::Geodetic, Some(2)).unwrap();
+        let root = w.levels.last().unwrap();
+        assert_eq!((root.zoom, root.tiles(TILE_SIDE)), (0, (2, 1)));
+        // Lon 10° lies in the eastern tile; the western one never saw the source.
+        let west = root.tile(0, 0, TILE_SIDE).unwrap();
+        assert!(west.data().iter().all(|&h| h == 7.0));
+        assert!(root
+            .tile(1, 0, TILE_SIDE)
+            .unwrap()
+            .data()
+            .iter()
+            .any(|&h| h > 7.0));
+    }
+}

@@ -18,16 +18,30 @@ use crate::serve::{pipeline, render, threshold};
 
 /// A smooth 257² hill, as every tile of a dataset of `scheme` holding `tiles`.
 fn hill_dataset(tag: &str, scheme: &str, tiles: &[TileId]) -> Dataset {
-    let bounds = if scheme == "local" {
+    hill_dataset_in(tag, scheme, tiles, default_bounds(scheme))
+}
+
+/// The bounds [`hill_dataset`] gives a scheme: the grid's own, or the world's.
+fn default_bounds(scheme: &str) -> [f64; 4] {
+    if scheme == "local" {
         [0.0, 256.0, 256.0, 0.0]
     } else {
         [-180.0, -85.0, 180.0, 85.0]
-    };
-    hill_dataset_in(tag, scheme, tiles, bounds)
+    }
 }
 
 /// [`hill_dataset`] with its metadata bounds set to `bounds` (west, south, east, north).
 fn hill_dataset_in(tag: &str, scheme: &str, tiles: &[TileId], bounds: [f64; 4]) -> Dataset {
+    Dataset::open(&hill_file_in(tag, scheme, tiles, bounds)).unwrap()
+}
+
+/// [`hill_dataset`]'s container file, `TMP/…/TAG.ztd`, not opened.
+fn hill_file(tag: &str, scheme: &str, tiles: &[TileId]) -> std::path::PathBuf {
+    hill_file_in(tag, scheme, tiles, default_bounds(scheme))
+}
+
+/// [`hill_file`] with its metadata bounds set to `bounds`.
+fn hill_file_in(tag: &str, scheme: &str, tiles: &[TileId], bounds: [f64; 4]) -> std::path::PathBuf {
     let dir = std::env::temp_dir().join(format!("zerotile-router-{}-{tag}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
@@ -82,7 +96,7 @@ fn hill_dataset_in(tag: &str, scheme: &str, tiles: &[TileId], bounds: [f64; 4]) 
     };
     let path = dir.join(format!("{tag}.ztd"));
     std::fs::write(&path, w.finish(&m).unwrap()).unwrap();
-    Dataset::open(&path).unwrap()
+    path
 }
 
 /// The router over a one-tile local dataset named `hill`.
@@ -932,4 +946,102 @@ fn a_dataset_without_area_still_gets_a_finite_ratio() {
     // 64-gon of radius 1, area 32 · sin(2π / 64).
     let disk = 32.0 * (std::f64::consts::TAU / 64.0).sin();
     assert!((v.ratio - disk).abs() < 1e-9, "{} against {disk}", v.ratio);
+}
+
+/// A copy cut short loses its last record: refused whole at open, not per tile later.
+#[test]
+fn a_truncated_dataset_is_refused_at_open() {
+    let path = hill_file("truncated", "local", &[TileId { z: 0, x: 0, y: 0 }]);
+    let bytes = std::fs::read(&path).unwrap();
+    std::fs::write(&path, &bytes[..bytes.len() - 1]).unwrap();
+    let err = format!("{:#}", Dataset::open(&path).unwrap_err());
+    assert!(err.contains("past the end of the file"), "{err}");
+}
+
+/// A dataset's name is its file's stem and must follow the name rule, as an ingest's does.
+#[test]
+fn a_dataset_file_with_a_bad_name_is_refused() {
+    let path = hill_file("badname", "local", &[TileId { z: 0, x: 0, y: 0 }]);
+    let bad = path.with_file_name("bad name.ztd");
+    std::fs::rename(&path, &bad).unwrap();
+    let err = format!("{:#}", Dataset::open(&bad).unwrap_err());
+    assert!(err.contains("dataset name"), "{err}");
+}
+
+/// A 257² local grid is one tile at zoom 0: a record at zoom 1 cannot be served.
+#[test]
+fn tiles_deeper_than_the_tiling_are_refused() {
+    let path = hill_file("deep", "local", &[TileId { z: 1, x: 0, y: 0 }]);
+    let err = format!("{:#}", Dataset::open(&path).unwrap_err());
+    assert!(err.contains("deeper than the tiling"), "{err}");
+}
+
+/// A tile read returns the record's corners and exactly the EZW stream that was written.
+#[test]
+fn a_tile_read_returns_the_stored_corners_and_stream() {
+    let id = TileId { z: 0, x: 0, y: 0 };
+    let path = hill_file("read", "local", &[id]);
+    let d = Dataset::open(&path).unwrap();
+    let rec = d.read_tile(id).unwrap();
+    let bytes = std::fs::read(&path).unwrap();
+    let e = d.container.entry(id).unwrap();
+    // The stream is the record's tail: its last byte is the record's last byte.
+    let end = (e.offset + u64::from(e.len)) as usize;
+    assert_eq!(rec.stream.last(), bytes[..end].last());
+    let g = ezw::decode(&rec.stream, ezw::DecodeLimit::All, ezw::DEFAULT_MAX_SAMPLES).unwrap();
+    assert!((g.heights.get(0, 0) - 100.0).abs() < 0.01);
+    assert_eq!(rec.corners[0], 100.0);
+    assert!(d.read_tile(TileId { z: 0, x: 1, y: 0 }).is_err());
+}
+
+/// The version covers the file's size as well as its header: a copy with bytes appended
+/// (a botched upload) is a different build to every cache.
+#[test]
+fn the_version_changes_with_the_file_size() {
+    let path = hill_file("version", "local", &[TileId { z: 0, x: 0, y: 0 }]);
+    let first = Dataset::open(&path).unwrap();
+    let mut bytes = std::fs::read(&path).unwrap();
+    bytes.push(0);
+    std::fs::write(&path, &bytes).unwrap();
+    let longer = Dataset::open(&path).unwrap();
+    assert_ne!(first.version, longer.version);
+    assert_eq!(first.version_tag().len(), 16);
+}
+
+/// A local tiling takes rows and columns from `source_size` = [rows, cols], in that order.
+#[test]
+fn a_local_tiling_is_rows_by_columns() {
+    use zerotile_codec::geo::Scheme;
+    let mut m = hill_dataset("tiling", "local", &[TileId { z: 0, x: 0, y: 0 }])
+        .metadata()
+        .clone();
+    m.source_size = [300, 600];
+    let tiling = crate::serve::dataset::tiling_of(&m).unwrap();
+    assert_eq!(
+        tiling.scheme(),
+        Scheme::Local {
+            rows: 300,
+            cols: 600
+        }
+    );
+    // 599 column steps need 3 tiles of 256 across, 299 row steps 2 down.
+    assert_eq!(tiling.tiles_per_axis(tiling.max_zoom()).unwrap(), (3, 2));
+}
+
+/// A store object's dataset name is its key's file stem.
+#[test]
+fn a_store_object_is_named_by_its_file_stem() {
+    use object_store::{memory::InMemory, path::Path as ObjectPath, ObjectStore};
+    let path = hill_file("object", "local", &[TileId { z: 0, x: 0, y: 0 }]);
+    let store: std::sync::Arc<dyn ObjectStore> = std::sync::Arc::new(InMemory::new());
+    let key = ObjectPath::from("prod/srtm-3.ztd");
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .build()
+        .unwrap();
+    rt.block_on(store.put(&key, std::fs::read(&path).unwrap().into()))
+        .unwrap();
+    let meta = rt.block_on(store.head(&key)).unwrap();
+    let d = Dataset::open_object(&store, &meta).unwrap();
+    assert_eq!(d.name, "srtm-3");
+    assert!(d.read_tile(TileId { z: 0, x: 0, y: 0 }).is_ok());
 }
