@@ -1045,3 +1045,27 @@ fn a_store_object_is_named_by_its_file_stem() {
     assert_eq!(d.name, "srtm-3");
     assert!(d.read_tile(TileId { z: 0, x: 0, y: 0 }).is_ok());
 }
+
+/// A view over tiles the dataset lacks meshes the ones it holds: a world dataset with only
+/// the western root, seen from above (0°, 0°) across both roots, answers with triangles
+/// west of the prime meridian, not an error for the missing eastern root.
+#[tokio::test]
+async fn a_view_over_a_missing_tile_meshes_the_tiles_that_exist() {
+    let app = router_of("view-missing", "geodetic");
+    let uri = "/v1/datasets/hill/view?eye=0,0,3850000&target=0,0,0&fov=60";
+    let (status, _, body) = send(&app, Method::GET, uri, &[]).await;
+    assert_eq!(status, StatusCode::OK, "{}", String::from_utf8_lossy(&body));
+    let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
+    let xs: Vec<f64> = v["mesh"]["positions"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .step_by(3)
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    assert!(v["triangles"].as_u64().unwrap() > 0);
+    assert!(xs.iter().all(|&x| x <= 0.0), "a vertex east of 0°");
+    // The footprint spans both roots: ±20° or so around the target.
+    let footprint = v["footprint"].as_array().unwrap();
+    assert!(footprint.iter().any(|p| p[0].as_f64().unwrap() > 10.0));
+}
