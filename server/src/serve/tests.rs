@@ -1048,7 +1048,7 @@ fn a_store_object_is_named_by_its_file_stem() {
 
 /// A view over tiles the dataset lacks meshes the ones it holds: a world dataset with only
 /// the western root, seen from above (0°, 0°) across both roots, answers with triangles
-/// west of the prime meridian, not an error for the missing eastern root.
+/// west of the prime meridian, not an error for the missing eastern root, and welded.
 #[tokio::test]
 async fn a_view_over_a_missing_tile_meshes_the_tiles_that_exist() {
     let app = router_of("view-missing", "geodetic");
@@ -1065,6 +1065,18 @@ async fn a_view_over_a_missing_tile_meshes_the_tiles_that_exist() {
         .collect();
     assert!(v["triangles"].as_u64().unwrap() > 0);
     assert!(xs.iter().all(|&x| x <= 0.0), "a vertex east of 0°");
+    // Welded: the triangles share their corners, so no two vertices sit at one place.
+    let positions = v["mesh"]["positions"].as_array().unwrap();
+    let places: std::collections::HashSet<[u64; 2]> = positions
+        .chunks(3)
+        .map(|p| {
+            [
+                p[0].as_f64().unwrap().to_bits(),
+                p[1].as_f64().unwrap().to_bits(),
+            ]
+        })
+        .collect();
+    assert_eq!(places.len(), positions.len() / 3);
     // The footprint spans both roots: ±20° or so around the target.
     let footprint = v["footprint"].as_array().unwrap();
     assert!(footprint.iter().any(|p| p[0].as_f64().unwrap() > 10.0));
