@@ -1081,3 +1081,25 @@ async fn a_view_over_a_missing_tile_meshes_the_tiles_that_exist() {
     let footprint = v["footprint"].as_array().unwrap();
     assert!(footprint.iter().any(|p| p[0].as_f64().unwrap() > 10.0));
 }
+
+/// A view meshes the deepest zoom whose tiles over the footprint are few enough: on a
+/// world dataset holding zooms 0 and 1, a footprint about 40° wide (a few zoom-1 tiles)
+/// is meshed at zoom 1.
+#[tokio::test]
+async fn a_view_meshes_the_deepest_zoom_that_fits() {
+    let mut tiles = vec![ROOT, TileId { z: 0, x: 1, y: 0 }];
+    for x in 0..4 {
+        for y in 0..2 {
+            tiles.push(TileId { z: 1, x, y });
+        }
+    }
+    let mut d = hill_dataset("view-zoom", "geodetic", &tiles);
+    d.name = "hill".into();
+    let mut catalog = Catalog::default();
+    catalog.insert(d);
+    let app = app(AppState::new(catalog, Config::default()));
+    let uri = "/v1/datasets/hill/view?eye=10,10,3850000&target=10,10,0&fov=60";
+    let (status, headers, body) = send(&app, Method::GET, uri, &[]).await;
+    assert_eq!(status, StatusCode::OK, "{}", String::from_utf8_lossy(&body));
+    assert_eq!(headers["x-zoom"], "1");
+}
