@@ -16,6 +16,9 @@ use super::{app, AppState, Catalog, Config};
 use crate::serve::dataset::Dataset;
 use crate::serve::{pipeline, render, threshold};
 
+/// The root tile of a zoom-0 pyramid.
+const ROOT: TileId = TileId { z: 0, x: 0, y: 0 };
+
 /// A smooth 257² hill, as every tile of a dataset of `scheme` holding `tiles`.
 fn hill_dataset(tag: &str, scheme: &str, tiles: &[TileId]) -> Dataset {
     hill_dataset_in(tag, scheme, tiles, default_bounds(scheme))
@@ -106,7 +109,11 @@ fn router(tag: &str) -> Router {
 
 /// The router over a one-tile (root) dataset of `scheme` named `hill`.
 fn router_of(tag: &str, scheme: &str) -> Router {
-    let mut d = hill_dataset(tag, scheme, &[TileId { z: 0, x: 0, y: 0 }]);
+    router_over(hill_dataset(tag, scheme, &[ROOT]))
+}
+
+/// The router over `d`, renamed `hill`.
+fn router_over(mut d: Dataset) -> Router {
     d.name = "hill".into();
     let mut catalog = Catalog::default();
     catalog.insert(d);
@@ -448,24 +455,17 @@ async fn cors_allows_any_origin_unless_configured() {
 
 #[test]
 fn a_cancelled_render_decodes_nothing_more() {
-    let d = hill_dataset("cancel-before", "local", &[TileId { z: 0, x: 0, y: 0 }]);
+    let d = hill_dataset("cancel-before", "local", &[ROOT]);
     let state = AppState::new(Catalog::default(), Config::default());
     let cancel = pipeline::Cancel::default();
     drop(cancel.on_drop());
-    let Err(err) = pipeline::stitched(&state, &d, TileId { z: 0, x: 0, y: 0 }, 1.0, &cancel) else {
+    let Err(err) = pipeline::stitched(&state, &d, ROOT, 1.0, &cancel) else {
         panic!("a cancelled render stops");
     };
     assert!(err.is::<pipeline::Cancelled>(), "{err:#}");
     assert_eq!(state.metrics.tiles_decoded.load(Relaxed), 0);
     // Not cancelled, the same call renders.
-    pipeline::stitched(
-        &state,
-        &d,
-        TileId { z: 0, x: 0, y: 0 },
-        1.0,
-        &Default::default(),
-    )
-    .expect("renders");
+    pipeline::stitched(&state, &d, ROOT, 1.0, &Default::default()).expect("renders");
     assert_eq!(state.metrics.tiles_decoded.load(Relaxed), 1);
 }
 
@@ -689,11 +689,7 @@ async fn a_bad_mesh_name_is_called_a_mesh_name() {
 #[tokio::test]
 async fn tilejson_urls_follow_the_configured_origin() {
     let served = |config: Config| {
-        let mut d = hill_dataset(
-            "tilejson-origin",
-            "mercator",
-            &[TileId { z: 0, x: 0, y: 0 }],
-        );
+        let mut d = hill_dataset("tilejson-origin", "mercator", &[ROOT]);
         d.name = "merc".into();
         let mut catalog = Catalog::default();
         catalog.insert(d);
@@ -821,7 +817,7 @@ fn the_flat_root_mesh_winds_like_a_real_tile_mesh() {
 fn mesh_files_are_counter_clockwise_from_above_on_every_scheme() {
     let mesh = bintree_mesh(|_, c| (c / 7.0).cos() * 20.0);
     for scheme in ["local", "geodetic", "mercator"] {
-        let root = TileId { z: 0, x: 0, y: 0 };
+        let root = ROOT;
         let d = hill_dataset(&format!("ccw-{scheme}"), scheme, &[root]);
         let m = render::tri_mesh(&d, root, &mesh).unwrap();
         // A face normal points up exactly when the face turns counter-clockwise from above.
@@ -839,8 +835,6 @@ fn view_query(pairs: &[(&str, &str)]) -> std::collections::HashMap<String, Strin
         .map(|(k, v)| ((*k).to_string(), (*v).to_string()))
         .collect()
 }
-
-const ROOT: TileId = TileId { z: 0, x: 0, y: 0 };
 
 /// Paper eq. 4 is capped: the largest ratio accepted would ask for more than any relief,
 /// and gets [`threshold::MAX_THRESHOLD`] rather than an unbounded T.
@@ -951,7 +945,7 @@ fn a_dataset_without_area_still_gets_a_finite_ratio() {
 /// A copy cut short loses its last record: refused whole at open, not per tile later.
 #[test]
 fn a_truncated_dataset_is_refused_at_open() {
-    let path = hill_file("truncated", "local", &[TileId { z: 0, x: 0, y: 0 }]);
+    let path = hill_file("truncated", "local", &[ROOT]);
     let bytes = std::fs::read(&path).unwrap();
     std::fs::write(&path, &bytes[..bytes.len() - 1]).unwrap();
     let err = format!("{:#}", Dataset::open(&path).unwrap_err());
@@ -961,7 +955,7 @@ fn a_truncated_dataset_is_refused_at_open() {
 /// A dataset's name is its file's stem and must follow the name rule, as an ingest's does.
 #[test]
 fn a_dataset_file_with_a_bad_name_is_refused() {
-    let path = hill_file("badname", "local", &[TileId { z: 0, x: 0, y: 0 }]);
+    let path = hill_file("badname", "local", &[ROOT]);
     let bad = path.with_file_name("bad name.ztd");
     std::fs::rename(&path, &bad).unwrap();
     let err = format!("{:#}", Dataset::open(&bad).unwrap_err());
@@ -979,7 +973,7 @@ fn tiles_deeper_than_the_tiling_are_refused() {
 /// A tile read returns the record's corners and exactly the EZW stream that was written.
 #[test]
 fn a_tile_read_returns_the_stored_corners_and_stream() {
-    let id = TileId { z: 0, x: 0, y: 0 };
+    let id = ROOT;
     let path = hill_file("read", "local", &[id]);
     let d = Dataset::open(&path).unwrap();
     let rec = d.read_tile(id).unwrap();
@@ -998,7 +992,7 @@ fn a_tile_read_returns_the_stored_corners_and_stream() {
 /// (a botched upload) is a different build to every cache.
 #[test]
 fn the_version_changes_with_the_file_size() {
-    let path = hill_file("version", "local", &[TileId { z: 0, x: 0, y: 0 }]);
+    let path = hill_file("version", "local", &[ROOT]);
     let first = Dataset::open(&path).unwrap();
     let mut bytes = std::fs::read(&path).unwrap();
     bytes.push(0);
@@ -1012,9 +1006,7 @@ fn the_version_changes_with_the_file_size() {
 #[test]
 fn a_local_tiling_is_rows_by_columns() {
     use zerotile_codec::geo::Scheme;
-    let mut m = hill_dataset("tiling", "local", &[TileId { z: 0, x: 0, y: 0 }])
-        .metadata()
-        .clone();
+    let mut m = hill_dataset("tiling", "local", &[ROOT]).metadata().clone();
     m.source_size = [300, 600];
     let tiling = crate::serve::dataset::tiling_of(&m).unwrap();
     assert_eq!(
@@ -1032,7 +1024,7 @@ fn a_local_tiling_is_rows_by_columns() {
 #[test]
 fn a_store_object_is_named_by_its_file_stem() {
     use object_store::{memory::InMemory, path::Path as ObjectPath, ObjectStore};
-    let path = hill_file("object", "local", &[TileId { z: 0, x: 0, y: 0 }]);
+    let path = hill_file("object", "local", &[ROOT]);
     let store: std::sync::Arc<dyn ObjectStore> = std::sync::Arc::new(InMemory::new());
     let key = ObjectPath::from("prod/srtm-3.ztd");
     let rt = tokio::runtime::Builder::new_current_thread()
@@ -1043,7 +1035,7 @@ fn a_store_object_is_named_by_its_file_stem() {
     let meta = rt.block_on(store.head(&key)).unwrap();
     let d = Dataset::open_object(&store, &meta).unwrap();
     assert_eq!(d.name, "srtm-3");
-    assert!(d.read_tile(TileId { z: 0, x: 0, y: 0 }).is_ok());
+    assert!(d.read_tile(ROOT).is_ok());
 }
 
 /// A view over tiles the dataset lacks meshes the ones it holds: a world dataset with only
@@ -1093,11 +1085,7 @@ async fn a_view_meshes_the_deepest_zoom_that_fits() {
             tiles.push(TileId { z: 1, x, y });
         }
     }
-    let mut d = hill_dataset("view-zoom", "geodetic", &tiles);
-    d.name = "hill".into();
-    let mut catalog = Catalog::default();
-    catalog.insert(d);
-    let app = app(AppState::new(catalog, Config::default()));
+    let app = router_over(hill_dataset("view-zoom", "geodetic", &tiles));
     let uri = "/v1/datasets/hill/view?eye=10,10,3850000&target=10,10,0&fov=60";
     let (status, headers, body) = send(&app, Method::GET, uri, &[]).await;
     assert_eq!(status, StatusCode::OK, "{}", String::from_utf8_lossy(&body));
