@@ -21,7 +21,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use zerotile_codec::container::{Availability, Metadata, TileId, ViewParams, Writer};
 use zerotile_codec::ezw::{self, EncodeParams};
-use zerotile_codec::geo::Scheme;
+use zerotile_codec::geo::{Scheme, Tiling};
 use zerotile_codec::pyramid::Level;
 use zerotile_codec::raster::{self, Crs, Encoding, Heightmap, ReadOptions};
 use zerotile_codec::wavelet::Wavelet;
@@ -147,6 +147,11 @@ pub fn build(job: &Ingest, map: &Heightmap) -> Result<(PathBuf, Metadata)> {
         .with_context(|| format!("{}: no valid samples", job.input.display()))?;
     let step = map.step.unwrap_or(0.01);
     let (plan, fill) = if scheme == "local" {
+        // The tiling the server will open the dataset with: a grid it refuses (under 2 × 2)
+        // is refused here, before anything is written.
+        let (rows, cols) = (map.heights.rows(), map.heights.cols());
+        Tiling::new(Scheme::Local { rows, cols }, TILE_SIDE as u32)
+            .with_context(|| format!("{}: cannot be tiled", job.input.display()))?;
         let fill = job.fill.unwrap_or(lo);
         let heights = map.heights.map(|&h| if h.is_finite() { h } else { fill });
         (local_plan(&heights), fill)
@@ -564,14 +569,13 @@ mod tests {
         assert_eq!(corners(&g), [0.0, 2.0, 6.0, 8.0]);
     }
 
-    /// Reads back tile `id` of the container at `path`, every pass decoded.
+    /// Reads back tile `id` of the container at `path` as the server does, every pass decoded.
     fn stored_tile(path: &Path, id: TileId) -> Grid<f64> {
-        use zerotile_codec::container::{Container, Limits, TileRecord};
-        let bytes = std::fs::read(path).unwrap();
-        let c = Container::parse(&bytes, &Limits::default()).unwrap();
-        let e = c.entry(id).unwrap();
-        let rec = TileRecord::parse(id, &bytes[e.offset as usize..][..e.len as usize], &e).unwrap();
-        ezw::decode(rec.stream, ezw::DecodeLimit::All, ezw::DEFAULT_MAX_SAMPLES)
+        let rec = crate::serve::dataset::Dataset::open(path)
+            .unwrap()
+            .read_tile(id)
+            .unwrap();
+        ezw::decode(&rec.stream, ezw::DecodeLimit::All, ezw::DEFAULT_MAX_SAMPLES)
             .unwrap()
             .heights
     }
@@ -640,13 +644,31 @@ mod tests {
         let _ = std::fs::remove_dir_all(&data);
     }
 
-    /// One sample is still one whole tile at zoom 0, published as the only one.
+    /// A grid the server's tiling refuses (one sample, one row) is refused at ingest, before
+    /// a file is written: it was written, then could not be opened by `serve`.
     #[test]
-    fn a_one_sample_source_is_one_tile() {
+    fn a_grid_under_two_by_two_is_refused_before_anything_is_written() {
         let data = scratch("one");
-        let map = Heightmap::new(Grid::new(1, 1, vec![42.0]).unwrap(), Some(1.0), None);
+        for (rows, cols) in [(1, 1), (1, 5), (5, 1)] {
+            let map = Heightmap::new(
+                Grid::new(rows, cols, vec![42.0; rows * cols]).unwrap(),
+                Some(1.0),
+                None,
+            );
+            let err = format!(
+                "{:#}",
+                build(&job("one", "local", &data), &map).unwrap_err()
+            );
+            assert!(
+                err.contains("at least 2 × 2 samples"),
+                "{rows}×{cols}: {err}"
+            );
+            assert!(!data.join("one.ztd").exists());
+        }
+        // The smallest grid it takes is one whole tile at zoom 0, published as the only one.
+        let map = Heightmap::new(Grid::new(2, 2, vec![42.0; 4]).unwrap(), Some(1.0), None);
         let (path, m) = build(&job("one", "local", &data), &map).unwrap();
-        assert_eq!((m.max_zoom, m.bounds), (0, [0.0, 0.0, 0.0, 0.0]));
+        assert_eq!((m.max_zoom, m.bounds), (0, [0.0, 1.0, 1.0, 0.0]));
         let a = m.available[0][0];
         assert_eq!((m.available.len(), a.end_x, a.end_y), (1, 0, 0));
         assert_eq!(
