@@ -557,7 +557,15 @@ mod tests {
         assert_eq!(report.missing[0], "0/1/0");
         assert_eq!(report.missing_total, u64::MAX);
         assert!(!report.ok());
-        assert!(render(&report).contains("announced tiles are missing: 0/1/0, 0/2/0"));
+        let text = render(&report);
+        assert!(
+            text.contains("announced tiles are missing: 0/1/0, 0/2/0"),
+            "{text}"
+        );
+        assert!(
+            text.contains(&format!("and {} more", u64::MAX - 100)),
+            "{text}"
+        );
 
         // The one stored tile, announced as often as allowed: nothing missing.
         let report = announce(vec![range(0); MAX_RANGES]);
@@ -569,5 +577,173 @@ mod tests {
         let report = announce(vec![range(0); MAX_RANGES + 1]);
         assert_eq!(report.availability_problems.len(), 1);
         assert!(!report.ok());
+    }
+    /// Zoom rows give record bytes (each stream plus its 32 bytes of corners) and bits per
+    /// coded sample from them; the totals add the rows up.
+    #[test]
+    fn zoom_rows_count_record_bytes_and_their_bits_per_sample() {
+        let mut m = local_257(3000);
+        (m.max_zoom, m.source_size) = (1, [513, 513]);
+        let mut w = Writer::new();
+        w.add(TileId { z: 0, x: 0, y: 0 }, [0.0; 4], &[7u8; 1000]);
+        w.add(TileId { z: 1, x: 0, y: 0 }, [0.0; 4], &[7u8; 800]);
+        w.add(TileId { z: 1, x: 1, y: 1 }, [0.0; 4], &[7u8; 1200]);
+        let r = report_on("bytes", w.finish(&m).unwrap(), false);
+        let rows: Vec<(u8, u64, u64)> =
+            r.zooms.iter().map(|z| (z.zoom, z.tiles, z.bytes)).collect();
+        assert_eq!(rows, [(0, 1, 1032), (1, 2, 2064)]);
+        let samples = 257.0 * 257.0;
+        assert!((r.zooms[1].bps - 2064.0 * 8.0 / (2.0 * samples)).abs() < 1e-12);
+        assert_eq!((r.tiles, r.bytes), (3, 3096));
+        // The readable table's last row is the whole file's.
+        let text = render(&r);
+        let all = text
+            .lines()
+            .find(|l| l.trim_start().starts_with("all"))
+            .unwrap();
+        let expected = format!("{:.3}", 3096.0 * 8.0 / (3.0 * samples));
+        assert!(
+            all.contains("3096") && all.ends_with(&expected),
+            "{all:?} {expected}"
+        );
+    }
+
+    /// The header's availability lists start at the dataset's min zoom: a file whose
+    /// pyramid starts at zoom 1 announces zoom 1 first, and an absent tile there is named
+    /// 1/x/y.
+    #[test]
+    fn availability_is_counted_from_the_min_zoom() {
+        let mut m = local_257(16);
+        (m.min_zoom, m.max_zoom, m.source_size) = (1, 1, [513, 513]);
+        m.bounds = [0.0, 512.0, 512.0, 0.0];
+        m.available = vec![vec![Availability {
+            start_x: 0,
+            start_y: 0,
+            end_x: 1,
+            end_y: 0,
+        }]];
+        let mut w = Writer::new();
+        w.add(TileId { z: 1, x: 0, y: 0 }, [0.0; 4], b"not decoded here");
+        let r = report_on("minzoom", w.finish(&m).unwrap(), false);
+        assert_eq!(r.missing, ["1/1/0"]);
+        assert_eq!(r.missing_total, 1);
+    }
+
+    /// A range that ends before it starts is reported as a problem, not counted (its area
+    /// would underflow).
+    #[test]
+    fn an_empty_range_is_a_problem_not_a_count() {
+        let report = announce(vec![Availability {
+            start_x: 1,
+            start_y: 0,
+            end_x: 0,
+            end_y: 0,
+        }]);
+        assert_eq!(report.missing_total, 0);
+        assert_eq!(report.availability_problems.len(), 1);
+        assert!(
+            report.availability_problems[0].contains("an empty range"),
+            "{:?}",
+            report.availability_problems
+        );
+        assert!(!report.ok());
+        // Empty in y alone is as empty.
+        let report = announce(vec![Availability {
+            start_x: 0,
+            start_y: 1,
+            end_x: 0,
+            end_y: 0,
+        }]);
+        assert_eq!(report.availability_problems.len(), 1);
+        assert_eq!(report.missing_total, 0);
+    }
+
+    /// A dataset that promises a precision its streams do not guarantee fails verification
+    /// (a tile re-encoded looser, or metadata edited tighter); one that promises the
+    /// stream's own bound passes.
+    #[test]
+    fn a_stream_looser_than_the_promised_precision_fails() {
+        let n = 257;
+        let g = Grid::new(
+            n,
+            n,
+            (0..n * n)
+                .map(|k| ((k / n) * (k % n) % 89) as f64)
+                .collect(),
+        )
+        .unwrap();
+        let mut params = EncodeParams::new(Wavelet::Cdf97, 1.0);
+        params.max_error = Some(2.0);
+        let enc = ezw::encode(&g, &params).unwrap();
+        let corners = [
+            *g.get(0, 0),
+            *g.get(0, n - 1),
+            *g.get(n - 1, 0),
+            *g.get(n - 1, n - 1),
+        ];
+        let file = |precision: f64| {
+            let mut m = local_257(enc.bytes.len() as u64);
+            m.precision = Some(precision);
+            let mut w = Writer::new();
+            w.add(TileId { z: 0, x: 0, y: 0 }, corners, &enc.bytes);
+            w.finish(&m).unwrap()
+        };
+        let kept = verify_file("kept", file(2.0));
+        assert!(kept.ok(), "{:?}", kept.failed);
+        let broken = verify_file("broken", file(0.25));
+        let f = broken.failed.unwrap();
+        assert!(
+            f.len() == 1 && f[0].error.contains("the dataset promises 0.25 m"),
+            "{f:?}"
+        );
+    }
+
+    /// A folder, or a name with no file behind it, is refused with what to give instead.
+    #[test]
+    fn a_folder_or_a_missing_name_is_refused_with_what_to_give() {
+        let dir = std::env::temp_dir().join(format!("zerotile-info-dir-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let job = |dataset: String| Info {
+            dataset,
+            data: dir.clone(),
+            verify: false,
+            progress: false,
+        };
+        let e = run(&job(dir.display().to_string()))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("a folder; give a .ztd file"), "{e}");
+        let e = run(&job("nothing".into())).unwrap_err().to_string();
+        assert!(e.contains("no such dataset file"), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+    /// Failures are listed in tile order (zoom, then rows, then columns), whatever order
+    /// the parallel check finished them in, so two runs over one file print the same.
+    #[test]
+    fn failures_are_listed_in_tile_order() {
+        let n = 257;
+        let g = Grid::new(n, n, (0..n * n).map(|k| (k % 13) as f64).collect()).unwrap();
+        let enc = ezw::encode(&g, &EncodeParams::new(Wavelet::Cdf97, 1.0)).unwrap();
+        let mut m = local_257(16 * enc.bytes.len() as u64);
+        (m.min_zoom, m.max_zoom, m.source_size) = (2, 2, [1025, 1025]);
+        m.bounds = [0.0, 1024.0, 1024.0, 0.0];
+        m.available = vec![vec![]];
+        let mut w = Writer::new();
+        // Stored in reverse, each with corners its stream does not decode to.
+        let mut ids: Vec<TileId> = (0..16)
+            .map(|k| TileId {
+                z: 2,
+                x: k % 4,
+                y: k / 4,
+            })
+            .collect();
+        ids.reverse();
+        for &id in &ids {
+            w.add(id, [1e4; 4], &enc.bytes);
+        }
+        let r = verify_file("order", w.finish(&m).unwrap());
+        let listed: Vec<String> = r.failed.unwrap().into_iter().map(|f| f.tile).collect();
+        let expected: Vec<String> = (0..16).map(|k| format!("2/{}/{}", k % 4, k / 4)).collect();
+        assert_eq!(listed, expected);
     }
 }
