@@ -3,6 +3,8 @@
 
 pub mod mesh;
 pub mod terrain;
+#[cfg(test)]
+mod terrain_tests;
 
 use std::time::Instant;
 

@@ -1,0 +1,187 @@
+//! `eval terrain`'s figures checked against what they claim to be, on real tiles from
+//! `../shared/data` (read in place): the benchmark scripts and the README tables take
+//! these numbers as given, so each is recomputed here independently of the sweep.
+
+use std::path::PathBuf;
+
+use zerotile_codec::raster::{self, ReadOptions};
+use zerotile_codec::wavelet::Wavelet;
+use zerotile_codec::Grid;
+
+use super::parse_list;
+use super::terrain::{errors, load, psnr, run, Point, Sweep, TerrainEval, DECODE_SHARE};
+
+fn shared_data(rel: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/data")
+        .join(rel)
+}
+
+/// A sweep over a `size`² window of N44W072 at (300, 500), with every default.
+fn n44(size: usize, sweep: Sweep) -> TerrainEval {
+    TerrainEval {
+        input: shared_data("dem/N44W072.hgt"),
+        crop: Some((300, 500, size)),
+        encoding: None,
+        npz_key: None,
+        wavelet: None,
+        step: None,
+        sweep,
+        repeat: 1,
+        eight_bit: false,
+        mesher: None,
+        decode_share: DECODE_SHARE,
+        out: None,
+    }
+}
+
+/// The same window read straight from the raster: its height range is the PSNR peak.
+fn n44_range(size: usize) -> f64 {
+    let map = raster::read_heightmap(&shared_data("dem/N44W072.hgt"), &ReadOptions::default())
+        .unwrap()
+        .crop(300, 500, size, size)
+        .unwrap();
+    let (lo, hi) = map.min_max().unwrap();
+    hi - lo
+}
+
+/// Rate and PSNR of `p` as the issue defines them: bits per sample, and 20 log10 of the
+/// window's height range over the RMSE.
+fn check_rate_and_psnr(p: &Point, peak: f64) {
+    let n = (p.rows * p.cols) as f64;
+    assert_eq!(p.bps, p.bytes as f64 * 8.0 / n, "{p:?}");
+    let close = |a: Option<f64>, rmse: f64| {
+        let want = 20.0 * (peak / rmse).log10();
+        a.is_some_and(|a| (a - want).abs() < 1e-9)
+    };
+    assert!(close(p.psnr_db, p.rmse), "{p:?} peak {peak}");
+    assert!(close(p.mesh_psnr_db, p.mesh_rmse), "{p:?} peak {peak}");
+    assert!(
+        p.rmse <= p.max_abs_err && p.mesh_rmse <= p.mesh_max_abs_err,
+        "{p:?}"
+    );
+}
+
+#[test]
+fn errors_are_the_largest_and_the_root_mean_square_difference() {
+    let a = Grid::new(2, 2, vec![0.0; 4]).unwrap();
+    let b = Grid::new(2, 2, vec![1.0, -1.0, 3.0, 0.0]).unwrap();
+    let (max, rmse) = errors(&a, &b);
+    assert_eq!(max, 3.0);
+    assert!((rmse - (11.0f64 / 4.0).sqrt()).abs() < 1e-12);
+    assert!((psnr(255.0, 1.0).unwrap() - 48.130_803_608).abs() < 1e-6);
+    // Exact is infinite, which JSON cannot hold.
+    assert_eq!(psnr(255.0, 0.0), None);
+}
+
+/// In threshold mode on a 2^k + 1 window (the bintree), T is the mesh's true max error:
+/// the decode stops at T · DECODE_SHARE and the mesh spends only what the decode left.
+#[test]
+fn a_threshold_point_keeps_the_mesh_within_t_and_decodes_to_its_share() {
+    let ts = [2.0, 8.0, 32.0];
+    let points = run(&n44(129, Sweep::Threshold(ts.to_vec()))).unwrap();
+    let peak = n44_range(129);
+    assert_eq!(points.len(), ts.len());
+    let mut triangles = Vec::new();
+    for (p, t) in points.iter().zip(ts) {
+        assert_eq!(
+            (p.mode, p.param, p.rows, p.cols),
+            ("threshold", Some(t), 129, 129)
+        );
+        assert!(p.mesh_max_abs_err <= t + 1e-9, "{p:?}");
+        assert!(p.threshold <= t * DECODE_SHARE, "{p:?}");
+        check_rate_and_psnr(p, peak);
+        triangles.push(p.mesh_triangles);
+    }
+    assert!(triangles.windows(2).all(|w| w[0] > w[1]), "{triangles:?}");
+}
+
+/// A `--bpp B` point decodes the prefix B bits per sample buy, never more.
+#[test]
+fn a_rate_point_decodes_at_most_its_rate() {
+    let rates = [0.5, 1.0, 2.0];
+    let points = run(&n44(129, Sweep::Bpp(rates.to_vec()))).unwrap();
+    let peak = n44_range(129);
+    for (p, b) in points.iter().zip(rates) {
+        let budget = (b * 129.0 * 129.0 / 8.0).floor() as usize;
+        assert!(
+            p.bytes <= budget && p.bytes + 8 > budget,
+            "{p:?} budget {budget}"
+        );
+        check_rate_and_psnr(p, peak);
+    }
+}
+
+/// A `--max-error E` point keeps every decoded height within E of the source.
+#[test]
+fn a_max_error_point_holds_its_bound() {
+    let points = run(&n44(65, Sweep::MaxError(vec![1.0, 4.0]))).unwrap();
+    for (p, e) in points.iter().zip([1.0, 4.0]) {
+        assert_eq!(p.mode, "max-error");
+        assert!(p.max_abs_err <= e + 1e-9 && p.max_abs_err > 0.0, "{p:?}");
+    }
+    // A looser bound costs fewer bytes.
+    assert!(points[1].bytes < points[0].bytes, "{points:?}");
+}
+
+/// Lossless is 5/3 whatever the default lossy wavelet, exact, and refused with 9/7.
+#[test]
+fn lossless_is_exact_on_the_5_3_wavelet_and_refused_on_9_7() {
+    let points = run(&n44(65, Sweep::Lossless)).unwrap();
+    let p = &points[0];
+    assert_eq!((p.mode, p.param), ("lossless", None));
+    assert_eq!(p.wavelet, Wavelet::LeGall53.name());
+    assert_eq!((p.max_abs_err, p.rmse, p.psnr_db), (0.0, 0.0, None));
+    let e = run(&TerrainEval {
+        wavelet: Some(Wavelet::Cdf97),
+        ..n44(65, Sweep::Lossless)
+    })
+    .unwrap_err();
+    assert!(e.to_string().contains("reversible 5/3"), "{e}");
+}
+
+/// Heights off the step grid (metres under a 0.3 m step here; float rasters in general)
+/// cannot decode exactly, so lossless is refused and the max-error point that would keep
+/// them within half a step is named.
+#[test]
+fn lossless_refuses_heights_off_the_step_grid() {
+    let e = run(&TerrainEval {
+        step: Some(0.3),
+        ..n44(65, Sweep::Lossless)
+    })
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("not multiples of the height step 0.3") && e.contains("--max-error 0.15"),
+        "{e}"
+    );
+}
+
+/// The paper's 8-bit setting stretches the window to the integers 0..=255, peak 255; a
+/// 16-bit window keeps its metres and peaks at its own range.
+#[test]
+fn eight_bit_stretches_the_window_to_0_255_and_metres_peak_at_their_range() {
+    let (g, step, peak) = load(&TerrainEval {
+        eight_bit: true,
+        ..n44(65, Sweep::Lossless)
+    })
+    .unwrap();
+    let lo = g.data().iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = g.data().iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    assert_eq!((lo, hi, step, peak), (0.0, 255.0, 1.0, 255.0));
+    assert!(g.data().iter().all(|h| h.fract() == 0.0));
+
+    let (g, step, peak) = load(&n44(65, Sweep::Lossless)).unwrap();
+    assert_eq!((g.rows(), g.cols(), step), (65, 65, 1.0));
+    assert_eq!(peak, n44_range(65));
+}
+
+#[test]
+fn a_parameter_list_takes_zero_and_refuses_negatives() {
+    assert_eq!(parse_list("--bpp", "0, 1.5").unwrap(), [0.0, 1.5]);
+    let e = parse_list("--bpp", "1,-1").unwrap_err();
+    assert!(e.contains("'-1' must be finite and ≥ 0"), "{e}");
+    assert!(parse_list("--bpp", "1,x")
+        .unwrap_err()
+        .contains("'x' is not a number"));
+}
