@@ -95,3 +95,27 @@ impl Catalog {
         self.datasets.is_empty()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A corrupt dataset file is listed as skipped with its reason, files that are not
+    /// datasets are ignored, and neither stops the folder from opening.
+    #[test]
+    fn a_bad_file_is_skipped_and_other_files_ignored() {
+        let dir = std::env::temp_dir().join(format!("zerotile-catalog-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join(format!("broken.{EXTENSION}")), b"not a dataset").unwrap();
+        std::fs::write(dir.join("README.txt"), b"notes").unwrap();
+        let catalog = Catalog::open_dir(&dir).unwrap();
+        let skipped: Vec<&str> = catalog.skipped.iter().map(|(f, _)| f.as_str()).collect();
+        assert_eq!(skipped, [format!("broken.{EXTENSION}")]);
+        assert!(!catalog.skipped[0].1.is_empty());
+        assert!(catalog.is_empty());
+        assert_eq!(catalog.len(), 0);
+        assert!(Catalog::open_dir(&dir.join("missing")).is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

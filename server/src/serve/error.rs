@@ -150,3 +150,97 @@ pub async fn json_errors(req: axum::extract::Request, next: axum::middleware::Ne
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use axum::http::header;
+    use axum::routing::get;
+    use tower::ServiceExt;
+
+    /// A store that does not answer is a 503 a cache retries after a second, not a 500.
+    #[test]
+    fn an_unreadable_store_is_a_503_with_retry_after() {
+        let e = anyhow::Error::new(object_store::Error::Generic {
+            store: "S3",
+            source: "connection reset".into(),
+        })
+        .context("reading tile 3/1/2");
+        let err = ApiError::render(e);
+        assert_eq!(
+            (err.status, err.code),
+            (StatusCode::SERVICE_UNAVAILABLE, "storage_unavailable")
+        );
+        let res = err.into_response();
+        assert_eq!(res.headers()[header::RETRY_AFTER], "1");
+    }
+
+    /// Any other render failure is a 500 that keeps its detail out of the answer.
+    #[test]
+    fn another_render_failure_is_a_500_without_its_detail() {
+        let err = ApiError::render(anyhow::anyhow!("tile 3/1/2 is corrupt at byte 77"));
+        assert_eq!(
+            (err.status, err.code),
+            (StatusCode::INTERNAL_SERVER_ERROR, "internal")
+        );
+        assert!(!err.message.contains("corrupt"), "{}", err.message);
+        let res = err.into_response();
+        assert!(res.headers().get(header::RETRY_AFTER).is_none());
+    }
+
+    /// `json_errors` rewrites a layer's plain-text error with a code for its status, keeps
+    /// the layer's other headers, and leaves JSON errors and successes alone.
+    #[tokio::test]
+    async fn layer_errors_are_rewritten_with_their_codes_and_headers() {
+        let plain = |status: StatusCode| {
+            move || async move { (status, [(header::RETRY_AFTER, "5")], "plain text") }
+        };
+        let app = axum::Router::new()
+            .route("/408", get(plain(StatusCode::REQUEST_TIMEOUT)))
+            .route("/413", get(plain(StatusCode::PAYLOAD_TOO_LARGE)))
+            .route("/503", get(plain(StatusCode::SERVICE_UNAVAILABLE)))
+            .route("/502", get(plain(StatusCode::BAD_GATEWAY)))
+            .route("/418", get(plain(StatusCode::IM_A_TEAPOT)))
+            .route("/ok", get(plain(StatusCode::OK)))
+            .route(
+                "/json",
+                get(|| async { ApiError::not_found("no_such_dataset", "no dataset x") }),
+            )
+            .layer(axum::middleware::from_fn(json_errors));
+        let call = |uri: &'static str| {
+            let app = app.clone();
+            async move {
+                let req = axum::extract::Request::get(uri)
+                    .body(axum::body::Body::empty())
+                    .unwrap();
+                let res = app.oneshot(req).await.unwrap();
+                let (parts, body) = res.into_parts();
+                let body = axum::body::to_bytes(body, 1 << 16).await.unwrap();
+                (parts.status, parts.headers, body)
+            }
+        };
+        for (uri, code) in [
+            ("/408", "timeout"),
+            ("/413", "too_large"),
+            ("/503", "unavailable"),
+            ("/502", "internal"),
+            ("/418", "bad_request"),
+        ] {
+            let (status, h, body) = call(uri).await;
+            assert_eq!(status.as_str(), &uri[1..]);
+            assert_eq!(h[header::CONTENT_TYPE], "application/json", "{uri}");
+            let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
+            assert_eq!(v["error"], code, "{uri}");
+            // The layer's own Retry-After wins over the default one.
+            assert_eq!(h[header::RETRY_AFTER], "5", "{uri}");
+        }
+        let (status, _, body) = call("/ok").await;
+        assert_eq!((status, &body[..]), (StatusCode::OK, &b"plain text"[..]));
+        let (status, _, body) = call("/json").await;
+        let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
+        assert_eq!(
+            (status, v["error"].as_str()),
+            (StatusCode::NOT_FOUND, Some("no_such_dataset"))
+        );
+    }
+}

@@ -162,3 +162,80 @@ pub async fn track(State(state): State<AppState>, req: Request, next: Next) -> R
         .observe(&route, res.status().as_u16(), started.elapsed(), bytes);
     res
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The line of `render()` for `series`, parsed as its value.
+    fn value(text: &str, series: &str) -> f64 {
+        let line = text
+            .lines()
+            .find(|l| l.strip_prefix(series).is_some_and(|r| r.starts_with(' ')))
+            .unwrap_or_else(|| panic!("no {series} in\n{text}"));
+        line[series.len()..].trim().parse().unwrap()
+    }
+
+    /// Prometheus buckets are "less than or equal": a request taking exactly a bound counts
+    /// in that bucket, and `+Inf` and `_count` hold every request.
+    #[test]
+    fn a_request_on_a_bucket_bound_counts_in_that_bucket() {
+        let m = Metrics::default();
+        m.observe("/a", 200, Duration::from_millis(10), 0);
+        m.observe("/a", 200, Duration::from_secs(60), 0);
+        let text = m.render();
+        let bucket = |le: &str| {
+            value(
+                &text,
+                &format!("zerotile_request_duration_seconds_bucket{{le=\"{le}\"}}"),
+            )
+        };
+        assert_eq!(bucket("0.005"), 0.0);
+        assert_eq!(bucket("0.01"), 1.0);
+        assert_eq!(bucket("10"), 1.0);
+        assert_eq!(bucket("+Inf"), 2.0);
+        assert_eq!(value(&text, "zerotile_request_duration_seconds_count"), 2.0);
+    }
+
+    /// The latency sum is in seconds, kept to the microsecond, and bytes add up.
+    #[test]
+    fn latency_sums_in_seconds_and_bytes_add_up() {
+        let m = Metrics::default();
+        m.observe("/a", 200, Duration::from_micros(1_500), 100);
+        m.observe("/b", 404, Duration::from_micros(2_500), 250);
+        let text = m.render();
+        let sum = value(&text, "zerotile_request_duration_seconds_sum");
+        assert!((sum - 0.004).abs() < 1e-9, "{sum}");
+        assert_eq!(value(&text, "zerotile_response_bytes_total"), 350.0);
+    }
+
+    /// Each counter is written under its own name: hits and misses are not confused.
+    #[test]
+    fn each_counter_reports_its_own_value() {
+        let m = Metrics::default();
+        m.cache_hits.store(3, Relaxed);
+        m.cache_misses.store(5, Relaxed);
+        m.tiles_decoded.store(7, Relaxed);
+        m.renders_cancelled.store(2, Relaxed);
+        m.response_cache_hits.store(11, Relaxed);
+        let text = m.render();
+        assert_eq!(value(&text, "zerotile_cache_hits_total"), 3.0);
+        assert_eq!(value(&text, "zerotile_cache_misses_total"), 5.0);
+        assert_eq!(value(&text, "zerotile_tiles_decoded_total"), 7.0);
+        assert_eq!(value(&text, "zerotile_renders_cancelled_total"), 2.0);
+        assert_eq!(value(&text, "zerotile_response_cache_hits_total"), 11.0);
+    }
+
+    /// A label value with a quote, backslash or newline is escaped, so one odd route cannot
+    /// break the whole exposition for the scraper.
+    #[test]
+    fn route_labels_are_escaped() {
+        let m = Metrics::default();
+        m.observe("/a\"b\\c\nd", 200, Duration::ZERO, 0);
+        let text = m.render();
+        assert!(
+            text.contains(r#"zerotile_requests_total{route="/a\"b\\c\nd",status="200"} 1"#),
+            "{text}"
+        );
+    }
+}

@@ -265,4 +265,43 @@ mod tests {
             assert!(parse_base(bad).is_err(), "{bad}");
         }
     }
+
+    /// Host names follow DNS label rules: a label of 1–63 characters that neither starts nor
+    /// ends with `-`, and 253 characters in all; a fully qualified name may end with a dot.
+    #[test]
+    fn host_names_follow_dns_label_rules() {
+        let c = Config::default();
+        let origin_of = |host: &str| origin(&c, &headers(&[("host", host)]), &path());
+        let label63 = "a".repeat(63);
+        assert_eq!(
+            origin_of(&format!("{label63}.example")).unwrap(),
+            format!("http://{label63}.example")
+        );
+        assert_eq!(
+            origin_of("tiles.example.:8080").unwrap(),
+            "http://tiles.example.:8080"
+        );
+        let long = ["abcdefghi"; 26].join("."); // 259 characters, every label valid
+        for refused in [
+            format!("{}.example", "a".repeat(64)),
+            "-tiles.example".to_string(),
+            "tiles-.example".to_string(),
+            long,
+            "a.example:65536".to_string(),
+            "[not:an:address]".to_string(),
+            "[::1".to_string(),
+        ] {
+            assert!(origin_of(&refused).is_err(), "{refused}");
+        }
+    }
+
+    /// With forwarding trusted the answer follows all three forwarded headers, so a cache
+    /// must key on every one of them or it serves one proxy's URLs to another's clients.
+    #[test]
+    fn trusted_forwarding_varies_on_every_forwarded_header() {
+        assert_eq!(
+            vary(&trusting()),
+            Some("Host, X-Forwarded-Proto, X-Forwarded-Host, X-Forwarded-Prefix")
+        );
+    }
 }

@@ -130,4 +130,33 @@ mod tests {
         assert_eq!(peak.load(Relaxed), 2);
         assert_eq!(s.admitted(), 0);
     }
+
+    /// `--jobs 0` still renders, one at a time, rather than shedding every request.
+    #[test]
+    fn zero_jobs_means_one_render_at_a_time() {
+        let s = Arc::new(RenderSlots::new(0, 0));
+        let t = s.admit().expect("one render is admitted");
+        assert!(s.admit().is_none(), "a second is shed");
+        assert_eq!(t.run(|| 7), 7);
+        assert_eq!(s.admitted(), 0);
+    }
+
+    /// A render that panics frees its CPU slot, so the next render is not stuck forever.
+    #[test]
+    fn a_render_that_panics_gives_its_slot_back() {
+        let s = Arc::new(RenderSlots::new(1, 1));
+        let t = s.admit().expect("admitted");
+        let panicked = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            t.run(|| panic!("render failed"))
+        }));
+        assert!(panicked.is_err());
+        let next = s.admit().expect("admitted");
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || tx.send(next.run(|| 1)));
+        assert_eq!(
+            rx.recv_timeout(std::time::Duration::from_secs(10)),
+            Ok(1),
+            "the next render never got the slot"
+        );
+    }
 }

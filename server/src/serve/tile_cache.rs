@@ -94,3 +94,63 @@ pub fn new_cache(bytes: u64) -> TileCache {
     let items = (bytes / 800_000).clamp(16, 1 << 20) as usize;
     Cache::with_weighter(items, bytes.max(1), ByBytes)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use zerotile_codec::bintree::Hierarchy;
+
+    fn tile(side: usize) -> Arc<DecodedTile> {
+        let heights = Grid::new(side, side, vec![0.0; side * side]).unwrap();
+        let errors = TileErrors::new(&Hierarchy::new(side).unwrap(), &heights);
+        Arc::new(DecodedTile {
+            heights,
+            errors,
+            corners: [0.0; 4],
+            prefix: vec![0; 1000],
+        })
+    }
+
+    /// The decoded-tile cache keeps to its byte budget, counting each tile's heights (8
+    /// bytes a sample) and error tree (4 bytes a sample): filling it far past the budget
+    /// leaves it holding no more than the budget's worth.
+    #[test]
+    fn the_tile_cache_holds_no_more_than_its_byte_budget() {
+        let one = tile(65);
+        assert!(one.bytes() >= 65 * 65 * 12 + 1000, "{}", one.bytes());
+        let budget = 20 * one.bytes();
+        let cache = new_cache(budget);
+        for i in 0..200 {
+            let key = Key {
+                dataset: 1,
+                tile: TileId { z: 10, x: i, y: 0 },
+                depth: Depth::All,
+            };
+            cache.insert(key, tile(65));
+        }
+        let held = cache.len() as u64;
+        assert!(held >= 1, "empty");
+        assert!(
+            held * 65 * 65 * 12 <= budget,
+            "{held} tiles in {budget} bytes"
+        );
+    }
+
+    /// The response cache counts each body's bytes: 100 KB bodies fill a 1 MB cache with
+    /// about ten, not the hundred it was offered.
+    #[test]
+    fn the_response_cache_holds_no_more_than_its_byte_budget() {
+        let budget = 1 << 20;
+        let cache = new_response_cache(budget);
+        for key in 0..100 {
+            let body = Encoded {
+                bytes: bytes::Bytes::from(vec![0u8; 100_000]),
+                triangles: None,
+            };
+            cache.insert(key, Arc::new(body));
+        }
+        let held = cache.len() as u64;
+        assert!(held >= 1, "empty");
+        assert!(held * 100_000 <= budget, "{held} bodies in {budget} bytes");
+    }
+}
