@@ -45,6 +45,16 @@ fn hill_file(tag: &str, scheme: &str, tiles: &[TileId]) -> std::path::PathBuf {
 
 /// [`hill_file`] with its metadata bounds set to `bounds`.
 fn hill_file_in(tag: &str, scheme: &str, tiles: &[TileId], bounds: [f64; 4]) -> std::path::PathBuf {
+    hill_file_with(tag, scheme, tiles, |m| m.bounds = bounds)
+}
+
+/// [`hill_file`] with its metadata changed by `edit` before it is written.
+fn hill_file_with(
+    tag: &str,
+    scheme: &str,
+    tiles: &[TileId],
+    edit: impl FnOnce(&mut Metadata),
+) -> std::path::PathBuf {
     let dir = std::env::temp_dir().join(format!("zerotile-router-{}-{tag}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
@@ -71,13 +81,13 @@ fn hill_file_in(tag: &str, scheme: &str, tiles: &[TileId], bounds: [f64; 4]) -> 
         w.add(id, corners, &enc.bytes);
     }
     let max_zoom = tiles.iter().map(|t| t.z).max().unwrap_or(0);
-    let m = Metadata {
+    let mut m = Metadata {
         name: tag.into(),
         scheme: scheme.into(),
         tile_side: 257,
         min_zoom: 0,
         max_zoom,
-        bounds,
+        bounds: default_bounds(scheme),
         source_size: [257, 257],
         wavelet: Wavelet::Cdf97,
         step: 0.01,
@@ -97,6 +107,7 @@ fn hill_file_in(tag: &str, scheme: &str, tiles: &[TileId], bounds: [f64; 4]) -> 
         stream_bytes: enc.bytes.len() as u64,
         created: "2026-01-01T00:00:00Z".into(),
     };
+    edit(&mut m);
     let path = dir.join(format!("{tag}.ztd"));
     std::fs::write(&path, w.finish(&m).unwrap()).unwrap();
     path
@@ -1090,4 +1101,39 @@ async fn a_view_meshes_the_deepest_zoom_that_fits() {
     let (status, headers, body) = send(&app, Method::GET, uri, &[]).await;
     assert_eq!(status, StatusCode::OK, "{}", String::from_utf8_lossy(&body));
     assert_eq!(headers["x-zoom"], "1");
+}
+
+/// A pyramid's shallowest zoom is meshed even when more than MAX_VIEW_TILES of its tiles lie
+/// under the footprint: there is no coarser zoom to fall back on. A geodetic dataset of
+/// zoom 3 only (22.5° tiles), seen from 12,000 km over (0°, 0°): a footprint of far more
+/// than 16 of them, meshed at zoom 3 from the four tiles it holds.
+#[tokio::test]
+async fn a_view_wider_than_the_tile_cap_still_meshes_the_shallowest_zoom() {
+    let tiles: Vec<TileId> = [(7, 3), (8, 3), (7, 4), (8, 4)]
+        .map(|(x, y)| TileId { z: 3, x, y })
+        .into();
+    let path = hill_file_with("view-minzoom", "geodetic", &tiles, |m| m.min_zoom = 3);
+    let app = router_over(Dataset::open(&path).unwrap());
+    let uri = "/v1/datasets/hill/view?eye=0,0,12000000&target=0,0,0&fov=60";
+    let (status, headers, body) = send(&app, Method::GET, uri, &[]).await;
+    assert_eq!(status, StatusCode::OK, "{}", String::from_utf8_lossy(&body));
+    assert_eq!(headers["x-zoom"], "3");
+    let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
+    let footprint: Vec<[f64; 2]> = v["footprint"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| [p[0].as_f64().unwrap(), p[1].as_f64().unwrap()])
+        .collect();
+    // Tiles across the footprint's box clipped to the data (±180°, ±85°), per axis.
+    let span = |k: usize, limit: f64| {
+        let (lo, hi) = footprint.iter().fold((f64::MAX, f64::MIN), |(lo, hi), p| {
+            (lo.min(p[k]), hi.max(p[k]))
+        });
+        (hi.min(limit) - lo.max(-limit)) / 22.5
+    };
+    assert!(
+        span(0, 180.0) * span(1, 85.0) > 16.0,
+        "footprint {footprint:?}"
+    );
 }
