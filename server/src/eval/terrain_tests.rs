@@ -37,7 +37,7 @@ fn n44(size: usize, sweep: Sweep) -> TerrainEval {
 
 /// The same window read straight from the raster: its height range is the PSNR peak.
 fn n44_range(size: usize) -> f64 {
-    let map = raster::read_heightmap(&shared_data("dem/N44W072.hgt"), &ReadOptions::default())
+    let map = raster::read_heightmap(shared_data("dem/N44W072.hgt"), &ReadOptions::default())
         .unwrap()
         .crop(300, 500, size, size)
         .unwrap();
