@@ -307,6 +307,24 @@ async fn metrics_count_by_route_template() {
     );
 }
 
+/// Paths no route matches share one label: a scanner walking random URLs must not grow the
+/// exposition (and the scraper's series count) by one line per path.
+#[tokio::test]
+async fn unmatched_requests_share_one_label() {
+    let app = router("metrics-unmatched");
+    for uri in ["/no/such/path", "/wp-login.php", "/v2/anything"] {
+        let (s, _, _) = send(&app, Method::GET, uri, &[]).await;
+        assert_eq!(s, StatusCode::NOT_FOUND, "{uri}");
+    }
+    let (_, _, body) = send(&app, Method::GET, "/metrics", &[]).await;
+    let text = String::from_utf8(body).unwrap();
+    assert!(
+        text.contains("zerotile_requests_total{route=\"unmatched\",status=\"404\"} 3"),
+        "{text}"
+    );
+    assert!(!text.contains("wp-login"), "{text}");
+}
+
 #[tokio::test]
 async fn errors_made_by_layers_become_json_too() {
     let app = Router::new()
