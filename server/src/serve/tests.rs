@@ -772,6 +772,147 @@ async fn tilejson_urls_follow_the_configured_origin() {
     }
 }
 
+/// `layer.json`'s availability, level by level, as (startX, startY, endX, endY).
+async fn layer_availability(app: &Router) -> Vec<Vec<[u64; 4]>> {
+    let (s, _, body) = send(app, Method::GET, "/v1/datasets/hill/layer.json", &[]).await;
+    assert_eq!(s, StatusCode::OK, "{}", String::from_utf8_lossy(&body));
+    let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
+    let corner = |r: &serde_json::Value, k: &str| r[k].as_u64().unwrap();
+    v["available"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|level| {
+            level
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|r| ["startX", "startY", "endX", "endY"].map(|k| corner(r, k)))
+                .collect()
+        })
+        .collect()
+}
+
+/// The ranges one stored level holds: tiles x0..=x1, y0..=y1 in the scheme's own rows.
+fn stored(x0: u32, y0: u32, x1: u32, y1: u32) -> Vec<Availability> {
+    vec![Availability {
+        start_x: x0,
+        start_y: y0,
+        end_x: x1,
+        end_y: y1,
+    }]
+}
+
+/// Stored availability starts at the dataset's min zoom and, on mercator, counts rows from
+/// the north; layer.json lists every level from 0 with rows from the south (TMS), and the
+/// levels above the min zoom are the bounds' tiles.
+#[tokio::test]
+async fn layer_json_shifts_stored_availability_by_the_min_zoom_and_flips_mercator_rows() {
+    let z = |z, x, y| TileId { z, x, y };
+    let path = hill_file_with(
+        "layer-minzoom",
+        "mercator",
+        &[z(1, 0, 0), z(2, 1, 2), z(2, 1, 3)],
+        |m| {
+            m.min_zoom = 1;
+            m.available = vec![stored(0, 0, 0, 0), stored(1, 2, 1, 3)];
+        },
+    );
+    let app = router_over(Dataset::open(&path).unwrap());
+    let levels = layer_availability(&app).await;
+    assert_eq!(levels.len(), 3, "{levels:?}");
+    // Level 0: the one mercator root, from the tiling.
+    assert_eq!(levels[0], vec![[0, 0, 0, 0]]);
+    // Level 1 of 2×2: row 0 from the north is row 1 from the south.
+    assert_eq!(levels[1], vec![[0, 1, 0, 1]]);
+    // Level 2 of 4×4: rows 2..=3 from the north are 0..=1 from the south.
+    assert_eq!(levels[2], vec![[1, 0, 1, 1]]);
+}
+
+/// Cesium needs every root tile: a geodetic dataset storing one of its two roots still
+/// lists both at level 0, while deeper levels are the stored ranges as they are (geodetic
+/// rows count from the south already).
+#[tokio::test]
+async fn layer_json_keeps_every_root_and_geodetic_rows_as_stored() {
+    let z = |z, x, y| TileId { z, x, y };
+    let path = hill_file_with("layer-roots", "geodetic", &[z(0, 0, 0), z(1, 1, 0)], |m| {
+        m.available = vec![stored(0, 0, 0, 0), stored(1, 0, 1, 0)]
+    });
+    let app = router_over(Dataset::open(&path).unwrap());
+    let levels = layer_availability(&app).await;
+    assert_eq!(levels, vec![vec![[0, 0, 1, 0]], vec![[1, 0, 1, 0]]]);
+}
+
+/// The description tells a client what it can ask for: quantized-mesh and layer.json only
+/// on a georeferenced dataset, TileJSON only on mercator.
+#[tokio::test]
+async fn describe_lists_the_formats_and_manifests_the_scheme_allows() {
+    for (scheme, terrain, layer, tilejson) in [
+        ("local", false, false, false),
+        ("geodetic", true, true, false),
+        ("mercator", true, true, true),
+    ] {
+        let app = router_of(&format!("describe-{scheme}"), scheme);
+        let (s, _, body) = send(&app, Method::GET, "/v1/datasets/hill", &[]).await;
+        assert_eq!(s, StatusCode::OK, "{scheme}");
+        let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
+        let formats: Vec<&str> = v["formats"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|f| f.as_str().unwrap())
+            .collect();
+        assert_eq!(
+            formats.contains(&"terrain"),
+            terrain,
+            "{scheme}: {formats:?}"
+        );
+        assert!(
+            formats.contains(&"png") && formats.contains(&"ezw"),
+            "{formats:?}"
+        );
+        assert_eq!(
+            v["layer_json"].as_str(),
+            layer.then_some("/v1/datasets/hill/layer.json"),
+            "{scheme}"
+        );
+        assert_eq!(
+            v["tilejson"].as_str(),
+            tilejson.then_some("/v1/datasets/hill/tiles.json"),
+            "{scheme}"
+        );
+    }
+}
+
+/// A mercator source reaching past ±85.0511° is stored as it came, but TileJSON's bounds end
+/// where the XYZ tiles do.
+#[tokio::test]
+async fn tilejson_bounds_stop_at_the_mercator_latitude_limit() {
+    let d = hill_dataset_in(
+        "tilejson-clamp",
+        "mercator",
+        &[ROOT],
+        [-10.0, -89.0, 20.0, 89.5],
+    );
+    let (s, _, body) = send(
+        &router_over(d),
+        Method::GET,
+        "/v1/datasets/hill/tiles.json",
+        &[("host", "tiles.example")],
+    )
+    .await;
+    assert_eq!(s, StatusCode::OK, "{}", String::from_utf8_lossy(&body));
+    let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
+    let b: Vec<f64> = v["bounds"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    let limit = zerotile_codec::formats::tilejson::MAX_MERCATOR_LATITUDE;
+    assert_eq!(b, vec![-10.0, -limit, 20.0, limit]);
+}
+
 /// The metadata extension counts child rows from the south (TMS) on every scheme, as
 /// CesiumJS reads it; mercator tile rows count from the north.
 #[test]
