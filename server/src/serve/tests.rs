@@ -275,6 +275,29 @@ async fn errors_are_json_with_their_codes() {
     }
 }
 
+/// Tile addresses are plain decimal (`03` or `+3` would be a second URL, and cache entry,
+/// for tile 3), and a zoom outside the dataset's is named as such rather than as a missing
+/// tile.
+#[tokio::test]
+async fn tile_addresses_are_canonical_and_zooms_checked_against_the_dataset() {
+    let app = router("addresses");
+    for uri in [
+        "/v1/datasets/hill/tiles/00/0/0.png",
+        "/v1/datasets/hill/tiles/0/01/0.png",
+        "/v1/datasets/hill/tiles/0/0/+0.png",
+        "/v1/datasets/hill/tiles/0/-0/0.png",
+    ] {
+        let (s, _, body) = send(&app, Method::GET, uri, &[]).await;
+        assert_eq!(s, StatusCode::BAD_REQUEST, "{uri}");
+        assert_eq!(error_code(&body), "bad_tile_address", "{uri}");
+    }
+    let (s, _, body) = send(&app, Method::GET, "/v1/datasets/hill/tiles/1/0/0.png", &[]).await;
+    assert_eq!(s, StatusCode::NOT_FOUND);
+    let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
+    assert_eq!(v["error"], "tile_not_found");
+    assert_eq!(v["message"], "zoom 1 is outside 0..=0 of hill");
+}
+
 #[tokio::test]
 async fn metrics_count_by_route_template() {
     let app = router("metrics");
@@ -480,6 +503,35 @@ async fn cors_allows_any_origin_unless_configured() {
     )
     .await;
     assert!(h.get("access-control-allow-origin").is_none());
+}
+
+/// A mesh for a gzip client is compressed once, when rendered, so the response cache holds
+/// the compressed body and a hit costs no compression (the compression layer would
+/// otherwise gzip it again on every request, with the same bytes on the wire).
+#[test]
+fn gzip_variants_are_rendered_compressed_for_the_cache() {
+    use super::routes::tiles::{render_tile, TileFormat, Variant};
+    let d = hill_dataset("gzip-render", "local", &[ROOT]);
+    let state = AppState::new(Catalog::default(), Config::default());
+    let render = |gzip| {
+        let v = Variant::Mesh { gzip };
+        render_tile(
+            &state,
+            &d,
+            ROOT,
+            4.0,
+            TileFormat::Json,
+            v,
+            false,
+            &Default::default(),
+        )
+        .unwrap()
+        .bytes
+    };
+    let (zipped, plain) = (render(true), render(false));
+    assert_eq!(zipped[..2], [0x1f, 0x8b], "a gzip member");
+    assert_eq!(plain[0], b'{');
+    assert!(zipped.len() < plain.len());
 }
 
 #[test]
@@ -911,6 +963,187 @@ async fn tilejson_bounds_stop_at_the_mercator_latitude_limit() {
         .collect();
     let limit = zerotile_codec::formats::tilejson::MAX_MERCATOR_LATITUDE;
     assert_eq!(b, vec![-10.0, -limit, 20.0, limit]);
+}
+
+/// Every tile format answers with its own media type and the bytes its readers expect
+/// first, so no extension is routed to another's encoder.
+#[tokio::test]
+async fn every_format_answers_with_its_media_type_and_magic() {
+    let local = router("formats-local");
+    let cases: [(&str, &str, &[u8]); 6] = [
+        ("png", "image/png", b"\x89PNG"),
+        ("json", "application/json", b"{"),
+        ("bin", "application/vnd.zerotile.ztm1", b"ZTM1"),
+        ("obj", "model/obj", b""),
+        ("glb", "model/gltf-binary", b"glTF"),
+        ("ezw", "application/vnd.zerotile.ezw", b""),
+    ];
+    for (ext, media, magic) in cases {
+        let uri = format!("/v1/datasets/hill/tiles/0/0/0.{ext}?threshold=4");
+        let (s, h, body) = send(&local, Method::GET, &uri, &[]).await;
+        assert_eq!(
+            s,
+            StatusCode::OK,
+            "{uri}: {}",
+            String::from_utf8_lossy(&body)
+        );
+        assert_eq!(h[header::CONTENT_TYPE], media, "{uri}");
+        assert!(body.starts_with(magic) && !body.is_empty(), "{uri}");
+    }
+    // OBJ is text with vertex lines; only the stream prefix takes byte ranges.
+    let (_, h, obj) = send(
+        &local,
+        Method::GET,
+        "/v1/datasets/hill/tiles/0/0/0.obj",
+        &[],
+    )
+    .await;
+    assert!(String::from_utf8(obj)
+        .unwrap()
+        .lines()
+        .any(|l| l.starts_with("v ")));
+    assert!(h.get(header::ACCEPT_RANGES).is_none());
+    let (_, h, _) = send(
+        &local,
+        Method::GET,
+        "/v1/datasets/hill/tiles/0/0/0.ezw",
+        &[],
+    )
+    .await;
+    assert_eq!(h[header::ACCEPT_RANGES], "bytes");
+
+    let geo = router_of("formats-geodetic", "geodetic");
+    let uri = "/v1/datasets/hill/tiles/0/0/0.terrain?threshold=4";
+    let (s, h, _) = send(&geo, Method::GET, uri, &[]).await;
+    assert_eq!(s, StatusCode::OK);
+    assert_eq!(h[header::CONTENT_TYPE], "application/vnd.quantized-mesh");
+    // Extensions asked for are named in the media type, as CesiumJS checks.
+    let uri = "/v1/datasets/hill/tiles/0/0/0.terrain?threshold=4&extensions=octvertexnormals";
+    let (s, h, _) = send(&geo, Method::GET, uri, &[]).await;
+    assert_eq!(s, StatusCode::OK);
+    assert_eq!(
+        h[header::CONTENT_TYPE],
+        "application/vnd.quantized-mesh;extensions=octvertexnormals"
+    );
+}
+
+/// `.ezw` prefixes honour byte ranges (206 with Content-Range, 416 past the end); other
+/// formats ignore `Range` and send the whole body.
+#[tokio::test]
+async fn only_stream_prefixes_are_ranged() {
+    let app = router("ranges");
+    let ezw = "/v1/datasets/hill/tiles/0/0/0.ezw?threshold=4";
+    let (_, _, whole) = send(&app, Method::GET, ezw, &[]).await;
+    let len = whole.len();
+    let (s, h, part) = send(&app, Method::GET, ezw, &[("range", "bytes=2-9")]).await;
+    assert_eq!(s, StatusCode::PARTIAL_CONTENT);
+    assert_eq!(
+        h[header::CONTENT_RANGE],
+        format!("bytes 2-9/{len}").as_str()
+    );
+    assert_eq!(part, whole[2..=9]);
+    let past = format!("bytes={len}-");
+    let (s, h, body) = send(&app, Method::GET, ezw, &[("range", &past)]).await;
+    assert_eq!(s, StatusCode::RANGE_NOT_SATISFIABLE);
+    assert_eq!(h[header::CONTENT_RANGE], format!("bytes */{len}").as_str());
+    assert_eq!(error_code(&body), "range_not_satisfiable");
+
+    let json = "/v1/datasets/hill/tiles/0/0/0.json?threshold=4";
+    let (_, _, full) = send(&app, Method::GET, json, &[]).await;
+    let (s, h, body) = send(&app, Method::GET, json, &[("range", "bytes=2-9")]).await;
+    assert_eq!(s, StatusCode::OK);
+    assert!(h.get(header::CONTENT_RANGE).is_none());
+    assert_eq!(body, full);
+}
+
+/// Meshes and quantized-mesh are gzipped once, when the client accepts it, and say so; the
+/// body is the same mesh either way. Other bodies are sent as they are.
+#[tokio::test]
+async fn meshes_are_gzipped_for_clients_that_accept_it() {
+    use std::io::Read;
+    let gunzip = |b: &[u8]| {
+        let mut out = Vec::new();
+        flate2::read::GzDecoder::new(b)
+            .read_to_end(&mut out)
+            .unwrap();
+        out
+    };
+    let gzip = [("accept-encoding", "gzip")];
+    let local = router("gzip-local");
+    let geo = router_of("gzip-geodetic", "geodetic");
+    for (app, uri, compressed) in [
+        (
+            &local,
+            "/v1/datasets/hill/tiles/0/0/0.json?threshold=4",
+            true,
+        ),
+        (
+            &local,
+            "/v1/datasets/hill/tiles/0/0/0.obj?threshold=4",
+            true,
+        ),
+        (
+            &geo,
+            "/v1/datasets/hill/tiles/0/0/0.terrain?threshold=4",
+            true,
+        ),
+        (
+            &local,
+            "/v1/datasets/hill/tiles/0/0/0.glb?threshold=4",
+            false,
+        ),
+    ] {
+        let (_, plain_h, plain) = send(app, Method::GET, uri, &[]).await;
+        assert!(plain_h.get(header::CONTENT_ENCODING).is_none(), "{uri}");
+        let (s, h, body) = send(app, Method::GET, uri, &gzip).await;
+        assert_eq!(s, StatusCode::OK, "{uri}");
+        if compressed {
+            assert_eq!(h[header::CONTENT_ENCODING], "gzip", "{uri}");
+            assert!(h[header::VARY]
+                .to_str()
+                .unwrap()
+                .contains("Accept-Encoding"));
+            assert_eq!(gunzip(&body), plain, "{uri}");
+            assert_ne!(h[header::ETAG], plain_h[header::ETAG], "{uri}");
+        } else {
+            assert!(h.get(header::CONTENT_ENCODING).is_none(), "{uri}");
+            assert_eq!(body, plain, "{uri}");
+        }
+    }
+}
+
+/// A world scheme's missing root tile is a flat quantized-mesh tile (Cesium asks for every
+/// root); in any other format, off the tiling, or below the roots, a missing tile is a 404.
+/// A root that exists is meshed, not flattened.
+#[tokio::test]
+async fn only_a_missing_world_root_is_served_flat() {
+    let geo = router_of("flat-root", "geodetic");
+    let tile = |uri: &'static str| {
+        let geo = geo.clone();
+        async move { send(&geo, Method::GET, uri, &[]).await }
+    };
+    let (s, h, _) = tile("/v1/datasets/hill/tiles/0/1/0.terrain?threshold=4").await;
+    assert_eq!(s, StatusCode::OK);
+    assert_eq!(
+        h["x-triangles"], "2",
+        "the missing root is two flat triangles"
+    );
+    let (s, h, _) = tile("/v1/datasets/hill/tiles/0/0/0.terrain?threshold=4").await;
+    assert_eq!(s, StatusCode::OK);
+    let n: usize = h["x-triangles"].to_str().unwrap().parse().unwrap();
+    assert!(
+        n > 2,
+        "the stored root is the hill's mesh, got {n} triangles"
+    );
+    for uri in [
+        "/v1/datasets/hill/tiles/0/1/0.json?threshold=4",
+        "/v1/datasets/hill/tiles/0/2/0.terrain?threshold=4",
+        "/v1/datasets/hill/tiles/0/0/1.terrain?threshold=4",
+    ] {
+        let (s, _, body) = tile(uri).await;
+        assert_eq!(s, StatusCode::NOT_FOUND, "{uri}");
+        assert_eq!(error_code(&body), "tile_not_found", "{uri}");
+    }
 }
 
 /// The metadata extension counts child rows from the south (TMS) on every scheme, as
