@@ -19,6 +19,20 @@ use crate::serve::{pipeline, render, threshold};
 /// The root tile of a zoom-0 pyramid.
 const ROOT: TileId = TileId { z: 0, x: 0, y: 0 };
 
+fn id(z: u8, x: u32, y: u32) -> TileId {
+    TileId { z, x, y }
+}
+
+/// The ranges one stored level holds: tiles x0..=x1, y0..=y1 in the scheme's own rows.
+fn stored(x0: u32, y0: u32, x1: u32, y1: u32) -> Vec<Availability> {
+    vec![Availability {
+        start_x: x0,
+        start_y: y0,
+        end_x: x1,
+        end_y: y1,
+    }]
+}
+
 /// A smooth 257² hill, as every tile of a dataset of `scheme` holding `tiles`.
 fn hill_dataset(tag: &str, scheme: &str, tiles: &[TileId]) -> Dataset {
     hill_dataset_in(tag, scheme, tiles, default_bounds(scheme))
@@ -95,12 +109,7 @@ fn hill_file_with(
         height_range: [60.0, 140.0],
         fill: 60.0,
         view: ViewParams { a: 2.5, b: 0.0 },
-        available: vec![vec![Availability {
-            start_x: 0,
-            start_y: 0,
-            end_x: 0,
-            end_y: 0,
-        }]],
+        available: vec![stored(0, 0, 0, 0)],
         source: "synthetic".into(),
         source_crs: "none".into(),
         samples: 257 * 257,
@@ -394,7 +403,6 @@ async fn renders_past_the_queue_are_shed_with_503() {
 
 #[test]
 fn neighbours_follow_each_scheme_row_direction() {
-    let id = |z, x, y| TileId { z, x, y };
     // Geodetic zoom 1 is 4 × 2 tiles counted from the south: north of row 0 is row 1.
     let all: Vec<TileId> = (0..4)
         .flat_map(|x| (0..2).map(move |y| id(1, x, y)))
@@ -557,7 +565,7 @@ fn a_cancelled_render_decodes_nothing_more() {
 async fn dropping_a_request_stops_its_decode_work() {
     // Geodetic zoom 2 (8 × 4 tiles): tile (1, 1) has all four neighbours, five decodes.
     let all: Vec<TileId> = (0..8)
-        .flat_map(|x| (0..4).map(move |y| TileId { z: 2, x, y }))
+        .flat_map(|x| (0..4).map(move |y| id(2, x, y)))
         .collect();
     let d = hill_dataset("cancel-drop", "geodetic", &all);
     let name = d.name.clone();
@@ -845,26 +853,15 @@ async fn layer_availability(app: &Router) -> Vec<Vec<[u64; 4]>> {
         .collect()
 }
 
-/// The ranges one stored level holds: tiles x0..=x1, y0..=y1 in the scheme's own rows.
-fn stored(x0: u32, y0: u32, x1: u32, y1: u32) -> Vec<Availability> {
-    vec![Availability {
-        start_x: x0,
-        start_y: y0,
-        end_x: x1,
-        end_y: y1,
-    }]
-}
-
 /// Stored availability starts at the dataset's min zoom and, on mercator, counts rows from
 /// the north; layer.json lists every level from 0 with rows from the south (TMS), and the
 /// levels above the min zoom are the bounds' tiles.
 #[tokio::test]
 async fn layer_json_shifts_stored_availability_by_the_min_zoom_and_flips_mercator_rows() {
-    let z = |z, x, y| TileId { z, x, y };
     let path = hill_file_with(
         "layer-minzoom",
         "mercator",
-        &[z(1, 0, 0), z(2, 1, 2), z(2, 1, 3)],
+        &[id(1, 0, 0), id(2, 1, 2), id(2, 1, 3)],
         |m| {
             m.min_zoom = 1;
             m.available = vec![stored(0, 0, 0, 0), stored(1, 2, 1, 3)];
@@ -886,10 +883,12 @@ async fn layer_json_shifts_stored_availability_by_the_min_zoom_and_flips_mercato
 /// rows count from the south already).
 #[tokio::test]
 async fn layer_json_keeps_every_root_and_geodetic_rows_as_stored() {
-    let z = |z, x, y| TileId { z, x, y };
-    let path = hill_file_with("layer-roots", "geodetic", &[z(0, 0, 0), z(1, 1, 0)], |m| {
-        m.available = vec![stored(0, 0, 0, 0), stored(1, 0, 1, 0)]
-    });
+    let path = hill_file_with(
+        "layer-roots",
+        "geodetic",
+        &[id(0, 0, 0), id(1, 1, 0)],
+        |m| m.available = vec![stored(0, 0, 0, 0), stored(1, 0, 1, 0)],
+    );
     let app = router_over(Dataset::open(&path).unwrap());
     let levels = layer_availability(&app).await;
     assert_eq!(levels, vec![vec![[0, 0, 1, 0]], vec![[1, 0, 1, 0]]]);
@@ -989,28 +988,17 @@ async fn every_format_answers_with_its_media_type_and_magic() {
         );
         assert_eq!(h[header::CONTENT_TYPE], media, "{uri}");
         assert!(body.starts_with(magic) && !body.is_empty(), "{uri}");
+        // Only the stream prefix takes byte ranges.
+        let ranges = h.get(header::ACCEPT_RANGES).map(|v| v.to_str().unwrap());
+        assert_eq!(ranges, (ext == "ezw").then_some("bytes"), "{uri}");
+        if ext == "obj" {
+            let text = String::from_utf8(body).unwrap();
+            assert!(
+                text.lines().any(|l| l.starts_with("v ")),
+                "OBJ has vertex lines"
+            );
+        }
     }
-    // OBJ is text with vertex lines; only the stream prefix takes byte ranges.
-    let (_, h, obj) = send(
-        &local,
-        Method::GET,
-        "/v1/datasets/hill/tiles/0/0/0.obj",
-        &[],
-    )
-    .await;
-    assert!(String::from_utf8(obj)
-        .unwrap()
-        .lines()
-        .any(|l| l.starts_with("v ")));
-    assert!(h.get(header::ACCEPT_RANGES).is_none());
-    let (_, h, _) = send(
-        &local,
-        Method::GET,
-        "/v1/datasets/hill/tiles/0/0/0.ezw",
-        &[],
-    )
-    .await;
-    assert_eq!(h[header::ACCEPT_RANGES], "bytes");
 
     let geo = router_of("formats-geodetic", "geodetic");
     let uri = "/v1/datasets/hill/tiles/0/0/0.terrain?threshold=4";
@@ -1118,17 +1106,25 @@ async fn meshes_are_gzipped_for_clients_that_accept_it() {
 #[tokio::test]
 async fn only_a_missing_world_root_is_served_flat() {
     let geo = router_of("flat-root", "geodetic");
-    let tile = |uri: &'static str| {
-        let geo = geo.clone();
-        async move { send(&geo, Method::GET, uri, &[]).await }
-    };
-    let (s, h, _) = tile("/v1/datasets/hill/tiles/0/1/0.terrain?threshold=4").await;
+    let (s, h, _) = send(
+        &geo,
+        Method::GET,
+        "/v1/datasets/hill/tiles/0/1/0.terrain?threshold=4",
+        &[],
+    )
+    .await;
     assert_eq!(s, StatusCode::OK);
     assert_eq!(
         h["x-triangles"], "2",
         "the missing root is two flat triangles"
     );
-    let (s, h, _) = tile("/v1/datasets/hill/tiles/0/0/0.terrain?threshold=4").await;
+    let (s, h, _) = send(
+        &geo,
+        Method::GET,
+        "/v1/datasets/hill/tiles/0/0/0.terrain?threshold=4",
+        &[],
+    )
+    .await;
     assert_eq!(s, StatusCode::OK);
     let n: usize = h["x-triangles"].to_str().unwrap().parse().unwrap();
     assert!(
@@ -1140,7 +1136,7 @@ async fn only_a_missing_world_root_is_served_flat() {
         "/v1/datasets/hill/tiles/0/2/0.terrain?threshold=4",
         "/v1/datasets/hill/tiles/0/0/1.terrain?threshold=4",
     ] {
-        let (s, _, body) = tile(uri).await;
+        let (s, _, body) = send(&geo, Method::GET, uri, &[]).await;
         assert_eq!(s, StatusCode::NOT_FOUND, "{uri}");
         assert_eq!(error_code(&body), "tile_not_found", "{uri}");
     }
@@ -1150,7 +1146,6 @@ async fn only_a_missing_world_root_is_served_flat() {
 /// CesiumJS reads it; mercator tile rows count from the north.
 #[test]
 fn child_availability_counts_rows_from_the_south() {
-    let id = |z, x, y| TileId { z, x, y };
     let rows = |v: serde_json::Value| -> Vec<(u64, u64)> {
         v["available"][0]
             .as_array()
@@ -1368,7 +1363,7 @@ fn a_dataset_file_with_a_bad_name_is_refused() {
 /// A 257² local grid is one tile at zoom 0: a record at zoom 1 cannot be served.
 #[test]
 fn tiles_deeper_than_the_tiling_are_refused() {
-    let path = hill_file("deep", "local", &[TileId { z: 1, x: 0, y: 0 }]);
+    let path = hill_file("deep", "local", &[id(1, 0, 0)]);
     let err = format!("{:#}", Dataset::open(&path).unwrap_err());
     assert!(err.contains("deeper than the tiling"), "{err}");
 }
@@ -1482,10 +1477,10 @@ async fn a_view_over_a_missing_tile_meshes_the_tiles_that_exist() {
 /// is meshed at zoom 1.
 #[tokio::test]
 async fn a_view_meshes_the_deepest_zoom_that_fits() {
-    let mut tiles = vec![ROOT, TileId { z: 0, x: 1, y: 0 }];
+    let mut tiles = vec![ROOT, id(0, 1, 0)];
     for x in 0..4 {
         for y in 0..2 {
-            tiles.push(TileId { z: 1, x, y });
+            tiles.push(id(1, x, y));
         }
     }
     let app = router_over(hill_dataset("view-zoom", "geodetic", &tiles));
@@ -1502,7 +1497,7 @@ async fn a_view_meshes_the_deepest_zoom_that_fits() {
 #[tokio::test]
 async fn a_view_wider_than_the_tile_cap_still_meshes_the_shallowest_zoom() {
     let tiles: Vec<TileId> = [(7, 3), (8, 3), (7, 4), (8, 4)]
-        .map(|(x, y)| TileId { z: 3, x, y })
+        .map(|(x, y)| id(3, x, y))
         .into();
     let path = hill_file_with("view-minzoom", "geodetic", &tiles, |m| m.min_zoom = 3);
     let app = router_over(Dataset::open(&path).unwrap());
