@@ -93,12 +93,13 @@ pub fn decode_and_mesh_at(
     bintree::extract(hierarchy, &errors, &d.heights, tolerance, None)
 }
 
-/// A bench binary's timed runs per case: its one argument (cargo bench appends `--bench`,
-/// which is skipped), default 31.
+/// A bench binary's timed runs per case: its first argument that is not a flag (cargo bench
+/// appends `--bench`, which is skipped) or the word `parts` (terrain_rounds' switch),
+/// default 31.
 pub fn iterations_arg() -> usize {
     std::env::args()
         .skip(1)
-        .find(|a| !a.starts_with('-'))
+        .find(|a| !a.starts_with('-') && a != "parts")
         .map(|a| a.parse::<usize>().expect("ITERATIONS: a positive integer"))
         .unwrap_or(31)
         .max(1)
