@@ -108,6 +108,17 @@ pub struct MeshPoint {
 
 /// Runs the evaluation and prints it.
 pub fn run(args: &MeshArgs) -> Result<()> {
+    let point = evaluate(args)?;
+    if args.json {
+        println!("{}", serde_json::to_string(&point)?);
+    } else {
+        print_table(&point);
+    }
+    Ok(())
+}
+
+/// The evaluation without the printing (and `--out` written), so tests can read the point.
+pub fn evaluate(args: &MeshArgs) -> Result<MeshPoint> {
     let param = param(args)?;
     // Read and repair: the simplifiers take a clean manifold.
     let input = load(&args.input, args.weld)?;
@@ -143,7 +154,7 @@ pub fn run(args: &MeshArgs) -> Result<()> {
     if let Some(out) = &args.out {
         io::write_path(&output, out).with_context(|| format!("writing {}", out.display()))?;
     }
-    let point = MeshPoint {
+    Ok(MeshPoint {
         input: args.input.display().to_string(),
         method: args.method,
         param,
@@ -155,13 +166,7 @@ pub fn run(args: &MeshArgs) -> Result<()> {
         hausdorff_pct: distance.map(|d| d.hausdorff_pct()),
         mean_pct: distance.map(|d| d.mean_pct()),
         detail,
-    };
-    if args.json {
-        println!("{}", serde_json::to_string(&point)?);
-    } else {
-        print_table(&point);
-    }
-    Ok(())
+    })
 }
 
 fn param(args: &MeshArgs) -> Result<Param> {
@@ -179,16 +184,21 @@ fn param(args: &MeshArgs) -> Result<Param> {
 pub fn subdivide(args: &crate::cli::SubdivideArgs) -> Result<()> {
     let mut mesh = load(&args.input, false)?;
     let limit = MeshLimits::default();
+    // Checked before the first step: each step is 4× the faces, so a run that would pass
+    // the limit is refused without building the steps below it.
+    let faces = 4usize
+        .checked_pow(u32::from(args.times))
+        .and_then(|f| f.checked_mul(mesh.face_count()));
+    if faces.is_none_or(|f| f > limit.max_faces) {
+        bail!(
+            "{} subdivided {} times would have {} faces, above the {} a mesh may have",
+            args.input.display(),
+            args.times,
+            faces.map_or_else(|| "too many".to_string(), |f| f.to_string()),
+            limit.max_faces
+        );
+    }
     for _ in 0..args.times {
-        let faces = mesh.face_count().saturating_mul(4);
-        if faces > limit.max_faces {
-            bail!(
-                "{} subdivided {} times would have {faces} faces or more, above the {} a mesh may have",
-                args.input.display(),
-                args.times,
-                limit.max_faces
-            );
-        }
         mesh = zerotile_codec::mesh::subdivide::loop_subdivide(&mesh);
     }
     io::write_path(&mesh, &args.output)
@@ -213,7 +223,6 @@ fn load(path: &Path, weld: bool) -> Result<TriMesh> {
     Ok(clean)
 }
 
-/// One simplification run: the output mesh and the method's report as JSON.
 /// `x,y,z` as a finite point.
 fn point(flag: &str, s: &str) -> Result<glam::DVec3> {
     let v: Vec<f64> = s
@@ -227,6 +236,7 @@ fn point(flag: &str, s: &str) -> Result<glam::DVec3> {
     }
 }
 
+/// One simplification run: the output mesh and the method's report as JSON.
 fn simplify(
     input: &TriMesh,
     method: Method,

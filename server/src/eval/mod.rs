@@ -2,6 +2,8 @@
 //! papers' tables report them.
 
 pub mod mesh;
+#[cfg(test)]
+mod mesh_tests;
 pub mod terrain;
 #[cfg(test)]
 mod terrain_tests;

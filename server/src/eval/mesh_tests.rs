@@ -1,0 +1,347 @@
+//! `eval mesh`'s points checked against what they claim, on the classic meshes in
+//! `../shared/data/meshes` (read in place): object_mesh.py and the README tables take the
+//! counts, the chosen level and the distances as given.
+
+use std::path::PathBuf;
+
+use zerotile_codec::mesh::curvature::PAPER_LEVELS;
+use zerotile_codec::mesh::io::{self, MeshLimits};
+use zerotile_codec::mesh::silhouette::ViewSphere;
+use zerotile_codec::mesh::{repair, OctreeLod, OctreeOptions};
+
+use super::mesh::{evaluate, subdivide, MeshArgs, MeshPoint, Method, Param};
+use crate::cli::SubdivideArgs;
+
+fn shared_mesh(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/data/meshes")
+        .join(name)
+}
+
+/// One run on `name` with `method` and no amount: each test sets the one it needs. Few
+/// Metro samples: the tests check what the distances are, not their precision.
+fn args(name: &str, method: Method) -> MeshArgs {
+    MeshArgs {
+        input: shared_mesh(name),
+        method,
+        error: None,
+        level: None,
+        faces: None,
+        out: None,
+        json: true,
+        repeat: 1,
+        samples: 2_000,
+        weld: false,
+        eye: None,
+        target: None,
+    }
+}
+
+/// An empty scratch folder for one test (the process id keeps parallel runs apart).
+fn scratch(tag: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("zerotile-evalmesh-{}-{tag}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn faces(name: &str, method: Method, n: usize) -> MeshArgs {
+    MeshArgs {
+        faces: Some(n),
+        ..args(name, method)
+    }
+}
+
+fn level(name: &str, method: Method, k: u32) -> MeshArgs {
+    MeshArgs {
+        level: Some(k),
+        ..args(name, method)
+    }
+}
+
+fn error_of(a: &MeshArgs) -> String {
+    format!("{:#}", evaluate(a).expect_err("should be refused"))
+}
+
+/// The input as `eval mesh` measures it: read and repaired.
+fn repaired(name: &str) -> zerotile_codec::mesh::TriMesh {
+    let mesh = io::read_path(&shared_mesh(name), &MeshLimits::default()).unwrap();
+    repair(&mesh).unwrap().0
+}
+
+#[test]
+fn exactly_one_finite_amount_is_taken() {
+    let base = args("npm-bunny.obj", Method::Qem);
+    for (error, level, faces, want) in [
+        (None, None, None, "exactly one of"),
+        (Some(0.01), None, Some(100), "exactly one of"),
+        (None, Some(2), Some(100), "exactly one of"),
+        (Some(f64::NAN), None, None, "finite and ≥ 0"),
+        (Some(-0.1), None, None, "finite and ≥ 0"),
+        (Some(f64::INFINITY), None, None, "finite and ≥ 0"),
+        (None, None, Some(0), "--faces must be > 0"),
+    ] {
+        let a = MeshArgs {
+            error,
+            level,
+            faces,
+            ..base.clone()
+        };
+        let msg = error_of(&a);
+        assert!(msg.contains(want), "{error:?} {level:?} {faces:?}: {msg}");
+    }
+}
+
+#[test]
+fn each_method_refuses_the_amounts_it_has_no_meaning_for() {
+    let with_error = |method| MeshArgs {
+        error: Some(0.01),
+        ..args("npm-bunny.obj", method)
+    };
+    for (a, want) in [
+        (
+            level("npm-bunny.obj", Method::Qem, 1),
+            "qem takes --faces N or --error E",
+        ),
+        (
+            with_error(Method::Octree),
+            "octree takes --level K or --faces N",
+        ),
+        (
+            with_error(Method::Silhouette),
+            "silhouette takes --level K or --faces N",
+        ),
+        (
+            level("npm-bunny.obj", Method::Curvature, 0),
+            "curvature --level is 1, 2 or 3",
+        ),
+        (
+            level("npm-bunny.obj", Method::Curvature, 4),
+            "curvature --level is 1, 2 or 3",
+        ),
+    ] {
+        let msg = error_of(&a);
+        assert!(msg.contains(want), "{:?} {:?}: {msg}", a.method, a.level);
+    }
+}
+
+#[test]
+fn eye_and_target_are_three_finite_numbers_and_only_for_silhouette() {
+    let view = |method, eye: &str, target: &str| MeshArgs {
+        eye: Some(eye.into()),
+        target: Some(target.into()),
+        ..level("npm-bunny.obj", method, 2)
+    };
+    assert!(
+        error_of(&view(Method::Octree, "0,0,5", "0,0,0")).contains("apply to --method silhouette")
+    );
+    for (eye, want) in [
+        ("1,2", "three finite numbers"),
+        ("1,2,3,4", "three finite numbers"),
+        ("1,inf,3", "three finite numbers"),
+        ("a,b,c", "must be x,y,z numbers"),
+    ] {
+        let msg = error_of(&view(Method::Silhouette, eye, "0,0,0"));
+        assert!(msg.contains("--eye") && msg.contains(want), "{eye}: {msg}");
+    }
+    let msg = error_of(&view(Method::Silhouette, "0,0,5", "0;0;0"));
+    assert!(msg.contains("--target"), "{msg}");
+    // Spaces around the numbers are fine, and a view answers with what it drew.
+    let p = evaluate(&view(Method::Silhouette, " 0, 0.2 ,5", "0,0,0")).unwrap();
+    let count = |kind: &str| p.detail[kind].as_u64().unwrap() as usize;
+    assert_eq!(p.detail["level"], 2, "{p:?}");
+    assert!(
+        count("facing_faces") > 0 && count("silhouette_faces") > 0,
+        "{p:?}"
+    );
+    let kinds = count("facing_faces") + count("silhouette_faces") + count("other_faces");
+    assert!(kinds <= p.faces_in && p.faces > 0, "{p:?}");
+}
+
+/// Counts of the repaired input, distances that are distances (mean ≤ Hausdorff, both
+/// above zero for a simplified mesh), and none at all with `--samples 0`.
+#[test]
+fn a_point_reports_the_input_the_output_and_their_distance() {
+    let input = repaired("npm-bunny.obj");
+    let a = faces("npm-bunny.obj", Method::Qem, 1_000);
+    let p = evaluate(&a).unwrap();
+    assert_eq!(
+        (p.vertices_in, p.faces_in),
+        (input.vertex_count(), input.face_count())
+    );
+    assert_eq!(p.param, Param::Faces(1_000));
+    assert!((990..=1_000).contains(&p.faces), "{p:?}");
+    assert!(p.vertices < p.vertices_in && p.ms > 0.0, "{p:?}");
+    let (h, m) = (p.hausdorff_pct.unwrap(), p.mean_pct.unwrap());
+    assert!(0.0 < m && m <= h && h < 5.0, "{p:?}");
+    assert_eq!(p.detail["faces_out"], p.faces, "{p:?}");
+    let p = evaluate(&MeshArgs { samples: 0, ..a }).unwrap();
+    assert!(p.hausdorff_pct.is_none() && p.mean_pct.is_none(), "{p:?}");
+}
+
+/// An error bound in place of a face count: a smaller bound keeps more faces.
+#[test]
+fn qem_to_an_error_bound_keeps_more_faces_for_a_tighter_bound() {
+    let at = |e| {
+        evaluate(&MeshArgs {
+            error: Some(e),
+            ..args("npm-bunny.obj", Method::Qem)
+        })
+        .unwrap()
+    };
+    let (tight, loose) = (at(0.002), at(0.01));
+    assert_eq!(tight.param, Param::Error(0.002));
+    assert!(
+        loose.faces < tight.faces && tight.faces < tight.faces_in,
+        "{loose:?} {tight:?}"
+    );
+    let max = |p: &MeshPoint| p.detail["max_error"].as_f64().unwrap();
+    assert!(
+        max(&tight) <= 0.002 && max(&loose) <= 0.01,
+        "{tight:?} {loose:?}"
+    );
+}
+
+/// Levels 1–3 are one continuing decimation cut at the paper's ε: each level is coarser,
+/// reports its ε, and times every step up to it.
+#[test]
+fn curvature_levels_are_nested_cuts_at_the_papers_epsilon() {
+    let mut before = usize::MAX;
+    for k in 1..=3 {
+        let p = evaluate(&level("npm-bunny.obj", Method::Curvature, k)).unwrap();
+        assert!(p.faces < before && p.faces < p.faces_in, "level {k}: {p:?}");
+        before = p.faces;
+        assert_eq!(p.detail["epsilon"], PAPER_LEVELS[k as usize - 1], "{p:?}");
+        assert_eq!(
+            p.detail["steps_ms"].as_array().unwrap().len(),
+            k as usize,
+            "{p:?}"
+        );
+    }
+    let p = evaluate(&faces("npm-bunny.obj", Method::Curvature, 2_000)).unwrap();
+    assert!(
+        p.faces <= 2_000 && p.detail["steps_ms"] == serde_json::json!([]),
+        "{p:?}"
+    );
+}
+
+/// `--faces N` on the level methods: the finest level with at most N faces, or the coarsest
+/// level when none has so few.
+#[test]
+fn level_methods_take_the_finest_level_within_a_face_budget() {
+    let input = repaired("npm-bunny.obj");
+    let vs = ViewSphere::new(&input).unwrap();
+    let counts: Vec<usize> = (0..=vs.max_level())
+        .map(|k| vs.level(k).unwrap().face_count())
+        .collect();
+    let lod = OctreeLod::build(&input, &OctreeOptions::default()).unwrap();
+    let octree: Vec<usize> = (0..=lod.max_level())
+        .map(|k| lod.level(k).unwrap().face_count())
+        .collect();
+    for (method, counts) in [(Method::Silhouette, &counts), (Method::Octree, &octree)] {
+        // A budget between two levels' counts, and one below every level.
+        let fits = counts
+            .iter()
+            .rposition(|&f| f > 0 && f < input.face_count())
+            .unwrap();
+        let budget = counts[fits] + 1;
+        let p = evaluate(&faces("npm-bunny.obj", method, budget)).unwrap();
+        let k = p.detail["level"].as_u64().unwrap() as usize;
+        assert_eq!(p.faces, counts[k], "{method:?}: {p:?}");
+        assert!(p.faces <= budget, "{method:?}: {p:?}");
+        assert!(
+            counts[k + 1..].iter().all(|&f| f > budget),
+            "{method:?} {counts:?}: {p:?}"
+        );
+        let coarsest = counts.iter().copied().filter(|&f| f > 0).min().unwrap();
+        let p = evaluate(&faces("npm-bunny.obj", method, coarsest - 1)).unwrap();
+        assert_eq!(p.faces, coarsest, "{method:?} {counts:?}: {p:?}");
+    }
+    let p = evaluate(&level("npm-bunny.obj", Method::Octree, 3)).unwrap();
+    assert_eq!(
+        (p.faces, &p.detail["level"]),
+        (octree[3], &serde_json::json!(3))
+    );
+    assert_eq!(
+        p.detail["levels"].as_array().unwrap().len(),
+        octree.len(),
+        "{p:?}"
+    );
+}
+
+/// `--weld` merges the teapot's bit-identical patch seams before repair: fewer vertices in.
+#[test]
+fn weld_merges_seam_vertices_before_the_simplifier_sees_them() {
+    let a = faces("teapot.obj", Method::Qem, 3_000);
+    let plain = evaluate(&a).unwrap();
+    let welded = evaluate(&MeshArgs { weld: true, ..a }).unwrap();
+    assert!(
+        welded.vertices_in < plain.vertices_in,
+        "{welded:?} {plain:?}"
+    );
+    assert_eq!(welded.faces_in, plain.faces_in, "{welded:?} {plain:?}");
+}
+
+/// `--out` writes the mesh the point measured, and a bad path or input names itself.
+#[test]
+fn out_writes_the_measured_mesh_and_errors_name_the_file() {
+    let dir = scratch("out");
+    let out = dir.join("lod.obj");
+    let p = evaluate(&MeshArgs {
+        out: Some(out.clone()),
+        ..faces("npm-bunny.obj", Method::Qem, 800)
+    })
+    .unwrap();
+    let back = io::read_path(&out, &MeshLimits::default()).unwrap();
+    assert_eq!(
+        (back.vertex_count(), back.face_count()),
+        (p.vertices, p.faces)
+    );
+    let names: Vec<_> = std::fs::read_dir(&dir).unwrap().collect();
+    assert_eq!(names.len(), 1, "a temp file was left: {names:?}");
+
+    let missing = dir.join("none.obj");
+    let msg = error_of(&MeshArgs {
+        input: missing.clone(),
+        ..faces("npm-bunny.obj", Method::Qem, 800)
+    });
+    assert!(msg.contains(&missing.display().to_string()), "{msg}");
+    let into_file = out.join("x.obj");
+    let msg = error_of(&MeshArgs {
+        out: Some(into_file.clone()),
+        ..faces("npm-bunny.obj", Method::Qem, 800)
+    });
+    assert!(msg.contains(&into_file.display().to_string()), "{msg}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// `subdivide` refuses a run that would pass the face limit before doing any of it.
+#[test]
+fn subdivide_refuses_beyond_the_face_limit_and_writes_four_times_the_faces_a_step() {
+    let dir = scratch("subdivide");
+    let output = dir.join("fine.obj");
+    let input = repaired("npm-bunny.obj");
+    subdivide(&SubdivideArgs {
+        input: shared_mesh("npm-bunny.obj"),
+        output: output.clone(),
+        times: 2,
+    })
+    .unwrap();
+    let back = io::read_path(&output, &MeshLimits::default()).unwrap();
+    assert_eq!(back.face_count(), 16 * input.face_count());
+
+    let big = dir.join("big.obj");
+    let limit = MeshLimits::default().max_faces;
+    let times = (0u8..)
+        .find(|&t| input.face_count() * 4usize.pow(u32::from(t)) > limit)
+        .unwrap();
+    let err = subdivide(&SubdivideArgs {
+        input: shared_mesh("npm-bunny.obj"),
+        output: big.clone(),
+        times,
+    })
+    .expect_err("above the face limit");
+    assert!(format!("{err:#}").contains("above the"), "{err:#}");
+    assert!(!big.exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
