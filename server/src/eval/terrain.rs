@@ -120,7 +120,9 @@ pub fn load(eval: &TerrainEval) -> Result<(Grid<f64>, f64, f64)> {
     Ok((map.heights, step, peak))
 }
 
-fn is_8bit(g: &Grid<f64>, step: Option<f64>) -> bool {
+/// Integer heights in 0..=255: 8-bit data, whose PSNR peak is 255 whatever the window's
+/// range (the paper's convention).
+pub(super) fn is_8bit(g: &Grid<f64>, step: Option<f64>) -> bool {
     step == Some(1.0) && g.data().iter().all(|&h| (0.0..=255.0).contains(&h))
 }
 
@@ -228,8 +230,9 @@ pub fn run(eval: &TerrainEval) -> Result<Vec<Point>> {
                 );
             }
             // Exact, so report it as exact: the f64 residue (~1e-13) would print as a
-            // ~330 dB PSNR that means nothing. The mesh is exact too when it keeps every
-            // sample, as it does at the lossless threshold.
+            // ~330 dB PSNR that means nothing. So is the mesh when it keeps every sample, as
+            // the zerotree mesher does at the lossless threshold (the bintree meshes within
+            // it, one step).
             let mut point = Point {
                 max_abs_err: 0.0,
                 rmse: 0.0,
@@ -254,7 +257,7 @@ fn rate_bytes(bpp: f64, samples: usize) -> usize {
 
 /// Errors unless every `--bpp` rate keeps the whole stream header (`header_len` bytes over
 /// `samples`): a shorter prefix decodes to nothing, so no point can be measured there.
-fn check_rates(rates: &[f64], header_len: usize, samples: usize) -> Result<()> {
+pub(super) fn check_rates(rates: &[f64], header_len: usize, samples: usize) -> Result<()> {
     // Rounded up to 4 decimals so that the rate printed is itself usable.
     let smallest = (header_len as f64 * 8.0 / samples.max(1) as f64 * 1e4).ceil() / 1e4;
     if let Some(p) = rates.iter().find(|&&p| rate_bytes(p, samples) < header_len) {
@@ -400,10 +403,19 @@ pub fn psnr(peak: f64, rmse: f64) -> Option<f64> {
 
 /// The paper's Table 1 layout, for people.
 pub fn print_table(points: &[Point], full_triangles: Option<usize>) {
+    print!("{}", table(points, full_triangles));
+}
+
+/// [`print_table`]'s text. `remain` is each mesh's triangles as a share of
+/// `full_triangles` (the full-resolution mesh's), the paper's "remaining" column.
+pub fn table(points: &[Point], full_triangles: Option<usize>) -> String {
+    use std::fmt::Write as _;
+    let mut out = String::new();
     if let Some(p) = points.first() {
-        println!("{} ({}×{}, {})", p.input, p.rows, p.cols, p.wavelet);
+        let _ = writeln!(out, "{} ({}×{}, {})", p.input, p.rows, p.cols, p.wavelet);
     }
-    println!(
+    let _ = writeln!(
+        out,
         "{:>10} {:>9} {:>9} {:>7} {:>9} {:>9} {:>9} {:>9} {:>10} {:>7} {:>8}",
         "mode",
         "param",
@@ -422,7 +434,8 @@ pub fn print_table(points: &[Point], full_triangles: Option<usize>) {
         let remain = full_triangles.map_or(String::from("-"), |n| {
             format!("{:.1}%", 100.0 * p.mesh_triangles as f64 / n as f64)
         });
-        println!(
+        let _ = writeln!(
+            out,
             "{:>10} {:>9} {:>9.3} {:>7.3} {:>9} {:>9.3} {:>9.3} {:>9} {:>10} {:>7} {:>6.2}ms",
             p.mode,
             p.param.map_or("-".into(), |v| format!("{v}")),
@@ -437,6 +450,7 @@ pub fn print_table(points: &[Point], full_triangles: Option<usize>) {
             p.decode_ms + p.mesh_ms
         );
     }
+    out
 }
 
 /// Parses `ROW,COL,SIZE`.

@@ -9,7 +9,10 @@ use zerotile_codec::wavelet::Wavelet;
 use zerotile_codec::Grid;
 
 use super::parse_list;
-use super::terrain::{errors, load, psnr, run, Point, Sweep, TerrainEval, DECODE_SHARE};
+use super::terrain::{
+    check_rates, errors, is_8bit, load, parse_crop, psnr, run, table, Point, Sweep, TerrainEval,
+    DECODE_SHARE,
+};
 
 fn shared_data(rel: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -132,6 +135,27 @@ fn lossless_is_exact_on_the_5_3_wavelet_and_refused_on_9_7() {
     assert_eq!((p.mode, p.param), ("lossless", None));
     assert_eq!(p.wavelet, Wavelet::LeGall53.name());
     assert_eq!((p.max_abs_err, p.rmse, p.psnr_db), (0.0, 0.0, None));
+    // The bintree (a 2^k + 1 window) meshes within the lossless threshold, one step.
+    assert!(
+        p.mesh_max_abs_err > 0.0 && p.mesh_max_abs_err <= 1.0,
+        "{p:?}"
+    );
+    // The zerotree mesher (any other window) keeps every sample there: its mesh is exact
+    // too, and says so instead of printing the f64 residue as a PSNR (fuji's 0.1 m steps
+    // are not exact in binary).
+    let p = &run(&TerrainEval {
+        input: shared_data("dem/fuji.png"),
+        encoding: Some(raster::Encoding::TerrainRgb),
+        crop: Some((0, 0, 64)),
+        ..n44(64, Sweep::Lossless)
+    })
+    .unwrap()[0];
+    assert_eq!(p.mesh_triangles, 2 * 63 * 63, "{p:?}");
+    assert_eq!(
+        (p.mesh_max_abs_err, p.mesh_rmse, p.mesh_psnr_db),
+        (0.0, 0.0, None),
+        "{p:?}"
+    );
     let e = run(&TerrainEval {
         wavelet: Some(Wavelet::Cdf97),
         ..n44(65, Sweep::Lossless)
@@ -184,4 +208,91 @@ fn a_parameter_list_takes_zero_and_refuses_negatives() {
     assert!(parse_list("--bpp", "1,x")
         .unwrap_err()
         .contains("'x' is not a number"));
+}
+
+/// 8-bit means integer steps with every height in 0..=255: the peak is then 255, not the
+/// window's range. One sample at 256, below 0, or a step other than 1 is not 8-bit.
+#[test]
+fn eight_bit_data_is_integer_steps_within_0_255() {
+    let grid = |top: f64| Grid::new(1, 3, vec![0.0, 17.0, top]).unwrap();
+    assert!(is_8bit(&grid(255.0), Some(1.0)));
+    assert!(is_8bit(&grid(3.0), Some(1.0)));
+    assert!(!is_8bit(&grid(256.0), Some(1.0)));
+    assert!(!is_8bit(
+        &Grid::new(1, 2, vec![-1.0, 3.0]).unwrap(),
+        Some(1.0)
+    ));
+    assert!(!is_8bit(&grid(255.0), Some(0.5)));
+    assert!(!is_8bit(&grid(255.0), None));
+}
+
+/// A `--bpp` rate must buy the whole header: exactly the header is usable, a byte less is
+/// refused with the smallest usable rate named (rounded up, so it is itself usable).
+#[test]
+fn a_rate_below_the_header_is_refused_with_the_smallest_usable_rate() {
+    // 100 header bytes over 800 samples: 1 bit a sample buys exactly the header.
+    assert!(check_rates(&[1.0, 2.0], 100, 800).is_ok());
+    let e = check_rates(&[2.0, 0.99], 100, 800).unwrap_err().to_string();
+    assert!(
+        e.contains("--bpp 0.99") && e.contains("rate for this window, 1 bits"),
+        "{e}"
+    );
+    let e = check_rates(&[0.5], 77, 9).unwrap_err().to_string();
+    assert!(e.contains("68.4445 bits/sample"), "{e}");
+}
+
+#[test]
+fn a_crop_is_three_whole_numbers_with_a_nonzero_size() {
+    assert_eq!(parse_crop("300, 500,257"), Ok((300, 500, 257)));
+    assert_eq!(parse_crop("0,0,1"), Ok((0, 0, 1)));
+    for bad in ["1,2,0", "1,2", "1,2,3,4", "a,b,c", "-1,2,3", "1.5,2,3"] {
+        let e = parse_crop(bad).unwrap_err();
+        assert!(e.contains(&format!("--crop '{bad}'")), "{bad}: {e}");
+    }
+}
+
+/// A window with no-data samples has no heights to measure there: refused, with the count
+/// and the file named (terra_elev.tif has no-data in its corners).
+#[test]
+fn a_window_with_no_data_is_refused_by_name() {
+    let input = shared_data("dem/terra_elev.tif");
+    let e = load(&TerrainEval {
+        input: input.clone(),
+        crop: None,
+        ..n44(65, Sweep::Lossless)
+    })
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains(&input.display().to_string()) && e.contains("3942 no-data samples"),
+        "{e}"
+    );
+}
+
+/// Table 1's layout: "remain" is each mesh's share of the full-resolution mesh ("-" when
+/// that is unknown), and an exact PSNR prints as inf.
+#[test]
+fn the_table_gives_each_meshs_share_of_the_full_mesh() {
+    let mut points = run(&n44(65, Sweep::Threshold(vec![4.0]))).unwrap();
+    points[0].mesh_triangles = 2_048;
+    let column = |text: &str, i: usize| -> String {
+        let row = text.lines().nth(2).unwrap();
+        row.split_whitespace().nth(i).unwrap().to_string()
+    };
+    let text = table(&points, Some(8_192));
+    let header = text.lines().nth(1).unwrap();
+    assert_eq!(
+        header.split_whitespace().rev().nth(1),
+        Some("remain"),
+        "{text}"
+    );
+    assert!(
+        text.starts_with(&format!("{} (65×65, cdf97)", points[0].input)),
+        "{text}"
+    );
+    assert_eq!(column(&text, 9), "25.0%", "{text}");
+    assert_eq!(column(&text, 8), "2048", "{text}");
+    assert_eq!(column(&table(&points, None), 9), "-");
+    points[0].psnr_db = None;
+    assert_eq!(column(&table(&points, None), 4), "inf");
 }
