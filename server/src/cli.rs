@@ -336,22 +336,28 @@ fn ingest(a: IngestArgs) -> anyhow::Result<()> {
     };
     let started = std::time::Instant::now();
     let (path, m) = crate::ingest::run(&job)?;
-    let tiles: usize = m
-        .available
-        .iter()
-        .flatten()
-        .map(|a| ((a.end_x - a.start_x + 1) * (a.end_y - a.start_y + 1)) as usize)
-        .sum();
     println!(
-        "{}: {tiles} tiles, zooms {}..={}, {} stream bytes ({:.3} bits/sample), {:.1} s",
+        "{}",
+        ingest_summary(&path, &m, started.elapsed().as_secs_f64())
+    );
+    Ok(())
+}
+
+/// The line a finished ingest prints: what was built, its size and rate, and how long.
+fn ingest_summary(
+    path: &std::path::Path,
+    m: &zerotile_codec::container::Metadata,
+    secs: f64,
+) -> String {
+    let tiles: u64 = m.available.iter().flatten().map(|a| a.tile_count()).sum();
+    format!(
+        "{}: {tiles} tiles, zooms {}..={}, {} stream bytes ({:.3} bits/sample), {secs:.1} s",
         path.display(),
         m.min_zoom,
         m.max_zoom,
         m.stream_bytes,
         m.stream_bytes as f64 * 8.0 / m.samples.max(1) as f64,
-        started.elapsed().as_secs_f64()
-    );
-    Ok(())
+    )
 }
 
 fn export(a: ExportArgs) -> anyhow::Result<()> {
@@ -366,18 +372,8 @@ fn export(a: ExportArgs) -> anyhow::Result<()> {
         progress: !a.quiet,
     };
     let done = crate::export::run(&job)?;
-    if done.no_tilejson {
-        eprintln!(
-            "note: no tiles.json written (a MapLibre raster-dem source's url): give --base-url \
-             URL, where the tree will be served, to get one"
-        );
-    }
-    if let Some((z0 @ 1.., _)) = job.zooms.filter(|_| job.format == "terrain") {
-        eprintln!(
-            "note: {} has no zooms below {z0}, which CesiumJS needs from level 0 on: serve it \
-             beside an export of those zooms, or export from 0",
-            job.out.display()
-        );
+    for note in export_notes(&job, &done) {
+        eprintln!("note: {note}");
     }
     println!(
         "{}: {} tiles, {} bytes, {:.1} s",
@@ -387,6 +383,26 @@ fn export(a: ExportArgs) -> anyhow::Result<()> {
         started.elapsed().as_secs_f64()
     );
     Ok(())
+}
+
+/// What a finished export should tell its user it did not do.
+fn export_notes(job: &crate::export::Export, done: &crate::export::Exported) -> Vec<String> {
+    let mut notes = Vec::new();
+    if done.no_tilejson {
+        notes.push(
+            "no tiles.json written (a MapLibre raster-dem source's url): give --base-url URL, \
+             where the tree will be served, to get one"
+                .to_string(),
+        );
+    }
+    if let Some((z0 @ 1.., _)) = job.zooms.filter(|_| job.format == "terrain") {
+        notes.push(format!(
+            "{} has no zooms below {z0}, which CesiumJS needs from level 0 on: serve it beside \
+             an export of those zooms, or export from 0",
+            job.out.display()
+        ));
+    }
+    notes
 }
 
 fn info(a: InfoArgs) -> anyhow::Result<()> {
@@ -453,11 +469,16 @@ fn healthcheck(addr: &str) -> anyhow::Result<()> {
 
 fn demo_data(a: &DemoArgs) -> anyhow::Result<()> {
     let built = crate::demo::ensure(&a.data, a.force, !a.quiet)?;
+    println!("{}", demo_summary(&a.data, &built));
+    Ok(())
+}
+
+fn demo_summary(data: &std::path::Path, built: &crate::demo::Built) -> String {
     match (built.terrain, built.meshes) {
-        (false, 0) => println!("{}: already has datasets and meshes", a.data.display()),
-        (terrain, meshes) => println!(
+        (false, 0) => format!("{}: already has datasets and meshes", data.display()),
+        (terrain, meshes) => format!(
             "{}: built {}{meshes} meshes",
-            a.data.display(),
+            data.display(),
             if terrain {
                 format!("dataset {}, ", crate::demo::TERRAIN_NAME)
             } else {
@@ -465,38 +486,10 @@ fn demo_data(a: &DemoArgs) -> anyhow::Result<()> {
             }
         ),
     }
-    Ok(())
 }
 
 fn serve(a: ServeArgs) -> anyhow::Result<()> {
-    for o in &a.cors_origins {
-        let ok = (o.starts_with("http://") || o.starts_with("https://"))
-            && !o.ends_with('/')
-            && o.bytes().all(|b| b.is_ascii_graphic());
-        if !ok {
-            anyhow::bail!("--cors-origin {o:?}: give a scheme and host, e.g. https://maps.example.org (no path, no trailing slash)");
-        }
-    }
-    let defaults = crate::serve::Config::default();
-    if a.cpu_jobs == Some(0) {
-        anyhow::bail!("--cpu-jobs 0: at least one render must be able to run");
-    }
-    let public_url = match &a.public_url {
-        Some(u) => Some(
-            crate::serve::public_url::parse_base(u)
-                .map_err(|why| anyhow::anyhow!("--public-url {u:?}: {why}"))?,
-        ),
-        None => None,
-    };
-    let config = crate::serve::Config {
-        cache_bytes: a.cache_mb.saturating_mul(1 << 20),
-        cors_origins: a.cors_origins.clone(),
-        public_url,
-        trust_forwarded: a.trust_forwarded,
-        cpu_jobs: a.cpu_jobs.unwrap_or(defaults.cpu_jobs),
-        cpu_queue: a.cpu_queue.unwrap_or(defaults.cpu_queue),
-        ..defaults
-    };
+    let config = serve_config(&a)?;
     let data = match a.data {
         Some(dir) => dir,
         None => {
@@ -520,7 +513,55 @@ fn serve(a: ServeArgs) -> anyhow::Result<()> {
     })
 }
 
+/// `serve`'s flags as the service's configuration, refusing what it could not honour before
+/// anything is bound or generated.
+fn serve_config(a: &ServeArgs) -> anyhow::Result<crate::serve::Config> {
+    for o in &a.cors_origins {
+        let ok = (o.starts_with("http://") || o.starts_with("https://"))
+            && !o.ends_with('/')
+            && o.bytes().all(|b| b.is_ascii_graphic());
+        if !ok {
+            anyhow::bail!("--cors-origin {o:?}: give a scheme and host, e.g. https://maps.example.org (no path, no trailing slash)");
+        }
+    }
+    let defaults = crate::serve::Config::default();
+    if a.cpu_jobs == Some(0) {
+        anyhow::bail!("--cpu-jobs 0: at least one render must be able to run");
+    }
+    let public_url = match &a.public_url {
+        Some(u) => Some(
+            crate::serve::public_url::parse_base(u)
+                .map_err(|why| anyhow::anyhow!("--public-url {u:?}: {why}"))?,
+        ),
+        None => None,
+    };
+    Ok(crate::serve::Config {
+        cache_bytes: a.cache_mb.saturating_mul(1 << 20),
+        cors_origins: a.cors_origins.clone(),
+        public_url,
+        trust_forwarded: a.trust_forwarded,
+        cpu_jobs: a.cpu_jobs.unwrap_or(defaults.cpu_jobs),
+        cpu_queue: a.cpu_queue.unwrap_or(defaults.cpu_queue),
+        ..defaults
+    })
+}
+
 fn eval_terrain(a: TerrainArgs) -> anyhow::Result<()> {
+    let json = a.json;
+    let points = terrain::run(&terrain_eval(a)?)?;
+    if json {
+        for p in &points {
+            println!("{}", serde_json::to_string(p)?);
+        }
+    } else {
+        let full = points.first().map(|p| 2 * (p.rows - 1) * (p.cols - 1));
+        terrain::print_table(&points, full);
+    }
+    Ok(())
+}
+
+/// `eval terrain`'s flags as a run, refusing values no run could use.
+fn terrain_eval(a: TerrainArgs) -> anyhow::Result<terrain::TerrainEval> {
     check_reader_flags(&a.input, a.encoding, a.key.as_deref())?;
     let sweep = if let Some(t) = &a.threshold {
         terrain::Sweep::Threshold(eval::parse_list("--threshold", t).map_err(anyhow::Error::msg)?)
@@ -544,7 +585,7 @@ fn eval_terrain(a: TerrainArgs) -> anyhow::Result<()> {
     if !(decode_share > 0.0 && decode_share < 1.0) {
         anyhow::bail!("--decode-share must be in (0, 1), got {decode_share}");
     }
-    let eval = terrain::TerrainEval {
+    Ok(terrain::TerrainEval {
         input: a.input,
         crop: a.crop,
         encoding: a.encoding,
@@ -557,15 +598,9 @@ fn eval_terrain(a: TerrainArgs) -> anyhow::Result<()> {
         mesher: a.mesher,
         decode_share,
         out: a.out,
-    };
-    let points = terrain::run(&eval)?;
-    if a.json {
-        for p in &points {
-            println!("{}", serde_json::to_string(p)?);
-        }
-    } else {
-        let full = points.first().map(|p| 2 * (p.rows - 1) * (p.cols - 1));
-        terrain::print_table(&points, full);
-    }
-    Ok(())
+    })
 }
+
+#[cfg(test)]
+#[path = "cli_tests.rs"]
+mod tests;

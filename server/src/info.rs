@@ -402,40 +402,11 @@ pub fn render(r: &Report) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use zerotile_codec::container::{Availability, Metadata, ViewParams, Writer};
+    use crate::fixtures::local_257;
+    use zerotile_codec::container::{Availability, Writer};
     use zerotile_codec::ezw::EncodeParams;
     use zerotile_codec::wavelet::Wavelet;
     use zerotile_codec::Grid;
-
-    /// The metadata of a one-tile local 257² dataset.
-    fn local_257(stream_bytes: u64) -> Metadata {
-        Metadata {
-            name: "t".into(),
-            scheme: "local".into(),
-            tile_side: 257,
-            min_zoom: 0,
-            max_zoom: 0,
-            bounds: [0.0, 256.0, 256.0, 0.0],
-            source_size: [257, 257],
-            wavelet: Wavelet::Cdf97,
-            step: 1.0,
-            precision: None,
-            height_range: [0.0, 512.0],
-            fill: 0.0,
-            view: ViewParams { a: 1.0, b: 0.0 },
-            available: vec![vec![Availability {
-                start_x: 0,
-                start_y: 0,
-                end_x: 0,
-                end_y: 0,
-            }]],
-            source: "test".into(),
-            source_crs: "none".into(),
-            samples: 257 * 257,
-            stream_bytes,
-            created: "2026-11-25T00:00:00Z".into(),
-        }
-    }
 
     /// Writes a container to a fresh folder and returns `info`'s report on it.
     fn report_on(tag: &str, file: Vec<u8>, verify: bool) -> Report {

@@ -10,6 +10,7 @@ pub mod cli;
 pub mod demo;
 pub mod eval;
 pub mod export;
+mod fixtures;
 pub mod info;
 pub mod ingest;
 pub mod serve;

@@ -17,7 +17,7 @@ use zerotile_codec::Grid;
 use super::median_ms;
 
 /// What to sweep.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum Sweep {
     Threshold(Vec<f64>),
     Bpp(Vec<f64>),

@@ -1,0 +1,298 @@
+//! The command line's own decisions, made on parsed flags (`Cli::try_parse_from`, as the
+//! binary parses them): what each command refuses before doing any work, what its
+//! defaults are, and the lines it prints when done.
+
+use std::io::{Read, Write};
+use std::net::TcpListener;
+use std::path::{Path, PathBuf};
+
+use clap::Parser;
+
+use super::*;
+use crate::eval::terrain::{Sweep, DECODE_SHARE};
+
+fn parse(args: &[&str]) -> Command {
+    Cli::try_parse_from(std::iter::once("zerotile").chain(args.iter().copied()))
+        .unwrap()
+        .command
+}
+
+fn serve_args(args: &[&str]) -> ServeArgs {
+    let mut all = vec!["serve"];
+    all.extend_from_slice(args);
+    let Command::Serve(a) = parse(&all) else {
+        panic!("not serve: {args:?}")
+    };
+    a
+}
+
+fn terrain_args(args: &[&str]) -> TerrainArgs {
+    let mut all = vec!["eval", "terrain", "in.hgt"];
+    all.extend_from_slice(args);
+    let Command::Eval(EvalCommand::Terrain(a)) = parse(&all) else {
+        panic!("not eval terrain: {args:?}")
+    };
+    a
+}
+
+fn refusal<T: std::fmt::Debug>(r: anyhow::Result<T>) -> String {
+    format!("{:#}", r.expect_err("should be refused"))
+}
+
+#[test]
+fn serve_defaults_and_sizes_come_through_as_given() {
+    let defaults = crate::serve::Config::default();
+    let c = serve_config(&serve_args(&[])).unwrap();
+    assert_eq!(c.cache_bytes, 256 << 20);
+    assert_eq!(
+        (c.cpu_jobs, c.cpu_queue),
+        (defaults.cpu_jobs, defaults.cpu_queue)
+    );
+    assert!(c.cors_origins.is_empty() && c.public_url.is_none() && !c.trust_forwarded);
+
+    let c = serve_config(&serve_args(&[
+        "--cache-mb",
+        "3",
+        "--cpu-jobs",
+        "5",
+        "--cpu-queue",
+        "7",
+        "--trust-forwarded",
+        "--cors-origin",
+        "https://maps.example.org",
+        "--cors-origin",
+        "http://localhost:8080",
+        "--public-url",
+        "https://tiles.example.org/terrain",
+    ]))
+    .unwrap();
+    assert_eq!((c.cache_bytes, c.cpu_jobs, c.cpu_queue), (3 << 20, 5, 7));
+    assert!(c.trust_forwarded && c.public_url.is_some());
+    assert_eq!(
+        c.cors_origins,
+        ["https://maps.example.org", "http://localhost:8080"]
+    );
+    // A size past u64 saturates instead of wrapping to a tiny cache.
+    let huge = u64::MAX.to_string();
+    let c = serve_config(&serve_args(&["--cache-mb", &huge])).unwrap();
+    assert_eq!(c.cache_bytes, u64::MAX);
+}
+
+#[test]
+fn serve_refuses_origins_and_urls_it_could_not_honour() {
+    for origin in [
+        "maps.example.org",
+        "https://maps.example.org/",
+        "ftp://maps.example.org",
+        "https://maps example.org",
+        "https://maps.example.org\u{e9}",
+    ] {
+        let msg = refusal(serve_config(&serve_args(&["--cors-origin", origin])));
+        assert!(
+            msg.contains(&format!("--cors-origin {origin:?}")),
+            "{origin}: {msg}"
+        );
+    }
+    let msg = refusal(serve_config(&serve_args(&["--cpu-jobs", "0"])));
+    assert!(msg.contains("--cpu-jobs 0"), "{msg}");
+    let msg = refusal(serve_config(&serve_args(&[
+        "--public-url",
+        "tiles.example.org",
+    ])));
+    assert!(msg.contains("--public-url \"tiles.example.org\""), "{msg}");
+}
+
+#[test]
+fn eval_terrain_takes_each_sweep_with_its_defaults() {
+    let e = terrain_eval(terrain_args(&["--lossless"])).unwrap();
+    assert_eq!(e.sweep, Sweep::Lossless);
+    assert_eq!((e.decode_share, e.repeat, e.step), (DECODE_SHARE, 3, None));
+    for (flag, want) in [
+        ("--threshold", Sweep::Threshold(vec![1.0, 2.5])),
+        ("--bpp", Sweep::Bpp(vec![1.0, 2.5])),
+        ("--max-error", Sweep::MaxError(vec![1.0, 2.5])),
+    ] {
+        let e = terrain_eval(terrain_args(&[flag, "1, 2.5"])).unwrap();
+        assert_eq!(e.sweep, want, "{flag}");
+    }
+    let e = terrain_eval(terrain_args(&[
+        "--threshold",
+        "4",
+        "--step",
+        "0.5",
+        "--decode-share",
+        "0.25",
+        "--crop",
+        "1,2,65",
+    ]))
+    .unwrap();
+    assert_eq!(
+        (e.step, e.decode_share, e.crop),
+        (Some(0.5), 0.25, Some((1, 2, 65)))
+    );
+}
+
+#[test]
+fn eval_terrain_refuses_values_no_run_could_use() {
+    for (args, want) in [
+        (vec!["--max-error", "0"], "--max-error: bounds must be > 0"),
+        (
+            vec!["--max-error", "2,0"],
+            "--max-error: bounds must be > 0",
+        ),
+        (
+            vec!["--threshold", "1,x"],
+            "--threshold: 'x' is not a number",
+        ),
+        (vec!["--bpp=0.5,-1"], "--bpp: '-1' must be finite"),
+        (
+            vec!["--lossless", "--step", "0"],
+            "--step must be finite and > 0",
+        ),
+        (
+            vec!["--lossless", "--step=-1"],
+            "--step must be finite and > 0",
+        ),
+        (
+            vec!["--lossless", "--step", "inf"],
+            "--step must be finite and > 0",
+        ),
+        (
+            vec!["--lossless", "--decode-share", "0"],
+            "--decode-share must be in (0, 1)",
+        ),
+        (
+            vec!["--lossless", "--decode-share", "1"],
+            "--decode-share must be in (0, 1)",
+        ),
+        (
+            vec!["--lossless", "--decode-share", "NaN"],
+            "--decode-share must be in (0, 1)",
+        ),
+        (
+            vec!["--lossless", "--encoding", "gray"],
+            "--encoding gray: applies to .png",
+        ),
+        (
+            vec!["--lossless", "--key", "dem"],
+            "--key dem: applies to .npz",
+        ),
+    ] {
+        let msg = refusal(terrain_eval(terrain_args(&args)));
+        assert!(msg.contains(want), "{args:?}: {msg}");
+    }
+}
+
+#[test]
+fn reader_flags_apply_to_their_own_formats_whatever_the_case() {
+    let png = Path::new("fuji.PNG");
+    assert!(check_reader_flags(png, Some(Encoding::TerrainRgb), None).is_ok());
+    assert!(check_reader_flags(Path::new("j.npz"), None, Some("dem")).is_ok());
+    assert!(check_reader_flags(Path::new("x.hgt"), None, None).is_ok());
+    assert!(check_reader_flags(png, None, Some("dem")).is_err());
+    assert!(check_reader_flags(Path::new("j.npz"), Some(Encoding::Gray), None).is_err());
+}
+
+#[test]
+fn export_notes_say_what_was_not_written() {
+    let job = |format: &str, zooms| crate::export::Export {
+        dataset: "n44".into(),
+        data: PathBuf::from("data"),
+        format: format.into(),
+        out: PathBuf::from("out/tree"),
+        zooms,
+        base_url: None,
+        progress: false,
+    };
+    let done = |no_tilejson| crate::export::Exported {
+        tiles: 1,
+        bytes: 1,
+        no_tilejson,
+    };
+    assert!(export_notes(&job("terrain", None), &done(false)).is_empty());
+    assert!(export_notes(&job("terrain", Some((0, 4))), &done(false)).is_empty());
+    assert!(export_notes(&job("png", Some((2, 4))), &done(false)).is_empty());
+    let notes = export_notes(&job("terrain", Some((2, 4))), &done(false));
+    assert_eq!(notes.len(), 1, "{notes:?}");
+    assert!(
+        notes[0].starts_with("out/tree has no zooms below 2"),
+        "{notes:?}"
+    );
+    let notes = export_notes(&job("png", None), &done(true));
+    assert_eq!(notes.len(), 1, "{notes:?}");
+    assert!(notes[0].starts_with("no tiles.json written"), "{notes:?}");
+}
+
+#[test]
+fn done_lines_say_what_was_built() {
+    let data = Path::new("data");
+    let built = |terrain, meshes| crate::demo::Built { terrain, meshes };
+    assert_eq!(
+        demo_summary(data, &built(false, 0)),
+        "data: already has datasets and meshes"
+    );
+    assert_eq!(
+        demo_summary(data, &built(true, 3)),
+        format!(
+            "data: built dataset {}, 3 meshes",
+            crate::demo::TERRAIN_NAME
+        )
+    );
+    assert_eq!(demo_summary(data, &built(false, 2)), "data: built 2 meshes");
+
+    // One root tile and a 2 × 3 block: 7 tiles; 8 bits a byte over the samples coded.
+    let mut m = crate::fixtures::local_257(66_049);
+    m.max_zoom = 1;
+    m.available
+        .push(vec![zerotile_codec::container::Availability {
+            start_x: 0,
+            start_y: 1,
+            end_x: 1,
+            end_y: 3,
+        }]);
+    assert_eq!(
+        ingest_summary(Path::new("data/t.ztd"), &m, 2.46),
+        "data/t.ztd: 7 tiles, zooms 0..=1, 66049 stream bytes (8.000 bits/sample), 2.5 s"
+    );
+}
+
+/// A one-connection server answering `reply` to whatever it is asked; its address.
+fn answering(reply: &'static [u8]) -> String {
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = listener.local_addr().unwrap().to_string();
+    std::thread::spawn(move || {
+        if let Ok((mut s, _)) = listener.accept() {
+            let mut ask = [0u8; 256];
+            let _ = s.read(&mut ask);
+            let _ = s.write_all(reply);
+        }
+    });
+    addr
+}
+
+#[test]
+fn healthcheck_passes_on_200_only_and_names_the_address() {
+    assert!(healthcheck(&answering(
+        b"HTTP/1.1 200 OK\r\ncontent-length: 2\r\n\r\nok"
+    ))
+    .is_ok());
+    let addr = answering(b"HTTP/1.1 503 Service Unavailable\r\n\r\n");
+    let msg = refusal(healthcheck(&addr));
+    assert!(
+        msg.contains(&format!("{addr}: /healthz answered HTTP/1.1 503")),
+        "{msg}"
+    );
+    let addr = answering(b"HTTP/1.1");
+    let msg = refusal(healthcheck(&addr));
+    assert!(msg.contains(&format!("reading {addr}'s answer")), "{msg}");
+    // A port nothing listens on (bound, then released).
+    let closed = TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .to_string();
+    let msg = refusal(healthcheck(&closed));
+    assert!(msg.contains(&format!("connecting to {closed}")), "{msg}");
+    let msg = refusal(healthcheck("no-port"));
+    assert!(msg.contains("--addr no-port"), "{msg}");
+}

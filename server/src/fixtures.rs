@@ -1,0 +1,37 @@
+//! What several test modules build the same way.
+
+#![cfg(test)]
+
+use zerotile_codec::container::{Availability, Metadata, ViewParams};
+use zerotile_codec::wavelet::Wavelet;
+
+/// The metadata of a one-tile local 257² dataset named `t` (1-unit steps, heights 0–512)
+/// whose streams total `stream_bytes`.
+pub fn local_257(stream_bytes: u64) -> Metadata {
+    Metadata {
+        name: "t".into(),
+        scheme: "local".into(),
+        tile_side: 257,
+        min_zoom: 0,
+        max_zoom: 0,
+        bounds: [0.0, 256.0, 256.0, 0.0],
+        source_size: [257, 257],
+        wavelet: Wavelet::Cdf97,
+        step: 1.0,
+        precision: None,
+        height_range: [0.0, 512.0],
+        fill: 0.0,
+        view: ViewParams { a: 1.0, b: 0.0 },
+        available: vec![vec![Availability {
+            start_x: 0,
+            start_y: 0,
+            end_x: 0,
+            end_y: 0,
+        }]],
+        source: "test".into(),
+        source_crs: "none".into(),
+        samples: 257 * 257,
+        stream_bytes,
+        created: "2026-11-25T00:00:00Z".into(),
+    }
+}
