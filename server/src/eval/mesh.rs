@@ -189,17 +189,13 @@ fn param(args: &MeshArgs) -> Result<Param> {
 pub fn subdivide(args: &crate::cli::SubdivideArgs) -> Result<()> {
     let mut mesh = load(&args.input, false)?;
     let limit = MeshLimits::default();
-    // Checked before the first step: each step is 4× the faces, so a run that would pass
-    // the limit is refused without building the steps below it.
-    let faces = 4usize
-        .checked_pow(u32::from(args.times))
-        .and_then(|f| f.checked_mul(mesh.face_count()));
-    if faces.is_none_or(|f| f > limit.max_faces) {
+    // Checked before the first step, so a run that would pass the limit is refused
+    // without building the steps below it.
+    if subdivided_faces(mesh.face_count(), args.times, limit.max_faces).is_none() {
         bail!(
-            "{} subdivided {} times would have {} faces, above the {} a mesh may have",
+            "{} subdivided {} times would have more than the {} faces a mesh may have",
             args.input.display(),
             args.times,
-            faces.map_or_else(|| "too many".to_string(), |f| f.to_string()),
             limit.max_faces
         );
     }
@@ -215,6 +211,14 @@ pub fn subdivide(args: &crate::cli::SubdivideArgs) -> Result<()> {
         mesh.face_count()
     );
     Ok(())
+}
+
+/// The faces of `faces` Loop-subdivided `times` times (4× a step), if at most `max`.
+pub fn subdivided_faces(faces: usize, times: u8, max: usize) -> Option<usize> {
+    4usize
+        .checked_pow(u32::from(times))
+        .and_then(|f| f.checked_mul(faces))
+        .filter(|&f| f <= max)
 }
 
 fn load(path: &Path, weld: bool) -> Result<TriMesh> {

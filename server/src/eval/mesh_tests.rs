@@ -9,7 +9,9 @@ use zerotile_codec::mesh::io::{self, MeshLimits};
 use zerotile_codec::mesh::silhouette::ViewSphere;
 use zerotile_codec::mesh::{repair, OctreeLod, OctreeOptions};
 
-use super::mesh::{budget_note, evaluate, subdivide, MeshArgs, MeshPoint, Method, Param};
+use super::mesh::{
+    budget_note, evaluate, subdivide, subdivided_faces, MeshArgs, MeshPoint, Method, Param,
+};
 use crate::cli::SubdivideArgs;
 
 fn shared_mesh(name: &str) -> PathBuf {
@@ -361,7 +363,17 @@ fn subdivide_refuses_beyond_the_face_limit_and_writes_four_times_the_faces_a_ste
         times,
     })
     .expect_err("above the face limit");
-    assert!(format!("{err:#}").contains("above the"), "{err:#}");
+    assert!(format!("{err:#}").contains("more than the"), "{err:#}");
     assert!(!big.exists());
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn subdivision_counts_four_times_the_faces_a_step_up_to_the_limit() {
+    assert_eq!(subdivided_faces(10, 0, 10), Some(10));
+    assert_eq!(subdivided_faces(10, 2, 160), Some(160));
+    assert_eq!(subdivided_faces(10, 2, 159), None);
+    // Past usize, in either factor, is past every limit.
+    assert_eq!(subdivided_faces(usize::MAX / 2, 1, usize::MAX), None);
+    assert_eq!(subdivided_faces(1, 40, usize::MAX), None);
 }
