@@ -348,7 +348,11 @@ fn octree_level(input: &TriMesh, param: Param) -> Result<(TriMesh, serde_json::V
     Ok((out, detail))
 }
 
-fn measure(input: &TriMesh, output: &TriMesh, samples: usize) -> Result<Option<SurfaceDistance>> {
+pub(super) fn measure(
+    input: &TriMesh,
+    output: &TriMesh,
+    samples: usize,
+) -> Result<Option<SurfaceDistance>> {
     if samples == 0 || output.face_count() == 0 {
         return Ok(None);
     }
@@ -360,22 +364,31 @@ fn measure(input: &TriMesh, output: &TriMesh, samples: usize) -> Result<Option<S
 }
 
 fn print_table(p: &MeshPoint) {
+    print!("{}", table(p));
+}
+
+/// [`print_table`]'s text: the input's counts, then one row for the point.
+pub(super) fn table(p: &MeshPoint) -> String {
     let pct = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.4}%"));
     let param = match p.param {
         Param::Error(e) => format!("error {e}"),
         Param::Level(k) => format!("level {k}"),
         Param::Faces(n) => format!("faces {n}"),
     };
-    println!(
-        "{} ({} vertices, {} faces)",
-        p.input, p.vertices_in, p.faces_in
-    );
-    println!(
-        "{:>10} {:>14} {:>9} {:>9} {:>9} {:>11} {:>11}",
-        "method", "param", "vertices", "faces", "ms", "Hausdorff", "mean"
-    );
-    println!(
-        "{:>10} {:>14} {:>9} {:>9} {:>9.2} {:>11} {:>11}",
+    format!(
+        "{} ({} vertices, {} faces)\n\
+         {:>10} {:>14} {:>9} {:>9} {:>9} {:>11} {:>11}\n\
+         {:>10} {:>14} {:>9} {:>9} {:>9.2} {:>11} {:>11}\n",
+        p.input,
+        p.vertices_in,
+        p.faces_in,
+        "method",
+        "param",
+        "vertices",
+        "faces",
+        "ms",
+        "Hausdorff",
+        "mean",
         format!("{:?}", p.method).to_lowercase(),
         param,
         p.vertices,
@@ -383,5 +396,5 @@ fn print_table(p: &MeshPoint) {
         p.ms,
         pct(p.hausdorff_pct),
         pct(p.mean_pct)
-    );
+    )
 }

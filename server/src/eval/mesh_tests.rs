@@ -10,7 +10,8 @@ use zerotile_codec::mesh::silhouette::ViewSphere;
 use zerotile_codec::mesh::{repair, OctreeLod, OctreeOptions};
 
 use super::mesh::{
-    budget_note, evaluate, subdivide, subdivided_faces, MeshArgs, MeshPoint, Method, Param,
+    budget_note, evaluate, measure, subdivide, subdivided_faces, table, MeshArgs, MeshPoint,
+    Method, Param,
 };
 use crate::cli::SubdivideArgs;
 
@@ -376,4 +377,54 @@ fn subdivision_counts_four_times_the_faces_a_step_up_to_the_limit() {
     // Past usize, in either factor, is past every limit.
     assert_eq!(subdivided_faces(usize::MAX / 2, 1, usize::MAX), None);
     assert_eq!(subdivided_faces(1, 40, usize::MAX), None);
+}
+
+/// `--samples N` is the face-sample count in each direction, and no mesh means no distance.
+#[test]
+fn distances_use_the_samples_asked_for() {
+    let input = repaired("npm-bunny.obj");
+    let output = zerotile_codec::mesh::qem::simplify(
+        &input,
+        &zerotile_codec::mesh::QemOptions::to_faces(800),
+    )
+    .unwrap()
+    .0;
+    let d = measure(&input, &output, 1_234).unwrap().unwrap();
+    // Every vertex, and the face samples spread by area (the last one can be lost to the
+    // rounding of the shares).
+    let on_faces = |samples: usize, mesh: &zerotile_codec::mesh::TriMesh| {
+        (1_233..=1_234).contains(&(samples - mesh.vertex_count()))
+    };
+    assert!(on_faces(d.a_to_b.samples, &input), "{d:?}");
+    assert!(on_faces(d.b_to_a.samples, &output), "{d:?}");
+    assert!(measure(&input, &output, 0).unwrap().is_none());
+    let empty = zerotile_codec::mesh::TriMesh::default();
+    assert!(measure(&input, &empty, 1_234).unwrap().is_none());
+}
+
+/// The readable form: the input's counts, then the point's row, distances as % of the
+/// diagonal ("-" when not measured).
+#[test]
+fn the_table_gives_the_point_in_one_row() {
+    let mut p = evaluate(&faces("npm-bunny.obj", Method::Qem, 1_000)).unwrap();
+    p.ms = 12.345;
+    p.hausdorff_pct = Some(0.5);
+    p.mean_pct = None;
+    let text = table(&p);
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), 3, "{text}");
+    assert_eq!(
+        lines[0],
+        format!(
+            "{} ({} vertices, {} faces)",
+            p.input, p.vertices_in, p.faces_in
+        )
+    );
+    let row: Vec<&str> = lines[2].split_whitespace().collect();
+    let (v, f) = (p.vertices.to_string(), p.faces.to_string());
+    assert_eq!(
+        row,
+        ["qem", "faces", "1000", &v, &f, "12.35", "0.5000%", "-"],
+        "{text}"
+    );
 }
