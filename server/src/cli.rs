@@ -417,20 +417,8 @@ fn info(a: InfoArgs) -> anyhow::Result<()> {
     } else {
         print!("{}", crate::info::render(&report));
     }
-    if !report.ok() {
-        let mut problems = Vec::new();
-        if report.missing_total > 0 {
-            problems.push(format!(
-                "{} announced tiles are missing",
-                report.missing_total
-            ));
-        }
-        if !report.availability_problems.is_empty() {
-            problems.push("its availability could not be checked".to_string());
-        }
-        if let Some(f) = report.failed.as_ref().filter(|f| !f.is_empty()) {
-            problems.push(format!("{} of {} tiles failed", f.len(), report.tiles));
-        }
+    let problems = report.problems();
+    if !problems.is_empty() {
         return Err(
             crate::info::ChecksFailed(format!("{}: {}", report.path, problems.join("; "))).into(),
         );
@@ -554,8 +542,7 @@ fn eval_terrain(a: TerrainArgs) -> anyhow::Result<()> {
             println!("{}", serde_json::to_string(p)?);
         }
     } else {
-        let full = points.first().map(|p| 2 * (p.rows - 1) * (p.cols - 1));
-        terrain::print_table(&points, full);
+        terrain::print_table(&points);
     }
     Ok(())
 }

@@ -82,9 +82,26 @@ pub struct Report {
 impl Report {
     /// Whether every check run found nothing wrong.
     pub fn ok(&self) -> bool {
-        self.missing_total == 0
-            && self.availability_problems.is_empty()
-            && self.failed.as_ref().is_none_or(Vec::is_empty)
+        self.problems().is_empty()
+    }
+
+    /// One phrase per kind of check that failed, for the one-line error `info` exits with
+    /// (the report itself lists the tiles).
+    pub fn problems(&self) -> Vec<String> {
+        let mut problems = Vec::new();
+        if self.missing_total > 0 {
+            problems.push(format!(
+                "{} announced tiles are missing",
+                self.missing_total
+            ));
+        }
+        if !self.availability_problems.is_empty() {
+            problems.push("its availability could not be checked".to_string());
+        }
+        if let Some(f) = self.failed.as_ref().filter(|f| !f.is_empty()) {
+            problems.push(format!("{} of {} tiles failed", f.len(), self.tiles));
+        }
+        problems
     }
 }
 
@@ -541,13 +558,16 @@ mod tests {
         // The one stored tile, announced as often as allowed: nothing missing.
         let report = announce(vec![range(0); MAX_RANGES]);
         assert!(report.ok(), "{:?}", report.missing);
+        assert!(report.problems().is_empty());
         // A 2 × 2 range four times: three absent in each copy, listed once each copy.
         let report = announce(vec![range(1); 4]);
         assert_eq!(report.missing_total, 12);
+        assert_eq!(report.problems(), ["12 announced tiles are missing"]);
         // More ranges than an ingest writes: not checked, and said so.
         let report = announce(vec![range(0); MAX_RANGES + 1]);
         assert_eq!(report.availability_problems.len(), 1);
         assert!(!report.ok());
+        assert_eq!(report.problems(), ["its availability could not be checked"]);
     }
     /// Zoom rows give record bytes (each stream plus its 32 bytes of corners) and bits per
     /// coded sample from them; the totals add the rows up.
@@ -713,6 +733,8 @@ mod tests {
             w.add(id, [1e4; 4], &enc.bytes);
         }
         let r = verify_file("order", w.finish(&m).unwrap());
+        // Nothing is announced, so nothing is missing: the one problem is the failures.
+        assert_eq!(r.problems(), ["16 of 16 tiles failed"]);
         let listed: Vec<String> = r.failed.unwrap().into_iter().map(|f| f.tile).collect();
         let expected: Vec<String> = (0..16).map(|k| format!("2/{}/{}", k % 4, k / 4)).collect();
         assert_eq!(listed, expected);

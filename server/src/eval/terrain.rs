@@ -402,13 +402,13 @@ pub fn psnr(peak: f64, rmse: f64) -> Option<f64> {
 }
 
 /// The paper's Table 1 layout, for people.
-pub fn print_table(points: &[Point], full_triangles: Option<usize>) {
-    print!("{}", table(points, full_triangles));
+pub fn print_table(points: &[Point]) {
+    print!("{}", table(points));
 }
 
-/// [`print_table`]'s text. `remain` is each mesh's triangles as a share of
-/// `full_triangles` (the full-resolution mesh's), the paper's "remaining" column.
-pub fn table(points: &[Point], full_triangles: Option<usize>) -> String {
+/// [`print_table`]'s text. `remain` is each mesh's triangles as a share of the full grid's,
+/// 2 (rows − 1)(cols − 1), the paper's "remaining" column ("-" for a grid without cells).
+pub fn table(points: &[Point]) -> String {
     use std::fmt::Write as _;
     let mut out = String::new();
     if let Some(p) = points.first() {
@@ -431,9 +431,12 @@ pub fn table(points: &[Point], full_triangles: Option<usize>) -> String {
     );
     for p in points {
         let f = |v: Option<f64>| v.map_or("inf".to_string(), |v| format!("{v:.2}"));
-        let remain = full_triangles.map_or(String::from("-"), |n| {
-            format!("{:.1}%", 100.0 * p.mesh_triangles as f64 / n as f64)
-        });
+        let full = 2 * p.rows.saturating_sub(1) * p.cols.saturating_sub(1);
+        let remain = if full == 0 {
+            String::from("-")
+        } else {
+            format!("{:.1}%", 100.0 * p.mesh_triangles as f64 / full as f64)
+        };
         let _ = writeln!(
             out,
             "{:>10} {:>9} {:>9.3} {:>7.3} {:>9} {:>9.3} {:>9.3} {:>9} {:>10} {:>7} {:>6.2}ms",

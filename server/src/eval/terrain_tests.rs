@@ -269,8 +269,8 @@ fn a_window_with_no_data_is_refused_by_name() {
     );
 }
 
-/// Table 1's layout: "remain" is each mesh's share of the full-resolution mesh ("-" when
-/// that is unknown), and an exact PSNR prints as inf.
+/// Table 1's layout: "remain" is each mesh's share of the full grid's triangles ("-" for a
+/// grid without cells), and an exact PSNR prints as inf.
 #[test]
 fn the_table_gives_each_meshs_share_of_the_full_mesh() {
     let mut points = run(&n44(65, Sweep::Threshold(vec![4.0]))).unwrap();
@@ -279,7 +279,8 @@ fn the_table_gives_each_meshs_share_of_the_full_mesh() {
         let row = text.lines().nth(2).unwrap();
         row.split_whitespace().nth(i).unwrap().to_string()
     };
-    let text = table(&points, Some(8_192));
+    // 65 × 65 samples: 2 · 64 · 64 = 8192 triangles in the full grid.
+    let text = table(&points);
     let header = text.lines().nth(1).unwrap();
     assert_eq!(
         header.split_whitespace().rev().nth(1),
@@ -292,7 +293,10 @@ fn the_table_gives_each_meshs_share_of_the_full_mesh() {
     );
     assert_eq!(column(&text, 9), "25.0%", "{text}");
     assert_eq!(column(&text, 8), "2048", "{text}");
-    assert_eq!(column(&table(&points, None), 9), "-");
+    points[0].cols = 33;
+    assert_eq!(column(&table(&points), 9), "50.0%");
+    points[0].rows = 1;
+    assert_eq!(column(&table(&points), 9), "-");
     points[0].psnr_db = None;
-    assert_eq!(column(&table(&points, None), 4), "inf");
+    assert_eq!(column(&table(&points), 4), "inf");
 }
