@@ -23,7 +23,7 @@ use std::hint::black_box;
 
 use common::decode_and_mesh_at;
 use zerotile_codec::bintree::{self, Hierarchy, TileErrors, DECODE_SHARE};
-use zerotile_codec::ezw::{self, DecodeLimit};
+use zerotile_codec::ezw;
 
 fn main() {
     let iterations = common::iterations_arg();
@@ -41,8 +41,7 @@ fn main() {
                 );
                 continue;
             }
-            let limit = DecodeLimit::Threshold(budget * DECODE_SHARE);
-            let tolerance = budget * (1.0 - DECODE_SHARE);
+            let (limit, tolerance) = common::split(budget, DECODE_SHARE);
             let decode = || ezw::decode_heights(&bytes, limit, ezw::DEFAULT_MAX_SAMPLES);
             let decode_ms = common::median_ms(iterations, || {
                 black_box(decode().expect("decode"));

@@ -349,7 +349,7 @@ fn ingest_summary(
     m: &zerotile_codec::container::Metadata,
     secs: f64,
 ) -> String {
-    let tiles: u64 = m.available.iter().flatten().map(|a| a.tile_count()).sum();
+    let tiles: u128 = m.available.iter().flatten().map(|a| a.tile_count()).sum();
     format!(
         "{}: {tiles} tiles, zooms {}..={}, {} stream bytes ({:.3} bits/sample), {secs:.1} s",
         path.display(),

@@ -134,52 +134,36 @@ fn eval_terrain_takes_each_sweep_with_its_defaults() {
 
 #[test]
 fn eval_terrain_refuses_values_no_run_could_use() {
+    // Flags as typed, split at spaces.
     for (args, want) in [
-        (vec!["--max-error", "0"], "--max-error: bounds must be > 0"),
+        ("--max-error 0", "--max-error: bounds must be > 0"),
+        ("--max-error 2,0", "--max-error: bounds must be > 0"),
+        ("--threshold 1,x", "--threshold: 'x' is not a number"),
+        ("--bpp=0.5,-1", "--bpp: '-1' must be finite"),
+        ("--lossless --step 0", "--step must be finite and > 0"),
+        ("--lossless --step=-1", "--step must be finite and > 0"),
+        ("--lossless --step inf", "--step must be finite and > 0"),
         (
-            vec!["--max-error", "2,0"],
-            "--max-error: bounds must be > 0",
-        ),
-        (
-            vec!["--threshold", "1,x"],
-            "--threshold: 'x' is not a number",
-        ),
-        (vec!["--bpp=0.5,-1"], "--bpp: '-1' must be finite"),
-        (
-            vec!["--lossless", "--step", "0"],
-            "--step must be finite and > 0",
-        ),
-        (
-            vec!["--lossless", "--step=-1"],
-            "--step must be finite and > 0",
-        ),
-        (
-            vec!["--lossless", "--step", "inf"],
-            "--step must be finite and > 0",
-        ),
-        (
-            vec!["--lossless", "--decode-share", "0"],
+            "--lossless --decode-share 0",
             "--decode-share must be in (0, 1)",
         ),
         (
-            vec!["--lossless", "--decode-share", "1"],
+            "--lossless --decode-share 1",
             "--decode-share must be in (0, 1)",
         ),
         (
-            vec!["--lossless", "--decode-share", "NaN"],
+            "--lossless --decode-share NaN",
             "--decode-share must be in (0, 1)",
         ),
         (
-            vec!["--lossless", "--encoding", "gray"],
+            "--lossless --encoding gray",
             "--encoding gray: applies to .png",
         ),
-        (
-            vec!["--lossless", "--key", "dem"],
-            "--key dem: applies to .npz",
-        ),
+        ("--lossless --key dem", "--key dem: applies to .npz"),
     ] {
-        let msg = refusal(terrain_eval(terrain_args(&args)));
-        assert!(msg.contains(want), "{args:?}: {msg}");
+        let argv: Vec<&str> = args.split(' ').collect();
+        let msg = refusal(terrain_eval(terrain_args(&argv)));
+        assert!(msg.contains(want), "{args}: {msg}");
     }
 }
 

@@ -2,8 +2,26 @@
 
 #![cfg(test)]
 
+use std::path::PathBuf;
+
 use zerotile_codec::container::{Availability, Metadata, ViewParams};
 use zerotile_codec::wavelet::Wavelet;
+
+/// A file under `../shared/data` beside the repository (read in place, never copied).
+pub fn shared_data(rel: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/data")
+        .join(rel)
+}
+
+/// A fresh, empty folder under the temp dir for the test `name` (the process id keeps
+/// parallel runs apart; a leftover of an earlier run with the same id is removed).
+pub fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("zerotile-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
 
 /// The metadata of a one-tile local 257² dataset named `t` (1-unit steps, heights 0–512)
 /// whose streams total `stream_bytes`.

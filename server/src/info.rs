@@ -211,9 +211,7 @@ fn absent(d: &Dataset) -> Absent {
             let inside = |&(x, y): &(u32, u32)| {
                 (r.start_x..=r.end_x).contains(&x) && (r.start_y..=r.end_y).contains(&y)
             };
-            let area =
-                (u128::from(r.end_x - r.start_x) + 1) * (u128::from(r.end_y - r.start_y) + 1);
-            let gap = area - here.iter().filter(|t| inside(t)).count() as u128;
+            let gap = r.tile_count() - here.iter().filter(|t| inside(t)).count() as u128;
             out.total = out
                 .total
                 .saturating_add(u64::try_from(gap).unwrap_or(u64::MAX));

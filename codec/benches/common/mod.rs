@@ -86,11 +86,19 @@ pub fn decode_and_mesh_at(
     budget: f64,
     share: f64,
 ) -> TerrainMesh {
-    let limit = DecodeLimit::Threshold(budget * share);
+    let (limit, tolerance) = split(budget, share);
     let d = ezw::decode_heights(bytes, limit, ezw::DEFAULT_MAX_SAMPLES).expect("decode");
-    let tolerance = budget * (1.0 - share);
     let errors = TileErrors::exact_above(hierarchy, &d.heights, tolerance);
     bintree::extract(hierarchy, &errors, &d.heights, tolerance, None)
+}
+
+/// The server's split of budget T: read the stream to T · `share`, mesh within
+/// T · (1 − `share`).
+pub fn split(budget: f64, share: f64) -> (DecodeLimit, f64) {
+    (
+        DecodeLimit::Threshold(budget * share),
+        budget * (1.0 - share),
+    )
 }
 
 /// A bench binary's timed runs per case: its first argument that is not a flag (cargo bench

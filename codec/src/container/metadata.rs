@@ -63,11 +63,11 @@ pub struct Availability {
 }
 
 impl Availability {
-    /// Tiles in the rectangle; 0 for an inverted one (a hand-edited header), not an
-    /// underflow, and saturated for the one rectangle whose count needs 65 bits.
-    pub fn tile_count(&self) -> u64 {
-        let side = |start: u32, end: u32| end.checked_sub(start).map_or(0, |d| u64::from(d) + 1);
-        side(self.start_x, self.end_x).saturating_mul(side(self.start_y, self.end_y))
+    /// Tiles in the rectangle, exactly (the whole u32 square holds 2^64, one more than a
+    /// u64); 0 for an inverted one (a hand-edited header), not an underflow.
+    pub fn tile_count(&self) -> u128 {
+        let side = |start: u32, end: u32| end.checked_sub(start).map_or(0, |d| u128::from(d) + 1);
+        side(self.start_x, self.end_x) * side(self.start_y, self.end_y)
     }
 }
 
@@ -87,7 +87,7 @@ mod tests {
         assert_eq!(a(2, 5, 4, 5).tile_count(), 3);
         assert_eq!(a(1, 1, 2, 3).tile_count(), 6);
         assert_eq!(a(0, 0, u32::MAX, 0).tile_count(), 1 << 32);
-        assert_eq!(a(0, 0, u32::MAX, u32::MAX).tile_count(), u64::MAX);
+        assert_eq!(a(0, 0, u32::MAX, u32::MAX).tile_count(), 1 << 64);
         assert_eq!(a(3, 0, 2, 9).tile_count(), 0);
         assert_eq!(a(0, 4, 9, 3).tile_count(), 0);
     }

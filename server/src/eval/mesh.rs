@@ -221,7 +221,7 @@ pub fn subdivided_faces(faces: usize, times: u8, max: usize) -> Option<usize> {
         .filter(|&f| f <= max)
 }
 
-fn load(path: &Path, weld: bool) -> Result<TriMesh> {
+pub(super) fn load(path: &Path, weld: bool) -> Result<TriMesh> {
     let mut mesh = io::read_path(path, &MeshLimits::default())
         .with_context(|| format!("reading {}", path.display()))?;
     if weld {

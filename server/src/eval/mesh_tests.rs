@@ -7,18 +7,17 @@ use std::path::PathBuf;
 use zerotile_codec::mesh::curvature::PAPER_LEVELS;
 use zerotile_codec::mesh::io::{self, MeshLimits};
 use zerotile_codec::mesh::silhouette::ViewSphere;
-use zerotile_codec::mesh::{repair, OctreeLod, OctreeOptions};
+use zerotile_codec::mesh::{OctreeLod, OctreeOptions};
 
 use super::mesh::{
-    budget_note, evaluate, measure, subdivide, subdivided_faces, table, MeshArgs, MeshPoint,
+    budget_note, evaluate, load, measure, subdivide, subdivided_faces, table, MeshArgs, MeshPoint,
     Method, Param,
 };
 use crate::cli::SubdivideArgs;
+use crate::fixtures::scratch;
 
 fn shared_mesh(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared/data/meshes")
-        .join(name)
+    crate::fixtures::shared_data(&format!("meshes/{name}"))
 }
 
 /// One run on `name` with `method` and no amount: each test sets the one it needs. Few
@@ -38,14 +37,6 @@ fn args(name: &str, method: Method) -> MeshArgs {
         eye: None,
         target: None,
     }
-}
-
-/// An empty scratch folder for one test (the process id keeps parallel runs apart).
-fn scratch(tag: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("zerotile-evalmesh-{}-{tag}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
 }
 
 fn faces(name: &str, method: Method, n: usize) -> MeshArgs {
@@ -68,8 +59,7 @@ fn error_of(a: &MeshArgs) -> String {
 
 /// The input as `eval mesh` measures it: read and repaired.
 fn repaired(name: &str) -> zerotile_codec::mesh::TriMesh {
-    let mesh = io::read_path(&shared_mesh(name), &MeshLimits::default()).unwrap();
-    repair(&mesh).unwrap().0
+    load(&shared_mesh(name), false).unwrap()
 }
 
 #[test]
@@ -308,7 +298,7 @@ fn weld_merges_seam_vertices_before_the_simplifier_sees_them() {
 /// `--out` writes the mesh the point measured, and a bad path or input names itself.
 #[test]
 fn out_writes_the_measured_mesh_and_errors_name_the_file() {
-    let dir = scratch("out");
+    let dir = scratch("evalmesh-out");
     let out = dir.join("lod.obj");
     let p = evaluate(&MeshArgs {
         out: Some(out.clone()),
@@ -341,7 +331,7 @@ fn out_writes_the_measured_mesh_and_errors_name_the_file() {
 /// `subdivide` refuses a run that would pass the face limit before doing any of it.
 #[test]
 fn subdivide_refuses_beyond_the_face_limit_and_writes_four_times_the_faces_a_step() {
-    let dir = scratch("subdivide");
+    let dir = scratch("evalmesh-subdivide");
     let output = dir.join("fine.obj");
     let input = repaired("npm-bunny.obj");
     subdivide(&SubdivideArgs {

@@ -2,8 +2,6 @@
 //! `../shared/data` (read in place): the benchmark scripts and the README tables take
 //! these numbers as given, so each is recomputed here independently of the sweep.
 
-use std::path::PathBuf;
-
 use zerotile_codec::raster::{self, ReadOptions};
 use zerotile_codec::wavelet::Wavelet;
 use zerotile_codec::Grid;
@@ -13,12 +11,7 @@ use super::terrain::{
     check_rates, errors, is_8bit, load, parse_crop, psnr, run, table, Point, Sweep, TerrainEval,
     DECODE_SHARE,
 };
-
-fn shared_data(rel: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared/data")
-        .join(rel)
-}
+use crate::fixtures::shared_data;
 
 /// A sweep over a `size`² window of N44W072 at (300, 500), with every default.
 fn n44(size: usize, sweep: Sweep) -> TerrainEval {

@@ -273,9 +273,7 @@ mod tests {
     const TRI: &[u8] = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
 
     fn scratch(tag: &str) -> PathBuf {
-        let dir =
-            std::env::temp_dir().join(format!("zerotile-meshcat-{}-{tag}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
+        let dir = crate::fixtures::scratch(&format!("meshcat-{tag}"));
         std::fs::create_dir_all(dir.join(MESH_DIR)).unwrap();
         dir
     }

@@ -69,9 +69,7 @@ fn hill_file_with(
     tiles: &[TileId],
     edit: impl FnOnce(&mut Metadata),
 ) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("zerotile-router-{}-{tag}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = crate::fixtures::scratch(&format!("router-{tag}"));
     let g = Grid::new(
         257,
         257,
