@@ -2,7 +2,8 @@
 
 use std::process::Command;
 
-use zerotile_tests::{run_ok, shared_data, zerotile_bin};
+use zerotile_tests::server::Server;
+use zerotile_tests::{fresh_dir, run_ok, shared_data, tools_ready, zerotile_bin};
 
 #[test]
 fn help_lists_the_commands() {
@@ -341,4 +342,121 @@ fn lossless_on_float_heights_points_to_max_error() {
     );
     assert!(err.contains("--max-error 0.005"), "{err}");
     assert!(!err.contains("internal error"), "{err}");
+}
+
+/// The README's first command: `serve` with no `--data` fills in what `./data` lacks (the
+/// terrain dataset and the object meshes, each only when missing), says what it built, and
+/// serves it.
+#[test]
+fn serve_without_data_fills_in_only_what_data_lacks() {
+    let cwd = fresh_dir("cli-serve-default");
+    let data = cwd.join("data");
+    let serve = |said: Option<&str>| {
+        let server = Server::start_default(&cwd);
+        let log = server.log_text();
+        let lines: Vec<&str> = log
+            .lines()
+            .filter(|l| l.contains("generated the default data"))
+            .collect();
+        match said {
+            Some(what) => assert_eq!(
+                lines,
+                [format!(
+                    "zerotile: generated the default data in data ({what})"
+                )],
+                "{log}"
+            ),
+            None => assert!(lines.is_empty(), "{log}"),
+        }
+        let datasets = server.get("/v1/datasets", &[]).json();
+        let names: Vec<&str> = datasets["datasets"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|d| d["name"].as_str().unwrap())
+            .collect();
+        assert_eq!(names, ["demo-ridges"]);
+        let meshes = server.get("/v1/meshes", &[]).json();
+        assert_eq!(meshes["meshes"].as_array().unwrap().len(), 3, "{meshes}");
+    };
+    serve(Some("1 dataset, 3 meshes"));
+    serve(None);
+    std::fs::remove_dir_all(data.join("meshes")).unwrap();
+    serve(Some("no dataset, 3 meshes"));
+    std::fs::remove_file(data.join("demo-ridges.ztd")).unwrap();
+    serve(Some("1 dataset, 0 meshes"));
+    let _ = std::fs::remove_dir_all(&cwd);
+}
+
+/// What a progress test lacks: `script` (util-linux), which runs a command on a terminal.
+fn script_missing() -> Vec<String> {
+    match Command::new("script").arg("--version").output() {
+        Ok(_) => Vec::new(),
+        Err(_) => vec!["script (util-linux, Debian's bsdutils)".to_string()],
+    }
+}
+
+/// Long commands draw a progress bar on a terminal, and `--quiet` (or `info --json`) hides
+/// it. Each command runs under `script`, on a pseudo-terminal: off a terminal the bars never
+/// draw, so a test without one could not tell `--quiet` from its absence.
+#[test]
+fn progress_bars_draw_on_a_terminal_unless_quiet() {
+    if !tools_ready("the progress bar test", &script_missing()) {
+        return;
+    }
+    let dir = fresh_dir("cli-progress");
+    let bin = zerotile_bin();
+    let on_terminal = |args: &str| -> String {
+        let line = format!("'{}' {args} --data '{}'", bin.display(), dir.display());
+        // -e: script exits with the command's status.
+        let out = Command::new("script")
+            .args(["-qec", &line, "/dev/null"])
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&out.stdout).into_owned();
+        assert!(out.status.success(), "{line}: {text}");
+        text
+    };
+    // The bar's template is "VERB {bar} POS/LEN tiles": the verb, then the bar's glyphs.
+    let drew = |text: &str, verb: &str| {
+        ['█', '░']
+            .iter()
+            .any(|g| text.contains(&format!("{verb} {g}")))
+    };
+    let hgt = shared_data().join("dem/N44W072.hgt");
+    let exports = [dir.join("tree"), dir.join("tree-quiet")];
+    let cases = [
+        (
+            format!(
+                "ingest '{}' --name n44 --scheme geodetic --max-zoom 8",
+                hgt.display()
+            ),
+            None,
+            "encoding",
+        ),
+        ("info n44 --verify".to_string(), None, "verifying"),
+        (
+            "export n44 --zoom 0-8".to_string(),
+            Some(&exports),
+            "exporting",
+        ),
+        ("demo-data --force".to_string(), None, "encoding"),
+    ];
+    for (command, out, verb) in cases {
+        let (loud, quiet) = match out {
+            Some([a, b]) => (
+                format!("{command} --out '{}'", a.display()),
+                format!("{command} --out '{}' --quiet", b.display()),
+            ),
+            None => (command.clone(), format!("{command} --quiet")),
+        };
+        let text = on_terminal(&loud);
+        assert!(drew(&text, verb), "{loud}: no {verb} bar in {text:?}");
+        let text = on_terminal(&quiet);
+        assert!(!drew(&text, verb), "{quiet}: a {verb} bar in {text:?}");
+    }
+    let text = on_terminal("info n44 --verify --json");
+    assert!(!drew(&text, "verifying"), "info --json: a bar in {text:?}");
+    assert!(text.contains("\"tiles\""), "{text}");
+    let _ = std::fs::remove_dir_all(&dir);
 }

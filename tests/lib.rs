@@ -65,9 +65,7 @@ pub fn node_missing(package: &str) -> Vec<String> {
 /// A fresh data folder for the client tests: the default data (geodetic demo-ridges and
 /// the object meshes) and N44W072 on the mercator grid as `n44m` (zooms to 10).
 pub fn client_data(tag: &str) -> PathBuf {
-    let data = std::env::temp_dir().join(format!("zerotile-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&data);
-    std::fs::create_dir_all(&data).expect("a temporary folder");
+    let data = fresh_dir(tag);
     run_in(&["demo-data", "--quiet"], &data);
     let hgt = shared_data().join("dem/N44W072.hgt");
     let mut ingest = ingest_command(
@@ -78,6 +76,14 @@ pub fn client_data(tag: &str) -> PathBuf {
     );
     run_ok(&mut ingest);
     data
+}
+
+/// A fresh, empty folder for one test: `TMP/zerotile-TAG-PID`.
+pub fn fresh_dir(tag: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("zerotile-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("a temporary folder");
+    dir
 }
 
 /// `zerotile ARGS --data DATA`, which must succeed.

@@ -31,14 +31,28 @@ impl Server {
 
     /// Serves `data` (a folder or a store URL) with extra environment variables.
     pub fn start_with(data: &std::ffi::OsStr, env: &[(&str, &str)]) -> Self {
+        let mut cmd = Command::new(zerotile_bin());
+        cmd.args(["serve", "--addr", "127.0.0.1:0", "--data"])
+            .arg(data)
+            .envs(env.iter().copied());
+        Self::spawn(cmd)
+    }
+
+    /// `zerotile serve` with no `--data`, run in `cwd`: the README's first command, which
+    /// serves (and first fills in) `cwd/data`.
+    pub fn start_default(cwd: &Path) -> Self {
+        let mut cmd = Command::new(zerotile_bin());
+        cmd.args(["serve", "--addr", "127.0.0.1:0"])
+            .current_dir(cwd);
+        Self::spawn(cmd)
+    }
+
+    fn spawn(mut cmd: Command) -> Self {
         static STARTED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
         let n = STARTED.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let log =
             std::env::temp_dir().join(format!("zerotile-serve-{}-{n}.log", std::process::id()));
-        let mut child = Command::new(zerotile_bin())
-            .args(["serve", "--addr", "127.0.0.1:0", "--data"])
-            .arg(data)
-            .envs(env.iter().copied())
+        let mut child = cmd
             .stdout(Stdio::piped())
             .stderr(std::fs::File::create(&log).unwrap())
             .spawn()
@@ -61,6 +75,11 @@ impl Server {
             log,
             warnings_expected: false,
         }
+    }
+
+    /// What the server has written to stderr so far (its log, and what it says at start).
+    pub fn log_text(&self) -> String {
+        std::fs::read_to_string(&self.log).unwrap_or_default()
     }
 
     /// `http://127.0.0.1:PORT`, without a trailing slash: for clients outside this process.
