@@ -159,6 +159,8 @@ pub fn resample(heights: &Grid<f64>, size: u32) -> Result<Grid<f64>, TerrainRgbE
                     return (0, 0, 0.0);
                 }
                 let g = (i as f64 + 0.5) * (samples - 1) as f64 / n as f64;
+                // g < samples − 1 for every centre, so the min only guards i0 + 1 against
+                // rounding: it never binds (a mutation to `+ 2` changes nothing).
                 let i0 = (g.floor() as usize).min(samples - 2);
                 (i0, i0 + 1, g - i0 as f64)
             })
@@ -396,6 +398,22 @@ mod tests {
                 .fold(0.0, f64::max);
             assert!(worst <= 1.0 / 512.0 + 1e-9);
         }
+        // Off a plane the taps themselves show: each pixel is the chord of h = col² between
+        // the two samples around its centre (a wrong pair would extrapolate another chord,
+        // which on a plane gives the same value).
+        let bent = Grid::new(
+            257,
+            257,
+            (0..257 * 257).map(|k| ((k % 257) as f64).powi(2)).collect(),
+        )
+        .unwrap();
+        let out = resample(&bent, 100).unwrap();
+        for j in 0..100 {
+            let g = (j as f64 + 0.5) * 256.0 / 100.0;
+            let c0 = g.floor();
+            let want = c0 * c0 + (g - c0) * (2.0 * c0 + 1.0);
+            assert!((out.get(50, j) - want).abs() < 1e-6, "pixel {j}");
+        }
         // A single sample fills the tile.
         let one = resample(&Grid::new(1, 1, vec![5.0]).unwrap(), 4).unwrap();
         assert!(one.data().iter().all(|&h| h == 5.0));
@@ -439,6 +457,23 @@ mod tests {
             decode(&png, Encoding::TerrainRgb, 3),
             Err(TerrainRgbError::Limit { .. })
         ));
+        // The limit counts pixels (width × height), and a PNG of exactly the limit decodes.
+        let wide = encode(
+            &Grid::new(3, 5, vec![1.0; 15]).unwrap(),
+            &RgbOptions::new(Encoding::TerrainRgb),
+        )
+        .unwrap();
+        assert_eq!(decode(&wide, Encoding::TerrainRgb, 15).unwrap().len(), 15);
+        for max_pixels in [14, 10] {
+            assert!(matches!(
+                decode(&wide, Encoding::TerrainRgb, max_pixels),
+                Err(TerrainRgbError::Limit {
+                    width: 5,
+                    height: 3,
+                    ..
+                })
+            ));
+        }
         // Cuts into the header or the image data (a clipped IEND trailer still decodes).
         for cut in [0, 8, 20, png.len() / 2] {
             assert!(
