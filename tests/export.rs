@@ -10,14 +10,7 @@ use std::process::Command;
 use zerotile_codec::container::{Container, Limits};
 use zerotile_codec::formats::quantized_mesh;
 use zerotile_tests::server::Server;
-use zerotile_tests::{assert_success, shared_data, zerotile_bin};
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("zerotile-export-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+use zerotile_tests::{assert_success, fresh_dir, shared_data, zerotile_bin};
 
 fn zerotile(args: &[&str], dir: &Path) -> std::process::Output {
     Command::new(zerotile_bin())
@@ -46,7 +39,7 @@ fn files(dir: &Path, ext: &str) -> Vec<PathBuf> {
 
 #[test]
 fn a_static_tree_holds_what_the_server_serves() {
-    let dir = scratch("tree");
+    let dir = fresh_dir("export-tree");
     let hgt = shared_data().join("dem/N44W072.hgt");
     let hgt = hgt.to_str().unwrap();
     let out = zerotile(
@@ -136,7 +129,7 @@ fn a_static_tree_holds_what_the_server_serves() {
 
 #[test]
 fn a_failed_export_leaves_the_previous_tree_and_says_why() {
-    let dir = scratch("atomic");
+    let dir = fresh_dir("export-atomic");
     let tif = shared_data().join("dem/terra_elev.tif");
     let tif = tif.to_str().unwrap();
     assert!(zerotile(
@@ -212,7 +205,7 @@ fn a_failed_export_leaves_the_previous_tree_and_says_why() {
 /// of the user's files and a plain file are refused untouched, with exit 1.
 #[test]
 fn export_refuses_to_replace_what_is_not_an_export() {
-    let dir = scratch("refuse");
+    let dir = fresh_dir("export-refuse");
     let tif = shared_data().join("dem/terra_elev.tif");
     let tif = tif.to_str().unwrap();
     assert_success(&zerotile(
@@ -281,7 +274,7 @@ fn assert_no_temporary_folders(dir: &Path) {
 /// it lists, and a static host answers 404 for the ones left out.
 #[test]
 fn a_partial_export_lists_only_its_zooms() {
-    let dir = scratch("partial");
+    let dir = fresh_dir("export-partial");
     let hgt = shared_data().join("dem/N44W072.hgt");
     assert_success(&zerotile(
         &[
@@ -331,7 +324,7 @@ fn a_partial_export_lists_only_its_zooms() {
 /// export is refused before any work.
 #[test]
 fn a_png_export_with_a_base_url_writes_tilejson() {
-    let dir = scratch("tilejson");
+    let dir = fresh_dir("export-tilejson");
     let hgt = shared_data().join("dem/N44W072.hgt");
     let hgt = hgt.to_str().unwrap();
     for (name, scheme) in [("m", "mercator"), ("g", "geodetic")] {
@@ -479,7 +472,7 @@ fn a_png_export_with_a_base_url_writes_tilejson() {
 /// meshes export as one file per stored tile and no layer.json (a CesiumJS manifest).
 #[test]
 fn a_local_dataset_exports_meshes_and_refuses_quantized_mesh() {
-    let dir = scratch("local");
+    let dir = fresh_dir("export-local");
     let tif = shared_data().join("dem/terra_elev.tif");
     let tif = tif.to_str().unwrap();
     assert_success(&zerotile(
@@ -515,7 +508,7 @@ fn a_local_dataset_exports_meshes_and_refuses_quantized_mesh() {
 /// A mercator png tree without --base-url has no tiles.json, and the export says how to get one.
 #[test]
 fn a_mercator_png_export_without_a_base_url_says_it_wrote_no_tilejson() {
-    let dir = scratch("no-tilejson");
+    let dir = fresh_dir("export-no-tilejson");
     let tif = shared_data().join("dem/terra_elev.tif");
     let tif = tif.to_str().unwrap();
     let ingest = [

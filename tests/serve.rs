@@ -23,7 +23,7 @@ use zerotile_codec::wavelet::Wavelet;
 use zerotile_codec::zerotree::{mesh_error, TerrainMesh};
 use zerotile_codec::Grid;
 use zerotile_tests::server::Server;
-use zerotile_tests::{ingest_command, qm, run_ok, shared_data, zerotile_bin};
+use zerotile_tests::{fresh_dir, ingest_command, qm, run_ok, shared_data, zerotile_bin};
 
 /// Top-left sample of the crop in N44W072 and its side: 2 × 2 tiles of 257 samples.
 const CROP: (usize, usize, usize) = (300, 400, 513);
@@ -42,20 +42,13 @@ fn crop() -> Grid<f64> {
     n44w072().crop(r, c, n, n).unwrap()
 }
 
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("zerotile-serve-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
 /// The data folder, built once per test run: `crop` (local scheme) and `srtm` (geodetic)
 /// ingested by the real binary, and `world`, `half` and `merc`, containers of real root
 /// tiles written with the codec (for root-tile cases a real ingest never produces).
 fn data_dir() -> &'static Path {
     static DIR: OnceLock<PathBuf> = OnceLock::new();
     DIR.get_or_init(|| {
-        let dir = scratch("data");
+        let dir = fresh_dir("serve-data");
         // An ESRI ASCII grid of the crop: what a user would hand to ingest.
         let g = crop();
         let asc = dir.join("crop.asc");
@@ -609,7 +602,7 @@ fn bad_requests_are_4xx_json() {
 
 #[test]
 fn a_corrupt_dataset_is_skipped_and_the_others_serve() {
-    let dir = scratch("corrupt");
+    let dir = fresh_dir("serve-corrupt");
     std::fs::copy(data_dir().join("crop.ztd"), dir.join("good.ztd")).unwrap();
     let mut bad = std::fs::read(data_dir().join("crop.ztd")).unwrap();
     bad[30] ^= 0xff; // inside the header: its CRC fails
@@ -887,7 +880,7 @@ fn sigterm_drains_and_exits_cleanly() {
 
 #[test]
 fn a_corrupt_tile_fails_alone() {
-    let dir = scratch("corrupt-tile");
+    let dir = fresh_dir("serve-corrupt-tile");
     let mut bytes = std::fs::read(data_dir().join("crop.ztd")).unwrap();
     let c = Container::parse(&bytes, &Limits::default()).unwrap();
     let e = c.entry(TileId { z: 1, x: 1, y: 1 }).unwrap();

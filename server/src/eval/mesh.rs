@@ -214,7 +214,7 @@ pub fn subdivide(args: &crate::cli::SubdivideArgs) -> Result<()> {
 }
 
 /// The faces of `faces` Loop-subdivided `times` times (4× a step), if at most `max`.
-pub fn subdivided_faces(faces: usize, times: u8, max: usize) -> Option<usize> {
+pub(super) fn subdivided_faces(faces: usize, times: u8, max: usize) -> Option<usize> {
     4usize
         .checked_pow(u32::from(times))
         .and_then(|f| f.checked_mul(faces))
