@@ -158,6 +158,11 @@ async fn send(
     (parts.status, parts.headers, bytes)
 }
 
+/// A GET without extra headers, the common case.
+async fn get(app: &Router, uri: &str) -> (StatusCode, axum::http::HeaderMap, Vec<u8>) {
+    send(app, Method::GET, uri, &[]).await
+}
+
 fn error_code(body: &[u8]) -> String {
     let v: serde_json::Value = serde_json::from_slice(body).unwrap();
     assert!(v["message"].as_str().is_some_and(|m| !m.is_empty()));
@@ -167,13 +172,7 @@ fn error_code(body: &[u8]) -> String {
 #[tokio::test]
 async fn tiles_carry_threshold_triangles_and_cache_headers() {
     let app = router("headers");
-    let (s, h, body) = send(
-        &app,
-        Method::GET,
-        "/v1/datasets/hill/tiles/0/0/0.bin?threshold=2",
-        &[],
-    )
-    .await;
+    let (s, h, body) = get(&app, "/v1/datasets/hill/tiles/0/0/0.bin?threshold=2").await;
     assert_eq!(s, StatusCode::OK);
     assert_eq!(h[header::CONTENT_TYPE], "application/vnd.zerotile.ztm1");
     assert_eq!(h["x-threshold"], "2");
@@ -196,7 +195,7 @@ async fn tiles_carry_threshold_triangles_and_cache_headers() {
     assert_eq!(h[header::ETAG].to_str().unwrap(), etag);
 
     // The default threshold is the zoom's geometric error, capped at the relief.
-    let (_, h, _) = send(&app, Method::GET, "/v1/datasets/hill/tiles/0/0/0.json", &[]).await;
+    let (_, h, _) = get(&app, "/v1/datasets/hill/tiles/0/0/0.json").await;
     let t: f64 = h["x-threshold"].to_str().unwrap().parse().unwrap();
     assert!(t > 0.0 && t <= 80.0, "{t}");
 }
@@ -205,24 +204,12 @@ async fn tiles_carry_threshold_triangles_and_cache_headers() {
 async fn default_threshold_is_the_geometric_error_capped_at_the_relief() {
     // Local 257² grid, one zoom: Cesium's 0.25 · 256 samples / 65, below the 80 m relief.
     let local = router("default-t");
-    let (_, h, _) = send(
-        &local,
-        Method::GET,
-        "/v1/datasets/hill/tiles/0/0/0.json",
-        &[],
-    )
-    .await;
+    let (_, h, _) = get(&local, "/v1/datasets/hill/tiles/0/0/0.json").await;
     let t: f64 = h["x-threshold"].to_str().unwrap().parse().unwrap();
     assert!((t - 0.25 * 256.0 / 65.0).abs() < 1e-12, "{t}");
     // A geodetic root: ~77 km of geometric error, capped at the relief (140 - 60 m).
     let geodetic = router_of("default-geo", "geodetic");
-    let (s, h, _) = send(
-        &geodetic,
-        Method::GET,
-        "/v1/datasets/hill/tiles/0/0/0.json",
-        &[],
-    )
-    .await;
+    let (s, h, _) = get(&geodetic, "/v1/datasets/hill/tiles/0/0/0.json").await;
     assert_eq!(s, StatusCode::OK);
     assert_eq!(h["x-threshold"], "80");
 }
@@ -294,11 +281,11 @@ async fn tile_addresses_are_canonical_and_zooms_checked_against_the_dataset() {
         "/v1/datasets/hill/tiles/0/0/+0.png",
         "/v1/datasets/hill/tiles/0/-0/0.png",
     ] {
-        let (s, _, body) = send(&app, Method::GET, uri, &[]).await;
+        let (s, _, body) = get(&app, uri).await;
         assert_eq!(s, StatusCode::BAD_REQUEST, "{uri}");
         assert_eq!(error_code(&body), "bad_tile_address", "{uri}");
     }
-    let (s, _, body) = send(&app, Method::GET, "/v1/datasets/hill/tiles/1/0/0.png", &[]).await;
+    let (s, _, body) = get(&app, "/v1/datasets/hill/tiles/1/0/0.png").await;
     assert_eq!(s, StatusCode::NOT_FOUND);
     let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
     assert_eq!(v["error"], "tile_not_found");
@@ -308,21 +295,9 @@ async fn tile_addresses_are_canonical_and_zooms_checked_against_the_dataset() {
 #[tokio::test]
 async fn metrics_count_by_route_template() {
     let app = router("metrics");
-    send(
-        &app,
-        Method::GET,
-        "/v1/datasets/hill/tiles/0/0/0.png?threshold=4",
-        &[],
-    )
-    .await;
-    send(
-        &app,
-        Method::GET,
-        "/v1/datasets/hill/tiles/0/0/0.png?threshold=4",
-        &[],
-    )
-    .await;
-    let (_, _, body) = send(&app, Method::GET, "/metrics", &[]).await;
+    get(&app, "/v1/datasets/hill/tiles/0/0/0.png?threshold=4").await;
+    get(&app, "/v1/datasets/hill/tiles/0/0/0.png?threshold=4").await;
+    let (_, _, body) = get(&app, "/metrics").await;
     let text = String::from_utf8(body).unwrap();
     assert!(
         text.contains(
@@ -343,10 +318,10 @@ async fn metrics_count_by_route_template() {
 async fn unmatched_requests_share_one_label() {
     let app = router("metrics-unmatched");
     for uri in ["/no/such/path", "/wp-login.php", "/v2/anything"] {
-        let (s, _, _) = send(&app, Method::GET, uri, &[]).await;
+        let (s, _, _) = get(&app, uri).await;
         assert_eq!(s, StatusCode::NOT_FOUND, "{uri}");
     }
-    let (_, _, body) = send(&app, Method::GET, "/metrics", &[]).await;
+    let (_, _, body) = get(&app, "/metrics").await;
     let text = String::from_utf8(body).unwrap();
     assert!(
         text.contains("zerotile_requests_total{route=\"unmatched\",status=\"404\"} 3"),
@@ -363,7 +338,7 @@ async fn errors_made_by_layers_become_json_too() {
             axum::routing::get(|| async { StatusCode::SERVICE_UNAVAILABLE }),
         )
         .layer(axum::middleware::from_fn(super::error::json_errors));
-    let (s, h, body) = send(&app, Method::GET, "/slow", &[]).await;
+    let (s, h, body) = get(&app, "/slow").await;
     assert_eq!(s, StatusCode::SERVICE_UNAVAILABLE);
     assert_eq!(h[header::CONTENT_TYPE], "application/json");
     assert_eq!(error_code(&body), "unavailable");
@@ -573,7 +548,7 @@ async fn dropping_a_request_stops_its_decode_work() {
     let app = app(state.clone());
     // The finest threshold: every pass decoded, milliseconds a tile.
     let uri = format!("/v1/datasets/{name}/tiles/2/1/1.terrain?threshold=0.01");
-    let req = tokio::spawn(async move { send(&app, Method::GET, &uri, &[]).await });
+    let req = tokio::spawn(async move { get(&app, &uri).await });
     let metrics = state.metrics.clone();
     let started = std::time::Instant::now();
     while metrics.tiles_decoded.load(Relaxed) == 0 {
@@ -832,7 +807,7 @@ async fn tilejson_urls_follow_the_configured_origin() {
 
 /// `layer.json`'s availability, level by level, as (startX, startY, endX, endY).
 async fn layer_availability(app: &Router) -> Vec<Vec<[u64; 4]>> {
-    let (s, _, body) = send(app, Method::GET, "/v1/datasets/hill/layer.json", &[]).await;
+    let (s, _, body) = get(app, "/v1/datasets/hill/layer.json").await;
     assert_eq!(s, StatusCode::OK, "{}", String::from_utf8_lossy(&body));
     let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
     let corner = |r: &serde_json::Value, k: &str| r[k].as_u64().unwrap();
@@ -902,7 +877,7 @@ async fn describe_lists_the_formats_and_manifests_the_scheme_allows() {
         ("mercator", true, true, true),
     ] {
         let app = router_of(&format!("describe-{scheme}"), scheme);
-        let (s, _, body) = send(&app, Method::GET, "/v1/datasets/hill", &[]).await;
+        let (s, _, body) = get(&app, "/v1/datasets/hill").await;
         assert_eq!(s, StatusCode::OK, "{scheme}");
         let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
         let formats: Vec<&str> = v["formats"]
@@ -977,7 +952,7 @@ async fn every_format_answers_with_its_media_type_and_magic() {
     ];
     for (ext, media, magic) in cases {
         let uri = format!("/v1/datasets/hill/tiles/0/0/0.{ext}?threshold=4");
-        let (s, h, body) = send(&local, Method::GET, &uri, &[]).await;
+        let (s, h, body) = get(&local, &uri).await;
         assert_eq!(
             s,
             StatusCode::OK,
@@ -1000,12 +975,12 @@ async fn every_format_answers_with_its_media_type_and_magic() {
 
     let geo = router_of("formats-geodetic", "geodetic");
     let uri = "/v1/datasets/hill/tiles/0/0/0.terrain?threshold=4";
-    let (s, h, _) = send(&geo, Method::GET, uri, &[]).await;
+    let (s, h, _) = get(&geo, uri).await;
     assert_eq!(s, StatusCode::OK);
     assert_eq!(h[header::CONTENT_TYPE], "application/vnd.quantized-mesh");
     // Extensions asked for are named in the media type, as CesiumJS checks.
     let uri = "/v1/datasets/hill/tiles/0/0/0.terrain?threshold=4&extensions=octvertexnormals";
-    let (s, h, _) = send(&geo, Method::GET, uri, &[]).await;
+    let (s, h, _) = get(&geo, uri).await;
     assert_eq!(s, StatusCode::OK);
     assert_eq!(
         h[header::CONTENT_TYPE],
@@ -1019,7 +994,7 @@ async fn every_format_answers_with_its_media_type_and_magic() {
 async fn only_stream_prefixes_are_ranged() {
     let app = router("ranges");
     let ezw = "/v1/datasets/hill/tiles/0/0/0.ezw?threshold=4";
-    let (_, _, whole) = send(&app, Method::GET, ezw, &[]).await;
+    let (_, _, whole) = get(&app, ezw).await;
     let len = whole.len();
     let (s, h, part) = send(&app, Method::GET, ezw, &[("range", "bytes=2-9")]).await;
     assert_eq!(s, StatusCode::PARTIAL_CONTENT);
@@ -1035,7 +1010,7 @@ async fn only_stream_prefixes_are_ranged() {
     assert_eq!(error_code(&body), "range_not_satisfiable");
 
     let json = "/v1/datasets/hill/tiles/0/0/0.json?threshold=4";
-    let (_, _, full) = send(&app, Method::GET, json, &[]).await;
+    let (_, _, full) = get(&app, json).await;
     let (s, h, body) = send(&app, Method::GET, json, &[("range", "bytes=2-9")]).await;
     assert_eq!(s, StatusCode::OK);
     assert!(h.get(header::CONTENT_RANGE).is_none());
@@ -1079,7 +1054,7 @@ async fn meshes_are_gzipped_for_clients_that_accept_it() {
             false,
         ),
     ] {
-        let (_, plain_h, plain) = send(app, Method::GET, uri, &[]).await;
+        let (_, plain_h, plain) = get(app, uri).await;
         assert!(plain_h.get(header::CONTENT_ENCODING).is_none(), "{uri}");
         let (s, h, body) = send(app, Method::GET, uri, &gzip).await;
         assert_eq!(s, StatusCode::OK, "{uri}");
@@ -1104,25 +1079,13 @@ async fn meshes_are_gzipped_for_clients_that_accept_it() {
 #[tokio::test]
 async fn only_a_missing_world_root_is_served_flat() {
     let geo = router_of("flat-root", "geodetic");
-    let (s, h, _) = send(
-        &geo,
-        Method::GET,
-        "/v1/datasets/hill/tiles/0/1/0.terrain?threshold=4",
-        &[],
-    )
-    .await;
+    let (s, h, _) = get(&geo, "/v1/datasets/hill/tiles/0/1/0.terrain?threshold=4").await;
     assert_eq!(s, StatusCode::OK);
     assert_eq!(
         h["x-triangles"], "2",
         "the missing root is two flat triangles"
     );
-    let (s, h, _) = send(
-        &geo,
-        Method::GET,
-        "/v1/datasets/hill/tiles/0/0/0.terrain?threshold=4",
-        &[],
-    )
-    .await;
+    let (s, h, _) = get(&geo, "/v1/datasets/hill/tiles/0/0/0.terrain?threshold=4").await;
     assert_eq!(s, StatusCode::OK);
     let n: usize = h["x-triangles"].to_str().unwrap().parse().unwrap();
     assert!(
@@ -1134,7 +1097,7 @@ async fn only_a_missing_world_root_is_served_flat() {
         "/v1/datasets/hill/tiles/0/2/0.terrain?threshold=4",
         "/v1/datasets/hill/tiles/0/0/1.terrain?threshold=4",
     ] {
-        let (s, _, body) = send(&geo, Method::GET, uri, &[]).await;
+        let (s, _, body) = get(&geo, uri).await;
         assert_eq!(s, StatusCode::NOT_FOUND, "{uri}");
         assert_eq!(error_code(&body), "tile_not_found", "{uri}");
     }
@@ -1441,7 +1404,7 @@ fn a_store_object_is_named_by_its_file_stem() {
 async fn a_view_over_a_missing_tile_meshes_the_tiles_that_exist() {
     let app = router_of("view-missing", "geodetic");
     let uri = "/v1/datasets/hill/view?eye=0,0,3850000&target=0,0,0&fov=60";
-    let (status, _, body) = send(&app, Method::GET, uri, &[]).await;
+    let (status, _, body) = get(&app, uri).await;
     assert_eq!(status, StatusCode::OK, "{}", String::from_utf8_lossy(&body));
     let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
     let xs: Vec<f64> = v["mesh"]["positions"]
@@ -1483,7 +1446,7 @@ async fn a_view_meshes_the_deepest_zoom_that_fits() {
     }
     let app = router_over(hill_dataset("view-zoom", "geodetic", &tiles));
     let uri = "/v1/datasets/hill/view?eye=10,10,3850000&target=10,10,0&fov=60";
-    let (status, headers, body) = send(&app, Method::GET, uri, &[]).await;
+    let (status, headers, body) = get(&app, uri).await;
     assert_eq!(status, StatusCode::OK, "{}", String::from_utf8_lossy(&body));
     assert_eq!(headers["x-zoom"], "1");
 }
@@ -1500,7 +1463,7 @@ async fn a_view_wider_than_the_tile_cap_still_meshes_the_shallowest_zoom() {
     let path = hill_file_with("view-minzoom", "geodetic", &tiles, |m| m.min_zoom = 3);
     let app = router_over(Dataset::open(&path).unwrap());
     let uri = "/v1/datasets/hill/view?eye=0,0,12000000&target=0,0,0&fov=60";
-    let (status, headers, body) = send(&app, Method::GET, uri, &[]).await;
+    let (status, headers, body) = get(&app, uri).await;
     assert_eq!(status, StatusCode::OK, "{}", String::from_utf8_lossy(&body));
     assert_eq!(headers["x-zoom"], "3");
     let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
