@@ -255,37 +255,31 @@ fn synthesize_cols<T: Copy, S: Scheme<T>>(
 mod tests {
     use super::*;
 
-    /// Interleaved reference: apply `op` to every odd sample from its two even neighbours,
-    /// extending symmetrically, the way JPEG 2000 Annex F writes it.
+    /// Sample `i` of `x` extended symmetrically (whole-sample) past both ends.
+    fn at(x: &[i64], i: isize) -> i64 {
+        let n = x.len() as isize;
+        let m = if i < 0 {
+            -i
+        } else if i >= n {
+            2 * (n - 1) - i
+        } else {
+            i
+        };
+        x[m as usize]
+    }
+
+    /// Interleaved reference: every odd sample less its two even neighbours, extending
+    /// symmetrically, the way JPEG 2000 Annex F writes it.
     fn predict_reference(x: &mut [i64]) {
         let n = x.len() as isize;
-        let at = |x: &[i64], i: isize| {
-            let m = if i < 0 {
-                -i
-            } else if i >= n {
-                2 * (n - 1) - i
-            } else {
-                i
-            };
-            x[m as usize]
-        };
         for i in (1..n).step_by(2) {
             x[i as usize] -= at(x, i - 1) + at(x, i + 1);
         }
     }
 
+    /// The same for every even sample, plus its two odd neighbours.
     fn update_reference(x: &mut [i64]) {
         let n = x.len() as isize;
-        let at = |x: &[i64], i: isize| {
-            let m = if i < 0 {
-                -i
-            } else if i >= n {
-                2 * (n - 1) - i
-            } else {
-                i
-            };
-            x[m as usize]
-        };
         for i in (0..n).step_by(2) {
             x[i as usize] += at(x, i - 1) + at(x, i + 1);
         }
