@@ -7,6 +7,7 @@
 `../shared/bench/terrain_mesh.py --json`. Writes into docs/img/:
 - rd-curves.svg: PSNR against bits per sample, zerotile and OpenJPEG 9/7, per tile;
 - triangles-vs-error.svg: triangles against true max error, zerotile, Martini, Delatin;
+- speed-vs-error.svg: decode + mesh time against true max error, zerotile and both Martinis;
 - table1-meshes.png: the paper's Table 1 setting (8-bit 256², zerotree mesher) at three T;
 - fandisk-curvature.png: the three nested curvature levels of the fandisk.
 The charts need only the standard library; the two pictures need Pillow (the bench peers'
@@ -24,7 +25,7 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 IMG = ROOT / "docs" / "img"
 SHARED = ROOT.parent / "shared" / "data"
 COLOURS = {"zerotile": "#d62728", "OpenJPEG 9/7": "#1f77b4", "Martini": "#1f77b4",
-           "Delatin": "#2ca02c"}
+           "Delatin": "#2ca02c", "pymartini": "#1f77b4", "@mapbox/martini": "#9467bd"}
 
 
 # ----------------------------------------------------------------------------- charts
@@ -137,6 +138,27 @@ def triangles_vs_error(mesh):
                                    "Martini": curve(t["martini"]["points"]),
                                    "Delatin": curve(t["delatin"]["points"])}))
     return chart(panels, "true max error (m)", "triangles", log_x=True, log_y=True,
+                 legend_top=False)
+
+
+def speed_vs_error(mesh):
+    """Decode + mesh time against true max error; Martini's is createTile + getMesh, at the
+    true error the script measured for the same parameter."""
+    panels = []
+    for t in mesh["tiles"]:
+        m = t["martini"]
+        pts = [p for p in m["points"] if p["max_abs_err"] >= 0.1 and p.get("ms")]
+        py = [(p["max_abs_err"], m["create_tile_ms"] + p["ms"]) for p in pts]
+        js = []
+        node = (t.get("node") or {}).get("martini") or {}
+        by_param = {g["max_error"]: g["get_mesh_ms"] for g in node.get("meshes", [])}
+        for p in pts:
+            if p["param"] in by_param:
+                js.append((p["max_abs_err"], node["create_tile_ms"] + by_param[p["param"]]))
+        ours = [(p["mesh_max_abs_err"], p["decode_ms"] + p["mesh_ms"]) for p in t["zerotile"]
+                if p["mesh_max_abs_err"] >= 0.1]
+        panels.append((t["name"], {"zerotile": ours, "pymartini": py, "@mapbox/martini": js}))
+    return chart(panels, "true max error (m)", "decode + mesh ms", log_x=True, log_y=True,
                  legend_top=False)
 
 
@@ -262,8 +284,9 @@ def main():
         (IMG / "rd-curves.svg").write_text(rd_curves(json.loads(pathlib.Path(a.codec_json)
                                                                 .read_text())))
     if a.mesh_json:
-        (IMG / "triangles-vs-error.svg").write_text(
-            triangles_vs_error(json.loads(pathlib.Path(a.mesh_json).read_text())))
+        mesh = json.loads(pathlib.Path(a.mesh_json).read_text())
+        (IMG / "triangles-vs-error.svg").write_text(triangles_vs_error(mesh))
+        (IMG / "speed-vs-error.svg").write_text(speed_vs_error(mesh))
     with tempfile.TemporaryDirectory() as tmp:
         table1(a.zerotile, tmp).save(IMG / "table1-meshes.png", optimize=True)
         fandisk(a.zerotile, tmp).save(IMG / "fandisk-curvature.png", optimize=True)
