@@ -654,13 +654,20 @@ fn malformed_fields_are_named_errors() {
     let mut b = ok.clone();
     b[tri_at - 4..tri_at].copy_from_slice(&2u32.to_le_bytes());
     b.splice(tri_at + 6..tri_at + 6, [0u8; 6]);
-    assert!(matches!(decode(&b), Err(QmError::Malformed(m)) if m.contains("past the 3 vertices")));
-    // An edge index past the vertices.
-    let mut b = ok.clone();
-    let west = tri_at + 6;
-    b[west..west + 4].copy_from_slice(&1u32.to_le_bytes());
-    b.splice(west + 4..west + 4, 7u16.to_le_bytes());
-    assert!(matches!(decode(&b), Err(QmError::Malformed(m)) if m.contains("west edge index 7")));
+    // (Index 3, the first one past the end, not a later one.)
+    assert!(
+        matches!(decode(&b), Err(QmError::Malformed(m)) if m.contains("index 3 is past the 3 vertices"))
+    );
+    // An edge index past the vertices: 3 is the first; 2 is the last vertex.
+    let edge = |index: u16| {
+        let mut b = ok.clone();
+        let west = tri_at + 6;
+        b[west..west + 4].copy_from_slice(&1u32.to_le_bytes());
+        b.splice(west + 4..west + 4, index.to_le_bytes());
+        decode(&b)
+    };
+    assert!(matches!(edge(3), Err(QmError::Malformed(m)) if m.contains("west edge index 3")));
+    assert_eq!(edge(2).unwrap().west, vec![2]);
 
     // Extensions: lengths, sizes, JSON, repeats, unknown ids.
     let with = |id: u8, data: &[u8]| {
@@ -716,9 +723,26 @@ fn malformed_fields_are_named_errors() {
             ..
         })
     ));
-    let mut twice = with(2, &[0]);
-    twice.extend_from_slice(&[2, 1, 0, 0, 0, 0]);
-    assert!(matches!(decode(&twice), Err(QmError::Malformed(m)) if m.contains("twice")));
+    let mut trailing = meta.clone();
+    trailing.push(b' ');
+    assert!(
+        matches!(decode(&with(4, &trailing)), Err(QmError::Malformed(m)) if m.contains("after its JSON"))
+    );
+    // One normal too many is as wrong as one too few.
+    assert!(
+        matches!(decode(&with(1, &[0; 8])), Err(QmError::Malformed(m)) if m.contains("8 bytes for 3"))
+    );
+    // Each extension at most once.
+    for (id, data) in [(1, &[0u8; 6][..]), (2, &[0]), (4, &meta)] {
+        let mut twice = with(id, data);
+        twice.push(id);
+        twice.extend_from_slice(&(data.len() as u32).to_le_bytes());
+        twice.extend_from_slice(data);
+        assert!(
+            matches!(decode(&twice), Err(QmError::Malformed(m)) if m.contains(&format!("extension {id} appears twice"))),
+            "extension {id}"
+        );
+    }
     assert_eq!(
         decode(&with(9, &[1, 2, 3])).unwrap().unknown_extensions,
         vec![9]
