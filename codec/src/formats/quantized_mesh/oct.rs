@@ -23,7 +23,8 @@ pub fn oct_encode(n: DVec3) -> [u8; 2] {
     }
     let mut p = DVec2::new(n.x / l1, n.y / l1);
 
-    // Fold the lower hemisphere over the diagonals so the square is covered once.
+    // Fold the lower hemisphere over the diagonals so the square is covered once. On the
+    // equator (z = 0, |x| + |y| = 1) the fold is the identity: `<` or `<=` alike.
     if n.z < 0.0 {
         p = DVec2::new(
             (1.0 - p.y.abs()) * sign_not_zero(p.x),
@@ -38,6 +39,7 @@ pub fn oct_decode([x, y]: [u8; 2]) -> DVec3 {
     // Back to the square, then unfold the lower hemisphere.
     let mut p = DVec2::new(from_snorm(x), from_snorm(y));
     let z = 1.0 - p.x.abs() - p.y.abs();
+    // The same fold, again the identity on the equator.
     if z < 0.0 {
         p = DVec2::new(
             (1.0 - p.y.abs()) * sign_not_zero(p.x),
