@@ -24,6 +24,8 @@ import tempfile
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 IMG = ROOT / "docs" / "img"
 SHARED = ROOT.parent / "shared" / "data"
+# Below 0.1 m of true error every mesher keeps nearly the full grid: the charts start there.
+MIN_ERR = 0.1
 COLOURS = {"zerotile": "#d62728", "OpenJPEG 9/7": "#1f77b4", "Martini": "#1f77b4",
            "Delatin": "#2ca02c", "pymartini": "#1f77b4", "@mapbox/martini": "#9467bd"}
 
@@ -129,11 +131,11 @@ def rd_curves(codec):
 def triangles_vs_error(mesh):
     panels = []
     for t in mesh["tiles"]:
-        # From 0.1 m: below it every mesher keeps nearly the full grid.
         def curve(points):
-            return [(p["max_abs_err"], p["triangles"]) for p in points if p["max_abs_err"] >= 0.1]
+            return [(p["max_abs_err"], p["triangles"]) for p in points
+                    if p["max_abs_err"] >= MIN_ERR]
         ours = [(p["mesh_max_abs_err"], p["mesh_triangles"]) for p in t["zerotile"]
-                if p["mesh_max_abs_err"] >= 0.1]
+                if p["mesh_max_abs_err"] >= MIN_ERR]
         panels.append((t["name"], {"zerotile": ours,
                                    "Martini": curve(t["martini"]["points"]),
                                    "Delatin": curve(t["delatin"]["points"])}))
@@ -147,7 +149,7 @@ def speed_vs_error(mesh):
     panels = []
     for t in mesh["tiles"]:
         m = t["martini"]
-        pts = [p for p in m["points"] if p["max_abs_err"] >= 0.1 and p.get("ms")]
+        pts = [p for p in m["points"] if p["max_abs_err"] >= MIN_ERR and p.get("ms")]
         py = [(p["max_abs_err"], m["create_tile_ms"] + p["ms"]) for p in pts]
         js = []
         node = (t.get("node") or {}).get("martini") or {}
@@ -156,7 +158,7 @@ def speed_vs_error(mesh):
             if p["param"] in by_param:
                 js.append((p["max_abs_err"], node["create_tile_ms"] + by_param[p["param"]]))
         ours = [(p["mesh_max_abs_err"], p["decode_ms"] + p["mesh_ms"]) for p in t["zerotile"]
-                if p["mesh_max_abs_err"] >= 0.1]
+                if p["mesh_max_abs_err"] >= MIN_ERR]
         panels.append((t["name"], {"zerotile": ours, "pymartini": py, "@mapbox/martini": js}))
     return chart(panels, "true max error (m)", "decode + mesh ms", log_x=True, log_y=True,
                  legend_top=False)

@@ -118,6 +118,22 @@ pub struct Decoded {
     pub max_error: Option<f64>,
 }
 
+impl Decoded {
+    /// What [`decode_heights`] would have given, and the coefficients: for a caller that
+    /// needs the zerotree's coefficients but not its significance map.
+    pub fn split_coefficients(self) -> (DecodedHeights, Grid<f64>) {
+        let heights = DecodedHeights {
+            heights: self.heights,
+            layout: self.layout,
+            threshold: self.threshold,
+            bytes_used: self.bytes_used,
+            bounded: self.bounded,
+            max_error: self.max_error,
+        };
+        (heights, self.coefficients)
+    }
+}
+
 /// A decode's heights without the zerotree state, for meshers that read only heights (the
 /// server's bintree): [`decode_heights`] skips the coefficient grid's copy, the significance
 /// map and their rescaling. The fields mean what [`Decoded`]'s do.

@@ -313,15 +313,8 @@ fn measure(
         }),
         Mesher::Zerotree => median_ms(eval.repeat, || {
             ezw::decode(bytes, limit, max).map(|d| {
-                let heights = ezw::DecodedHeights {
-                    heights: d.heights,
-                    layout: d.layout,
-                    threshold: d.threshold,
-                    bytes_used: d.bytes_used,
-                    bounded: d.bounded,
-                    max_error: d.max_error,
-                };
-                (heights, Some(d.coefficients))
+                let (heights, coefficients) = d.split_coefficients();
+                (heights, Some(coefficients))
             })
         }),
     };
