@@ -243,20 +243,32 @@ impl Walk<'_> {
         }
     }
 
-    /// Calls `emit` for every leaf triangle, depth first from the two roots.
+    /// Calls `emit` for every leaf triangle, depth first from the two roots, in the
+    /// hierarchy's order.
+    ///
+    /// The children's corners come from the parent's, as in Martini's getMesh: (c, a, m)
+    /// and (b, c, m) with m = (a + b) / 2 (a hypotenuse has even extents, and y·n + x is
+    /// linear). Reading them from the hierarchy instead touched a 16-byte triangle per
+    /// visit spread over 4 MB at 257², most of the walk's cache misses.
     fn leaves(&self, emit: &mut impl FnMut(&Tri)) {
-        let mut stack: Vec<(usize, usize)> = Vec::with_capacity(2 * self.splittable + 2);
-        stack.push((0, 1));
-        stack.push((0, 0));
-        while let Some((l, t)) = stack.pop() {
-            let tri = &self.hierarchy.tris[t];
-            if self.splits(l, tri) {
-                let first = self.hierarchy.first_child(l, t);
-                stack.push((l + 1, first + 1));
-                stack.push((l + 1, first));
+        let roots = &self.hierarchy.tris[..2];
+        let mut stack: Vec<(u32, Tri)> = Vec::with_capacity(2 * self.splittable + 2);
+        stack.push((0, roots[1]));
+        stack.push((0, roots[0]));
+        while let Some((l, tri)) = stack.pop() {
+            if self.splits(l as usize, &tri) {
+                let Tri { a, b, c, m } = tri;
+                let child = |a: u32, b: u32, c: u32| Tri {
+                    a,
+                    b,
+                    c,
+                    m: (a + b) / 2,
+                };
+                stack.push((l + 1, child(b, c, m)));
+                stack.push((l + 1, child(c, a, m)));
                 continue;
             }
-            emit(tri);
+            emit(&tri);
         }
     }
 }
