@@ -49,6 +49,9 @@ pub fn oct_decode([x, y]: [u8; 2]) -> DVec3 {
     DVec3::new(p.x, p.y, z).normalize()
 }
 
+/// ±1, never 0: a lower-hemisphere point with x = 0 folds to x = 1 − |y|, not to 0. By ±1
+/// multiplying and dividing are the same, so the mutants that turn the folds' `*` into `/`
+/// survive as equivalent.
 fn sign_not_zero(v: f64) -> f64 {
     if v < 0.0 {
         -1.0
