@@ -922,6 +922,39 @@ mod grid_normals {
         }
     }
 
+    /// The guard on the grid's shape, from both sides: a 1×1 or a non-square centre gets
+    /// +Z for every vertex, and a 2×2 one, the smallest with a difference each way, its
+    /// slope's normal (heights rising 1000 m a sample eastwards, ~5.6 km at 60° N: the
+    /// normal leans ~10° west of the ellipsoid's; +Z would be 30° off).
+    #[test]
+    fn only_degenerate_grids_fall_back_to_z() {
+        let h = Hierarchy::new(3).unwrap();
+        let errors = TileErrors::new(&h, &Grid::new(3, 3, vec![0.0; 9]).unwrap());
+        let tile = TileGeo::geodetic(30.0, 60.0, 30.1, 60.1);
+        let mesh = grid_mesh(2, 2, |_, _| 0.0);
+        let normals = |g: &Grid<f64>| {
+            let hood = alone(TileView {
+                heights: g,
+                errors: &errors,
+            });
+            grid_normals(&tile, &hood, &Diagonals::default(), &mesh)
+        };
+        for (rows, cols) in [(1, 1), (2, 3), (3, 2)] {
+            let g = Grid::new(rows, cols, vec![5.0; rows * cols]).unwrap();
+            assert_eq!(normals(&g), vec![DVec3::Z; 4], "{rows}×{cols}");
+        }
+        let sloped = Grid::new(2, 2, vec![0.0, 1000.0, 0.0, 1000.0]).unwrap();
+        for (i, v) in normals(&sloped).into_iter().enumerate() {
+            let [x, y, _] = mesh.positions[i];
+            let (lon, lat) = (30.0 + 0.1 * x, 60.1 - 0.1 * y);
+            let up = Ellipsoid::WGS84.surface_normal(lon, lat);
+            let east = DVec3::new(-lon.to_radians().sin(), lon.to_radians().cos(), 0.0);
+            let angle = v.angle_between(up).to_degrees();
+            assert!((8.0..12.0).contains(&angle), "vertex {i}: {angle}° off up");
+            assert!(v.dot(east) < 0.0, "vertex {i} leans east: {v}");
+        }
+    }
+
     /// Two real tiles side by side, each meshed with the other as its east or west
     /// neighbour: every shared edge vertex gets the same normal from both (the corners
     /// aside: their samples past the corner lie in the diagonal tiles, which this test does
