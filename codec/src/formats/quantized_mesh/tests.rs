@@ -955,6 +955,42 @@ mod grid_normals {
         }
     }
 
+    /// A non-finite height (a hole no fill reached) gives the four vertices whose stencils
+    /// read it the ellipsoid's normal, never a NaN one, and leaves every other normal as it
+    /// was, the hole's own too (its stencil reads only its neighbours).
+    #[test]
+    fn a_nan_height_gives_its_stencil_the_ellipsoid_normal() {
+        let n = 17;
+        let h = Hierarchy::new(n).unwrap();
+        let g = n44w072_crop(300, 500, n);
+        let mut holed = g.clone();
+        let (hr, hc) = (6usize, 9usize);
+        *holed.get_mut(hr, hc) = f64::NAN;
+        let errors = TileErrors::new(&h, &g);
+        let tile = TileGeo::geodetic(-72.0, 44.0, -71.99, 44.01);
+        let mesh = grid_mesh(n, n, |r, c| *g.get(r, c));
+        let normals = |g: &Grid<f64>| {
+            let hood = alone(TileView {
+                heights: g,
+                errors: &errors,
+            });
+            grid_normals(&tile, &hood, &Diagonals::default(), &mesh)
+        };
+        let (plain, with_hole) = (normals(&g), normals(&holed));
+        for (i, (p, q)) in plain.iter().zip(&with_hole).enumerate() {
+            let [x, y, _] = mesh.positions[i];
+            let (r, c) = (y as usize, x as usize);
+            if r.abs_diff(hr) + c.abs_diff(hc) == 1 {
+                let lon = tile.west + x / 16.0 * (tile.east - tile.west);
+                let up = Ellipsoid::WGS84.surface_normal(lon, tile.latitude_at(y / 16.0));
+                assert!((*q - up).length() < 1e-9, "({r}, {c}): {q} against up {up}");
+                assert!(p.angle_between(up) > 1e-4, "({r}, {c}) was flat already");
+            } else {
+                assert_eq!(p, q, "({r}, {c})");
+            }
+        }
+    }
+
     /// Two real tiles side by side, each meshed with the other as its east or west
     /// neighbour: every shared edge vertex gets the same normal from both (the corners
     /// aside: their samples past the corner lie in the diagonal tiles, which this test does
