@@ -953,6 +953,17 @@ mod grid_normals {
             assert!((8.0..12.0).contains(&angle), "vertex {i}: {angle}° off up");
             assert!(v.dot(east) < 0.0, "vertex {i} leans east: {v}");
         }
+        // Rising 1000 m a sample northwards (row 0 is north), ~11.1 km: ~5° to the south.
+        let sloped = Grid::new(2, 2, vec![1000.0, 1000.0, 0.0, 0.0]).unwrap();
+        for (i, v) in normals(&sloped).into_iter().enumerate() {
+            let [x, y, _] = mesh.positions[i];
+            let (lon, lat) = ((30.0 + 0.1 * x).to_radians(), (60.1 - 0.1 * y).to_radians());
+            let up = Ellipsoid::WGS84.surface_normal(lon.to_degrees(), lat.to_degrees());
+            let north = DVec3::new(-lat.sin() * lon.cos(), -lat.sin() * lon.sin(), lat.cos());
+            let angle = v.angle_between(up).to_degrees();
+            assert!((4.0..6.5).contains(&angle), "vertex {i}: {angle}° off up");
+            assert!(v.dot(north) < 0.0, "vertex {i} leans north: {v}");
+        }
     }
 
     /// A non-finite height (a hole no fill reached) gives the four vertices whose stencils
