@@ -188,23 +188,6 @@ pub fn border_vertices(
     out
 }
 
-/// The two halves of a splittable triangle, as [`Hierarchy`] stores them: (c, a, m) and
-/// (b, c, m), each with m = (a + b) / 2 (a hypotenuse to split has even extents, and the
-/// index y·n + x is linear). Their `m` is the
-/// midpoint of their hypotenuse, meaningful only where they split again (on the last level
-/// the hypotenuse has odd extents and the hierarchy stores [`NONE`]).
-#[inline]
-fn children(t: &Tri) -> [Tri; 2] {
-    let Tri { a, b, c, m } = *t;
-    let half = |a: u32, b: u32, c: u32| Tri {
-        a,
-        b,
-        c,
-        m: (a + b) / 2,
-    };
-    [half(c, a, m), half(b, c, m)]
-}
-
 /// The largest f32 at or below `v` (NaN stays NaN, so nothing splits, as in f64).
 fn f32_at_or_below(v: f64) -> f32 {
     let f = v as f32;
@@ -238,72 +221,42 @@ impl Walk<'_> {
     fn border_leaves(&self, n: usize, emit: &mut impl FnMut(&Tri)) {
         let last = (n - 1) as i64;
         let coords = Coords::new(n);
-        let on_border = |t: &Tri| {
-            [(t.a, t.b), (t.b, t.c), (t.c, t.a)].iter().any(|&(p, q)| {
-                let ((px, py), (qx, qy)) = (coords.xy(p), coords.xy(q));
-                (py == qy && (py == 0 || py == last)) || (px == qx && (px == 0 || px == last))
-            })
-        };
-        let mut stack = vec![(0usize, 1usize), (0, 0)];
-        while let Some((l, t)) = stack.pop() {
-            let tri = &self.hierarchy.tris[t];
-            if !on_border(tri) {
-                continue;
-            }
-            if self.splits(l, tri) {
-                let first = self.hierarchy.first_child(l, t);
-                stack.push((l + 1, first + 1));
-                stack.push((l + 1, first));
-            } else {
-                emit(tri);
-            }
-        }
+        self.walk(
+            |t: &Tri| {
+                [(t.a, t.b), (t.b, t.c), (t.c, t.a)].iter().any(|&(p, q)| {
+                    let ((px, py), (qx, qy)) = (coords.xy(p), coords.xy(q));
+                    (py == qy && (py == 0 || py == last)) || (px == qx && (px == 0 || px == last))
+                })
+            },
+            emit,
+        );
     }
 
-    /// Calls `emit` for every leaf triangle, depth first from the two roots, in the
-    /// hierarchy's order.
-    ///
-    /// The children's corners come from the parent's ([`children`]), as in Martini's
-    /// getMesh. Reading them from the hierarchy instead touched a 16-byte triangle per
-    /// visit spread over 4 MB at 257², most of the walk's cache misses.
+    /// Calls `emit` for every leaf triangle.
     fn leaves(&self, emit: &mut impl FnMut(&Tri)) {
+        self.walk(|_| true, emit);
+    }
+
+    /// Depth first from the two roots, in the hierarchy's order, children derived from
+    /// their parent ([`Tri::children`]); a triangle `keep` refuses is skipped with all
+    /// its descendants.
+    #[inline]
+    fn walk(&self, keep: impl Fn(&Tri) -> bool, emit: &mut impl FnMut(&Tri)) {
         let roots = &self.hierarchy.tris[..2];
         let mut stack: Vec<(u32, Tri)> = Vec::with_capacity(2 * self.splittable + 2);
         stack.push((0, roots[1]));
         stack.push((0, roots[0]));
         while let Some((l, tri)) = stack.pop() {
+            if !keep(&tri) {
+                continue;
+            }
             if self.splits(l as usize, &tri) {
-                let [first, second] = children(&tri);
+                let [first, second] = tri.children();
                 stack.push((l + 1, second));
                 stack.push((l + 1, first));
                 continue;
             }
             emit(&tri);
-        }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The walk's arithmetic against the stored hierarchy, on every splittable triangle of
-    /// the smallest grid, a mid-size one and the serving size.
-    #[test]
-    fn children_are_the_hierarchys() {
-        for n in [3, 65, 257] {
-            let h = Hierarchy::new(n).unwrap();
-            let splittable = h.levels() - 1;
-            for l in 0..splittable {
-                for t in h.level_start[l]..h.level_start[l + 1] {
-                    let first = h.first_child(l, t);
-                    for (k, child) in children(&h.tris[t]).into_iter().enumerate() {
-                        let stored = h.tris[first + k];
-                        let m = if l + 1 < splittable { child.m } else { NONE };
-                        assert_eq!(Tri { m, ..child }, stored, "n {n} level {l} triangle {t}");
-                    }
-                }
-            }
         }
     }
 }

@@ -943,26 +943,35 @@ mod grid_normals {
             let g = Grid::new(rows, cols, vec![5.0; rows * cols]).unwrap();
             assert_eq!(normals(&g), vec![DVec3::Z; 4], "{rows}×{cols}");
         }
-        let sloped = Grid::new(2, 2, vec![0.0, 1000.0, 0.0, 1000.0]).unwrap();
-        for (i, v) in normals(&sloped).into_iter().enumerate() {
-            let [x, y, _] = mesh.positions[i];
-            let (lon, lat) = (30.0 + 0.1 * x, 60.1 - 0.1 * y);
-            let up = Ellipsoid::WGS84.surface_normal(lon, lat);
-            let east = DVec3::new(-lon.to_radians().sin(), lon.to_radians().cos(), 0.0);
-            let angle = v.angle_between(up).to_degrees();
-            assert!((8.0..12.0).contains(&angle), "vertex {i}: {angle}° off up");
-            assert!(v.dot(east) < 0.0, "vertex {i} leans east: {v}");
-        }
-        // Rising 1000 m a sample northwards (row 0 is north), ~11.1 km: ~5° to the south.
-        let sloped = Grid::new(2, 2, vec![1000.0, 1000.0, 0.0, 0.0]).unwrap();
-        for (i, v) in normals(&sloped).into_iter().enumerate() {
-            let [x, y, _] = mesh.positions[i];
-            let (lon, lat) = ((30.0 + 0.1 * x).to_radians(), (60.1 - 0.1 * y).to_radians());
-            let up = Ellipsoid::WGS84.surface_normal(lon.to_degrees(), lat.to_degrees());
-            let north = DVec3::new(-lat.sin() * lon.cos(), -lat.sin() * lon.sin(), lat.cos());
-            let angle = v.angle_between(up).to_degrees();
-            assert!((4.0..6.5).contains(&angle), "vertex {i}: {angle}° off up");
-            assert!(v.dot(north) < 0.0, "vertex {i} leans north: {v}");
+        // Heights rising 1000 m a sample east (~5.6 km: ~10°) or north (row 0 is north,
+        // ~11.1 km: ~5°): the normal leans away from the rise, by the slope's angle.
+        let east = |lon: f64, _: f64| DVec3::new(-lon.sin(), lon.cos(), 0.0);
+        let north = |lon: f64, lat: f64| {
+            DVec3::new(-lat.sin() * lon.cos(), -lat.sin() * lon.sin(), lat.cos())
+        };
+        let slopes = [
+            (
+                [0.0, 1000.0, 0.0, 1000.0],
+                east as fn(f64, f64) -> DVec3,
+                8.0..12.0,
+                "east",
+            ),
+            ([1000.0, 1000.0, 0.0, 0.0], north, 4.0..6.5, "north"),
+        ];
+        for (heights, rise, angles, towards) in slopes {
+            let sloped = Grid::new(2, 2, heights.to_vec()).unwrap();
+            for (i, v) in normals(&sloped).into_iter().enumerate() {
+                let [x, y, _] = mesh.positions[i];
+                let (lon, lat) = (30.0 + 0.1 * x, 60.1 - 0.1 * y);
+                let up = Ellipsoid::WGS84.surface_normal(lon, lat);
+                let angle = v.angle_between(up).to_degrees();
+                assert!(
+                    angles.contains(&angle),
+                    "{towards}, vertex {i}: {angle}° off up"
+                );
+                let rise = rise(lon.to_radians(), lat.to_radians());
+                assert!(v.dot(rise) < 0.0, "vertex {i} leans {towards}: {v}");
+            }
         }
     }
 
