@@ -758,51 +758,154 @@ fn malformed_fields_are_named_errors() {
     ));
 }
 
+/// Each rule of the encoder's contract, checked at its edge: the last value it accepts and
+/// the first it refuses, and the refusal names the rule.
 #[test]
-fn encoder_rejects_meshes_that_break_the_contract() {
+fn encoder_checks_each_rule_of_the_contract_at_its_edge() {
     let tile = TileGeo::geodetic(0.0, 0.0, 1.0, 1.0);
     let o = QmOptions::default();
     let good = grid_mesh(3, 3, bumpy);
-    let mut m = good.clone();
-    m.triangles.clear();
-    assert!(matches!(
-        encode(&m, &tile, &o),
-        Err(QmError::InvalidMesh(_))
-    ));
-    let mut m = good.clone();
-    m.triangles[2][1] = 9;
-    assert!(
-        matches!(encode(&m, &tile, &o), Err(QmError::InvalidMesh(s)) if s.contains("points past"))
-    );
-    let mut m = good.clone();
-    m.positions[4][2] = f64::NAN;
-    assert!(
-        matches!(encode(&m, &tile, &o), Err(QmError::InvalidMesh(s)) if s.contains("not finite"))
-    );
-    let mut m = good.clone();
-    m.positions[4][0] = 2.5;
-    assert!(matches!(encode(&m, &tile, &o), Err(QmError::InvalidMesh(s)) if s.contains("outside")));
-    let mut m = good.clone();
-    m.rows = 1;
-    assert!(encode(&m, &tile, &o).is_err());
-    for bad in [
-        TileGeo::geodetic(1.0, 0.0, 0.0, 1.0),
-        TileGeo::geodetic(0.0, 0.0, 1.0, 91.0),
-        TileGeo::geodetic(f64::NAN, 0.0, 1.0, 1.0),
-    ] {
-        assert!(
-            matches!(encode(&good, &bad, &o), Err(QmError::Parameter { .. })),
-            "{bad:?}"
-        );
+    let outcome = |r: Result<Vec<u8>, QmError>| r.map(|bytes| decode(&bytes).map(|m| m.u.len()));
+
+    // Meshes: (what changes, the message's words, or None where the edit is still valid).
+    type Edit = fn(&mut TerrainMesh);
+    let cases: [(&str, Edit, Option<&str>); 16] = [
+        (
+            "no triangles",
+            |m| m.triangles.clear(),
+            Some("no triangles"),
+        ),
+        ("index n", |m| m.triangles[2][1] = 9, Some("points past")),
+        ("index n - 1", |m| m.triangles[2][1] = 8, None),
+        (
+            "NaN height",
+            |m| m.positions[4][2] = f64::NAN,
+            Some("not finite"),
+        ),
+        (
+            "infinite x",
+            |m| m.positions[4][0] = f64::INFINITY,
+            Some("not finite"),
+        ),
+        (
+            "x past the east edge",
+            |m| m.positions[4][0] = 2.5,
+            Some("outside"),
+        ),
+        (
+            "y past the south edge",
+            |m| m.positions[4][1] = 2.5,
+            Some("outside"),
+        ),
+        (
+            "x before the west edge",
+            |m| m.positions[4][0] = -0.5,
+            Some("outside"),
+        ),
+        (
+            "y before the north edge",
+            |m| m.positions[4][1] = -0.5,
+            Some("outside"),
+        ),
+        (
+            "height past f32",
+            |m| m.positions[4][2] = 1e39,
+            Some("does not fit an f32"),
+        ),
+        (
+            "depth past f32",
+            |m| m.positions[4][2] = -1e39,
+            Some("does not fit an f32"),
+        ),
+        (
+            "height f32::MAX",
+            |m| m.positions[4][2] = f64::from(f32::MAX),
+            None,
+        ),
+        ("one row", |m| m.rows = 1, Some("no area")),
+        ("one column", |m| m.cols = 1, Some("no area")),
+        ("2 rows", |m| *m = grid_mesh(2, 3, bumpy), None),
+        ("2 columns", |m| *m = grid_mesh(3, 2, bumpy), None),
+    ];
+    for (name, edit, refused) in cases {
+        let mut m = good.clone();
+        edit(&mut m);
+        match (outcome(encode(&m, &tile, &o)), refused) {
+            (Err(QmError::InvalidMesh(s)), Some(words)) => {
+                assert!(s.contains(words), "{name}: {s:?} does not say {words:?}");
+            }
+            (Ok(Ok(n)), None) => assert_eq!(n, m.positions.len(), "{name}"),
+            (got, _) => panic!("{name}: expected {refused:?}, got {got:?}"),
+        }
     }
-    let small_mask = QmOptions {
-        watermask: Some(WaterMask::Grid(vec![0; 100])),
+
+    // Tile bounds: finite, west < east, −90 ≤ south < north ≤ 90.
+    let geodetic = TileGeo::geodetic;
+    for (bounds, ok) in [
+        (geodetic(0.0, -90.0, 1.0, 90.0), true),
+        (geodetic(1.0, 0.0, 0.0, 1.0), false),
+        (geodetic(1.0, 0.0, 1.0, 1.0), false),
+        (geodetic(0.0, 1.0, 1.0, 0.0), false),
+        (geodetic(0.0, 1.0, 1.0, 1.0), false),
+        (geodetic(0.0, -90.5, 1.0, 1.0), false),
+        (geodetic(0.0, 0.0, 1.0, 90.5), false),
+        (geodetic(0.0, 90.0, 1.0, 91.0), false),
+        (geodetic(f64::NAN, 0.0, 1.0, 1.0), false),
+        (geodetic(0.0, f64::NAN, 1.0, 1.0), false),
+        (geodetic(0.0, 0.0, f64::INFINITY, 1.0), false),
+        (geodetic(0.0, 0.0, 1.0, f64::NAN), false),
+    ] {
+        match (encode(&good, &bounds, &o), ok) {
+            (Ok(_), true) => {}
+            (Err(QmError::Parameter { name, .. }), false) => assert_eq!(name, "tile bounds"),
+            (got, _) => panic!(
+                "{bounds:?}: expected ok = {ok}, got {:?}",
+                got.map(|b| b.len())
+            ),
+        }
+    }
+
+    // Given normals: one finite vector per vertex.
+    let opts = QmOptions {
+        octvertexnormals: true,
         ..QmOptions::default()
     };
-    assert!(matches!(
-        encode(&good, &tile, &small_mask),
-        Err(QmError::Parameter { .. })
-    ));
+    let mut normals = vec![DVec3::Z; 9];
+    assert!(encode_with_normals(&good, &tile, &opts, Some(&normals)).is_ok());
+    for bad in [&normals[..8], &[DVec3::Z; 10][..]] {
+        let err = encode_with_normals(&good, &tile, &opts, Some(bad)).unwrap_err();
+        assert!(
+            matches!(&err, QmError::InvalidMesh(s) if s.contains("normals")),
+            "{err}"
+        );
+    }
+    normals[3] = DVec3::new(0.0, f64::NAN, 1.0);
+    let err = encode_with_normals(&good, &tile, &opts, Some(&normals)).unwrap_err();
+    assert!(
+        matches!(&err, QmError::InvalidMesh(s) if s.contains("finite")),
+        "{err}"
+    );
+
+    // A water mask grid: 256 × 256 bytes exactly.
+    for (len, ok) in [
+        (65_536, true),
+        (65_535, false),
+        (65_537, false),
+        (100, false),
+    ] {
+        let mask = QmOptions {
+            watermask: Some(WaterMask::Grid(vec![0; len])),
+            ..QmOptions::default()
+        };
+        match (encode(&good, &tile, &mask), ok) {
+            (Ok(_), true) => {}
+            (Err(QmError::Parameter { name, .. }), false) => assert_eq!(name, "water mask grid"),
+            (got, _) => panic!(
+                "{len} bytes: expected ok = {ok}, got {:?}",
+                got.map(|b| b.len())
+            ),
+        }
+    }
 }
 
 #[test]
