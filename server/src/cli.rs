@@ -189,6 +189,11 @@ pub struct ServeArgs {
     /// (load shedding). Default 64 per core.
     #[arg(long, value_name = "N")]
     pub cpu_queue: Option<usize>,
+    /// Threads that decode and mesh, shared by all renders; one render's independent parts
+    /// (a cold tile's five decodes, a view's tiles) run on them side by side. Default: the
+    /// cores.
+    #[arg(long, value_name = "N")]
+    pub render_threads: Option<usize>,
     /// The URL clients reach the server at, e.g. `https://tiles.example.org/terrain`: the
     /// absolute tile URLs of tiles.json (TileJSON) start with it. Default: each request's
     /// Host header, over http.
@@ -516,6 +521,9 @@ fn serve_config(a: &ServeArgs) -> anyhow::Result<crate::serve::Config> {
     if a.cpu_jobs == Some(0) {
         anyhow::bail!("--cpu-jobs 0: at least one render must be able to run");
     }
+    if a.render_threads == Some(0) {
+        anyhow::bail!("--render-threads 0: renders need at least one thread");
+    }
     let public_url = match &a.public_url {
         Some(u) => Some(
             crate::serve::public_url::parse_base(u)
@@ -530,6 +538,7 @@ fn serve_config(a: &ServeArgs) -> anyhow::Result<crate::serve::Config> {
         trust_forwarded: a.trust_forwarded,
         cpu_jobs: a.cpu_jobs.unwrap_or(defaults.cpu_jobs),
         cpu_queue: a.cpu_queue.unwrap_or(defaults.cpu_queue),
+        render_threads: a.render_threads.unwrap_or(defaults.render_threads),
         ..defaults
     })
 }

@@ -45,8 +45,12 @@ fn serve_defaults_and_sizes_come_through_as_given() {
     let c = serve_config(&serve_args(&[])).unwrap();
     assert_eq!(c.cache_bytes, 256 << 20);
     assert_eq!(
-        (c.cpu_jobs, c.cpu_queue),
-        (defaults.cpu_jobs, defaults.cpu_queue)
+        (c.cpu_jobs, c.cpu_queue, c.render_threads),
+        (
+            defaults.cpu_jobs,
+            defaults.cpu_queue,
+            defaults.render_threads
+        )
     );
     assert!(c.cors_origins.is_empty() && c.public_url.is_none() && !c.trust_forwarded);
 
@@ -57,6 +61,8 @@ fn serve_defaults_and_sizes_come_through_as_given() {
         "5",
         "--cpu-queue",
         "7",
+        "--render-threads",
+        "3",
         "--trust-forwarded",
         "--cors-origin",
         "https://maps.example.org",
@@ -66,7 +72,10 @@ fn serve_defaults_and_sizes_come_through_as_given() {
         "https://tiles.example.org/terrain",
     ]))
     .unwrap();
-    assert_eq!((c.cache_bytes, c.cpu_jobs, c.cpu_queue), (3 << 20, 5, 7));
+    assert_eq!(
+        (c.cache_bytes, c.cpu_jobs, c.cpu_queue, c.render_threads),
+        (3 << 20, 5, 7, 3)
+    );
     assert!(c.trust_forwarded && c.public_url.is_some());
     assert_eq!(
         c.cors_origins,
@@ -95,6 +104,8 @@ fn serve_refuses_origins_and_urls_it_could_not_honour() {
     }
     let msg = refusal(serve_config(&serve_args(&["--cpu-jobs", "0"])));
     assert!(msg.contains("--cpu-jobs 0"), "{msg}");
+    let msg = refusal(serve_config(&serve_args(&["--render-threads", "0"])));
+    assert!(msg.contains("--render-threads 0"), "{msg}");
     let msg = refusal(serve_config(&serve_args(&[
         "--public-url",
         "tiles.example.org",

@@ -203,7 +203,7 @@ pub fn run(job: &Export) -> Result<Exported> {
     // the neighbours that stitching needs.
     let mut catalog = Catalog::default();
     catalog.insert(d);
-    let state = AppState::new(catalog, Config::default());
+    let state = AppState::new(catalog, Config::default())?;
     let d = state
         .catalog
         .iter()
@@ -298,19 +298,22 @@ fn render_all(
     // Neighbouring tiles share decodes: go zoom by zoom, row by row.
     let mut order = tiles.to_vec();
     order.sort_by_key(|t| (t.z, t.y, t.x));
-    order.par_iter().try_for_each(|&id| -> Result<()> {
-        let t = threshold::default_threshold(d, id.z);
-        let enc = render_tile(state, d, id, t, format, variant, false, &Cancel::default())
-            .with_context(|| format!("tile {}/{}/{}", id.z, id.x, id.y))?;
-        // Paths follow the serving URLs, which use the stored y: TMS rows for geodetic
-        // (layer.json scheme "tms"), XYZ rows for mercator ("slippyMap").
-        let y = id.y;
-        let folder = dir.join(id.z.to_string()).join(id.x.to_string());
-        std::fs::create_dir_all(&folder)?;
-        std::fs::write(folder.join(format!("{y}.{ext}")), &enc.bytes)?;
-        bytes.fetch_add(enc.bytes.len() as u64, Relaxed);
-        bar.inc(1);
-        Ok(())
+    // On the render pool, where each tile's own decodes run too: one pool, the cores.
+    state.pool.install(|| {
+        order.par_iter().try_for_each(|&id| -> Result<()> {
+            let t = threshold::default_threshold(d, id.z);
+            let enc = render_tile(state, d, id, t, format, variant, false, &Cancel::default())
+                .with_context(|| format!("tile {}/{}/{}", id.z, id.x, id.y))?;
+            // Paths follow the serving URLs, which use the stored y: TMS rows for geodetic
+            // (layer.json scheme "tms"), XYZ rows for mercator ("slippyMap").
+            let y = id.y;
+            let folder = dir.join(id.z.to_string()).join(id.x.to_string());
+            std::fs::create_dir_all(&folder)?;
+            std::fs::write(folder.join(format!("{y}.{ext}")), &enc.bytes)?;
+            bytes.fetch_add(enc.bytes.len() as u64, Relaxed);
+            bar.inc(1);
+            Ok(())
+        })
     })?;
     bar.finish_and_clear();
     Ok((tiles.len() as u64, bytes.into_inner()))

@@ -170,7 +170,7 @@ pub fn run(opts: ServeOptions) -> Result<()> {
             opts.data.display()
         );
     }
-    let state = AppState::new(catalog, opts.config).with_meshes(meshes);
+    let state = AppState::new(catalog, opts.config)?.with_meshes(meshes);
     let rt = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()

@@ -69,6 +69,15 @@ pub fn count_cancelled<T>(state: &AppState, r: Result<T>) -> Result<T> {
     r
 }
 
+/// Where `id` decoded to `depth` is cached.
+fn key(d: &Dataset, id: TileId, depth: Depth) -> Key {
+    Key {
+        dataset: d.version,
+        tile: id,
+        depth,
+    }
+}
+
 /// `id` decoded to `depth`, from the cache or decoded now.
 pub fn decoded(
     state: &AppState,
@@ -77,11 +86,7 @@ pub fn decoded(
     depth: Depth,
     cancel: &Cancel,
 ) -> Result<Arc<DecodedTile>> {
-    let key = Key {
-        dataset: d.version,
-        tile: id,
-        depth,
-    };
+    let key = key(d, id, depth);
     if let Some(hit) = state.cache.get(&key) {
         state.metrics.cache_hits.fetch_add(1, Relaxed);
         return Ok(hit);
@@ -175,24 +180,59 @@ pub fn diagonal_neighbours(d: &Dataset, id: TileId) -> [Option<TileId>; 4] {
     ]
 }
 
-/// Decodes of `ids` at `depth`. One that cannot be read (a corrupt record) is left out:
-/// it costs this tile its match there, not the tile itself.
-fn decoded_around(
+/// Decodes of `ids` at `depth`. Two or more not in the cache (a cold tile needs up to five)
+/// are decoded side by side on the render pool: one after another they would leave the
+/// other cores idle while a lone client waits, and under load the pool's threads are busy
+/// anyway, so this costs no throughput. One or none is done here: a hop to the pool and back
+/// would cost more than it could overlap (a block of tiles fetched in order needs about one
+/// new decode a tile). The decodes must not use rayon themselves: a task waiting on the
+/// cache for a key another task is decoding never steals work while it waits, so it is
+/// never handed a task that waits on itself.
+fn decoded_all<const N: usize>(
     state: &AppState,
     d: &Dataset,
-    id: TileId,
-    ids: [Option<TileId>; 4],
+    ids: [Option<TileId>; N],
     depth: Depth,
     cancel: &Cancel,
-) -> Result<[Option<Arc<DecodedTile>>; 4]> {
-    let mut out: [Option<Arc<DecodedTile>>; 4] = Default::default();
-    for (slot, n) in out.iter_mut().zip(ids) {
-        if let Some(n) = n {
-            match decoded(state, d, n, depth, cancel) {
-                Ok(t) => *slot = Some(t),
-                Err(e) if e.is::<Cancelled>() => return Err(e),
-                Err(e) => tracing::warn!("meshing {id} of {} without neighbour {n}: {e:#}", d.name),
+) -> [Option<Result<Arc<DecodedTile>>>; N] {
+    let misses = ids
+        .iter()
+        .flatten()
+        .filter(|&&id| !state.cache.contains_key(&key(d, id, depth)))
+        .count();
+    if misses < 2 {
+        return ids.map(|id| id.map(|id| decoded(state, d, id, depth, cancel)));
+    }
+    let mut out: [Option<Result<Arc<DecodedTile>>>; N] = std::array::from_fn(|_| None);
+    state.pool.install(|| {
+        rayon::scope(|s| {
+            for (slot, id) in out.iter_mut().zip(ids) {
+                if let Some(id) = id {
+                    s.spawn(move |_| *slot = Some(decoded(state, d, id, depth, cancel)));
+                }
             }
+        });
+    });
+    out
+}
+
+/// The neighbours' decodes `id` is meshed with. One that cannot be read (a corrupt record)
+/// is left out: it costs this tile its match there, not the tile itself.
+fn usable<const N: usize>(
+    d: &Dataset,
+    id: TileId,
+    ids: [Option<TileId>; N],
+    decodes: [Option<Result<Arc<DecodedTile>>>; N],
+) -> Result<[Option<Arc<DecodedTile>>; N]> {
+    let mut out: [Option<Arc<DecodedTile>>; N] = std::array::from_fn(|_| None);
+    for ((slot, n), decode) in out.iter_mut().zip(ids).zip(decodes) {
+        let (Some(n), Some(decode)) = (n, decode) else {
+            continue;
+        };
+        match decode {
+            Ok(t) => *slot = Some(t),
+            Err(e) if e.is::<Cancelled>() => return Err(e),
+            Err(e) => tracing::warn!("meshing {id} of {} without neighbour {n}: {e:#}", d.name),
         }
     }
     Ok(out)
@@ -228,7 +268,8 @@ impl Stitched {
     /// the four tiles at a corner give it one normal. The mesh does not need them.
     pub fn add_diagonals(&mut self, state: &AppState, d: &Dataset, cancel: &Cancel) -> Result<()> {
         let ids = diagonal_neighbours(d, self.id);
-        self.diagonals = decoded_around(state, d, self.id, ids, self.depth, cancel)?;
+        let decodes = decoded_all(state, d, ids, self.depth, cancel);
+        self.diagonals = usable(d, self.id, ids, decodes)?;
         Ok(())
     }
 
@@ -255,8 +296,17 @@ pub fn stitched(
 ) -> Result<Stitched> {
     // The tile and each neighbour at one depth: the stitch needs them decoded alike.
     let depth = Depth::for_threshold(t);
-    let center = decoded(state, d, id, depth, cancel)?;
-    let around = decoded_around(state, d, id, neighbours(d, id), depth, cancel)?;
+    let [north, south, west, east] = neighbours(d, id);
+    let [center, decodes @ ..] = decoded_all(
+        state,
+        d,
+        [Some(id), north, south, west, east],
+        depth,
+        cancel,
+    );
+    // Always there (it was asked for); decoded here if it ever were not.
+    let center = center.unwrap_or_else(|| decoded(state, d, id, depth, cancel))?;
+    let around = usable(d, id, [north, south, west, east], decodes)?;
     let mut out = Stitched {
         id,
         center,

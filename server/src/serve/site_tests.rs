@@ -10,7 +10,7 @@ use tower::ServiceExt;
 use super::{app, AppState, Catalog, Config};
 
 async fn get(uri: &str) -> (StatusCode, String, Vec<u8>) {
-    let res = app(AppState::new(Catalog::default(), Config::default()))
+    let res = app(AppState::new(Catalog::default(), Config::default()).unwrap())
         .oneshot(Request::get(uri).body(Body::empty()).unwrap())
         .await
         .unwrap();

@@ -3,6 +3,7 @@
 
 use std::sync::Arc;
 
+use anyhow::Context;
 use axum::http::StatusCode;
 
 use super::error::ApiError;
@@ -26,6 +27,10 @@ pub struct Config {
     /// Renders allowed to wait for a permit; past it requests are shed with 503 at once
     /// rather than queueing into the request timeout.
     pub cpu_queue: usize,
+    /// Threads of the render pool, one pool for all renders: it runs the independent parts
+    /// of a render side by side (a cold tile's five decodes, a view's tiles), so a lone
+    /// request uses every core, and however many renders hand it work it runs this many.
+    pub render_threads: usize,
     /// `Cache-Control: max-age` of tiles, seconds.
     pub tile_max_age: u32,
     /// Origins allowed by CORS; empty: any origin (tiles are public by default).
@@ -45,6 +50,7 @@ impl Default for Config {
             response_cache_bytes: super::tile_cache::DEFAULT_RESPONSE_CACHE_BYTES,
             cpu_jobs: cores * 2,
             cpu_queue: cores * 64,
+            render_threads: cores,
             tile_max_age: 3600,
             cors_origins: Vec::new(),
             public_url: None,
@@ -68,6 +74,8 @@ pub struct Shared {
     pub metrics: Arc<Metrics>,
     /// Admission and CPU slots for renders.
     pub renders: Arc<RenderSlots>,
+    /// The threads renders decode and mesh on ([`Config::render_threads`]).
+    pub pool: Arc<rayon::ThreadPool>,
     pub config: Arc<Config>,
     /// Object meshes and their LODs.
     pub meshes: Arc<MeshCatalog>,
@@ -82,16 +90,23 @@ impl std::ops::Deref for AppState {
 }
 
 impl AppState {
-    pub fn new(catalog: Catalog, config: Config) -> Self {
-        Self(Arc::new(Shared {
+    /// Fails only when the render pool's threads cannot be started.
+    pub fn new(catalog: Catalog, config: Config) -> anyhow::Result<Self> {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(config.render_threads.max(1))
+            .thread_name(|i| format!("zerotile-render-{i}"))
+            .build()
+            .context("starting the render threads")?;
+        Ok(Self(Arc::new(Shared {
             catalog: Arc::new(catalog),
             cache: Arc::new(new_cache(config.cache_bytes)),
             responses: Arc::new(new_response_cache(config.response_cache_bytes)),
             metrics: Arc::new(Metrics::default()),
             renders: Arc::new(RenderSlots::new(config.cpu_jobs, config.cpu_queue)),
+            pool: Arc::new(pool),
             meshes: Arc::new(MeshCatalog::empty(config.response_cache_bytes / 4)),
             config: Arc::new(config),
-        }))
+        })))
     }
 
     /// Serves `meshes` too.

@@ -135,7 +135,7 @@ fn router_over(mut d: Dataset) -> Router {
     d.name = "hill".into();
     let mut catalog = Catalog::default();
     catalog.insert(d);
-    app(AppState::new(catalog, Config::default()))
+    app(AppState::new(catalog, Config::default()).unwrap())
 }
 
 async fn send(
@@ -353,7 +353,8 @@ async fn renders_past_the_queue_are_shed_with_503() {
             cpu_queue: 0,
             ..Config::default()
         },
-    );
+    )
+    .unwrap();
     let held = state.admit_render().unwrap();
     let shed = state.admit_render().unwrap_err();
     assert_eq!(
@@ -463,7 +464,8 @@ async fn cors_allows_any_origin_unless_configured() {
             cors_origins: vec!["https://a.example".into()],
             ..Config::default()
         },
-    );
+    )
+    .unwrap();
     let closed = app(state);
     let (_, h, _) = send(
         &closed,
@@ -493,7 +495,7 @@ async fn cors_allows_any_origin_unless_configured() {
 fn gzip_variants_are_rendered_compressed_for_the_cache() {
     use super::routes::tiles::{render_tile, TileFormat, Variant};
     let d = hill_dataset("gzip-render", "local", &[ROOT]);
-    let state = AppState::new(Catalog::default(), Config::default());
+    let state = AppState::new(Catalog::default(), Config::default()).unwrap();
     let render = |gzip| {
         let v = Variant::Mesh { gzip };
         render_tile(
@@ -518,7 +520,7 @@ fn gzip_variants_are_rendered_compressed_for_the_cache() {
 #[test]
 fn a_cancelled_render_decodes_nothing_more() {
     let d = hill_dataset("cancel-before", "local", &[ROOT]);
-    let state = AppState::new(Catalog::default(), Config::default());
+    let state = AppState::new(Catalog::default(), Config::default()).unwrap();
     let cancel = pipeline::Cancel::default();
     drop(cancel.on_drop());
     let Err(err) = pipeline::stitched(&state, &d, ROOT, 1.0, &cancel) else {
@@ -532,8 +534,10 @@ fn a_cancelled_render_decodes_nothing_more() {
 }
 
 /// A client that goes away mid-render (its request future dropped, as hyper does on a
-/// disconnect) stops the render at its next tile instead of decoding all five. (On a tile
-/// with fewer than four neighbours fewer than five decodes would pass uncancelled too.)
+/// disconnect) stops the render before its next tile decode instead of decoding all five.
+/// On two render threads the decodes under way when it leaves (two at most) finish and no
+/// other starts, so fewer than five do. (On a tile with fewer than four neighbours fewer
+/// than five decodes would pass uncancelled too.)
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn dropping_a_request_stops_its_decode_work() {
     // Geodetic zoom 2 (8 × 4 tiles): tile (1, 1) has all four neighbours, five decodes.
@@ -544,7 +548,11 @@ async fn dropping_a_request_stops_its_decode_work() {
     let name = d.name.clone();
     let mut catalog = Catalog::default();
     catalog.insert(d);
-    let state = AppState::new(catalog, Config::default());
+    let config = Config {
+        render_threads: 2,
+        ..Config::default()
+    };
+    let state = AppState::new(catalog, config).unwrap();
     let app = app(state.clone());
     // The finest threshold: every pass decoded, milliseconds a tile.
     let uri = format!("/v1/datasets/{name}/tiles/2/1/1.terrain?threshold=0.01");
@@ -755,7 +763,7 @@ async fn tilejson_urls_follow_the_configured_origin() {
         d.name = "merc".into();
         let mut catalog = Catalog::default();
         catalog.insert(d);
-        app(AppState::new(catalog, config))
+        app(AppState::new(catalog, config).unwrap())
     };
     let headers = [
         ("host", "10.0.0.7:8080"),
@@ -1449,6 +1457,42 @@ async fn a_view_meshes_the_deepest_zoom_that_fits() {
     let (status, headers, body) = get(&app, uri).await;
     assert_eq!(status, StatusCode::OK, "{}", String::from_utf8_lossy(&body));
     assert_eq!(headers["x-zoom"], "1");
+}
+
+/// A view's tiles are meshed side by side on the render pool: the answer is byte for byte
+/// the one a single render thread gives (the weld reads the tiles in order, not as their
+/// tasks finish), and no tile is decoded twice when tasks meet on a shared neighbour.
+#[tokio::test]
+async fn a_view_on_four_render_threads_is_the_one_thread_view_and_decodes_each_tile_once() {
+    // Geodetic zoom 2 (45° tiles): a footprint about 40° wide covers a few of them, and
+    // their neighbours are shared.
+    let all: Vec<TileId> = (0..8)
+        .flat_map(|x| (0..4).map(move |y| id(2, x, y)))
+        .collect();
+    let uri = "/v1/datasets/hill/view?eye=10,10,3850000&target=10,10,0&fov=60";
+    let mut runs = Vec::new();
+    for threads in [1, 4] {
+        let mut d = hill_dataset(&format!("view-threads-{threads}"), "geodetic", &all);
+        d.name = "hill".into();
+        let mut catalog = Catalog::default();
+        catalog.insert(d);
+        let config = Config {
+            render_threads: threads,
+            ..Config::default()
+        };
+        let state = AppState::new(catalog, config).unwrap();
+        let (status, headers, body) = get(&app(state.clone()), uri).await;
+        assert_eq!(status, StatusCode::OK, "{}", String::from_utf8_lossy(&body));
+        assert_eq!(headers["x-zoom"], "2");
+        runs.push((state.metrics.tiles_decoded.load(Relaxed), body));
+    }
+    let [(one_decoded, one_body), (four_decoded, four_body)] = &runs[..] else {
+        unreachable!("two runs");
+    };
+    // More than one tile under the view, each with neighbours: work for the pool.
+    assert!(*one_decoded > 5, "{one_decoded} decodes");
+    assert_eq!(four_decoded, one_decoded);
+    assert!(four_body == one_body, "the views differ");
 }
 
 /// A pyramid's shallowest zoom is meshed even when more than MAX_VIEW_TILES of its tiles lie

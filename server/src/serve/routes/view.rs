@@ -15,6 +15,7 @@ use axum::http::header::CONTENT_TYPE;
 use axum::http::HeaderValue;
 use axum::response::Response;
 use glam::DVec3;
+use rayon::prelude::*;
 use serde_json::json;
 use zerotile_codec::container::TileId;
 use zerotile_codec::geo::{lonlat_to_mercator, Bounds, Scheme};
@@ -205,9 +206,19 @@ fn view_mesh(
     let mut faces = Vec::new();
     let mut under_middle = Vec::new();
     let mut welded: HashMap<[u64; 2], u32> = HashMap::new();
-    for &id in tiles {
-        let mesh = pipeline::stitched(state, d, id, t, cancel)?.mesh;
-        let tile = render::tri_mesh(d, id, &mesh)?;
+    // Each tile a task on the render pool (up to 16 tiles and their neighbours, decoded
+    // and meshed independently); the cut and the weld below then read them in tile order,
+    // so the mesh is the same whichever task finished first.
+    let meshes = state.pool.install(|| {
+        tiles
+            .par_iter()
+            .map(|&id| {
+                let mesh = pipeline::stitched(state, d, id, t, cancel)?.mesh;
+                render::tri_mesh(d, id, &mesh)
+            })
+            .collect::<anyhow::Result<Vec<_>>>()
+    })?;
+    for (&id, tile) in tiles.iter().zip(&meshes) {
         for f in &tile.faces {
             let Some(p) = at3(&tile.positions, *f) else {
                 anyhow::bail!("tile {id} mesh has a face past its vertices");
