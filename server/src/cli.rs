@@ -4,6 +4,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{ArgGroup, Args, Parser, Subcommand};
+use zerotile_codec::formats::terrain_rgb::PngCompression;
 use zerotile_codec::raster::Encoding;
 use zerotile_codec::wavelet::Wavelet;
 
@@ -69,6 +70,10 @@ pub struct ExportArgs {
     /// `url` of a MapLibre raster-dem source.
     #[arg(long, value_name = "URL")]
     pub base_url: Option<String>,
+    /// DEFLATE effort of png tiles: fast | balanced | best (the same pixels; balanced takes
+    /// ~40× fast's time for ~30 % fewer bytes, best ~2.7× balanced's for ~2 % fewer).
+    #[arg(long, default_value = "balanced", value_name = "EFFORT")]
+    pub png_compression: PngCompression,
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -194,6 +199,11 @@ pub struct ServeArgs {
     /// cores.
     #[arg(long, value_name = "N")]
     pub render_threads: Option<usize>,
+    /// DEFLATE effort of terrain-RGB PNG tiles: fast | balanced | best. The same pixels;
+    /// rendered on request, fast keeps a cold 512² tile at ~2 ms of compression where
+    /// balanced takes ~70 ms for ~30 % fewer bytes.
+    #[arg(long, default_value = "fast", value_name = "EFFORT")]
+    pub png_compression: PngCompression,
     /// The URL clients reach the server at, e.g. `https://tiles.example.org/terrain`: the
     /// absolute tile URLs of tiles.json (TileJSON) start with it. Default: each request's
     /// Host header, over http.
@@ -374,6 +384,7 @@ fn export(a: ExportArgs) -> anyhow::Result<()> {
         out: a.out,
         zooms: a.zoom,
         base_url: a.base_url,
+        png_compression: a.png_compression,
         progress: !a.quiet,
     };
     let done = crate::export::run(&job)?;
@@ -539,6 +550,7 @@ fn serve_config(a: &ServeArgs) -> anyhow::Result<crate::serve::Config> {
         cpu_jobs: a.cpu_jobs.unwrap_or(defaults.cpu_jobs),
         cpu_queue: a.cpu_queue.unwrap_or(defaults.cpu_queue),
         render_threads: a.render_threads.unwrap_or(defaults.render_threads),
+        png_compression: a.png_compression,
         ..defaults
     })
 }

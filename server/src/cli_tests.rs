@@ -52,6 +52,7 @@ fn serve_defaults_and_sizes_come_through_as_given() {
             defaults.render_threads
         )
     );
+    assert_eq!(c.png_compression, PngCompression::Fast);
     assert!(c.cors_origins.is_empty() && c.public_url.is_none() && !c.trust_forwarded);
 
     let c = serve_config(&serve_args(&[
@@ -63,6 +64,8 @@ fn serve_defaults_and_sizes_come_through_as_given() {
         "7",
         "--render-threads",
         "3",
+        "--png-compression",
+        "best",
         "--trust-forwarded",
         "--cors-origin",
         "https://maps.example.org",
@@ -76,6 +79,7 @@ fn serve_defaults_and_sizes_come_through_as_given() {
         (c.cache_bytes, c.cpu_jobs, c.cpu_queue, c.render_threads),
         (3 << 20, 5, 7, 3)
     );
+    assert_eq!(c.png_compression, PngCompression::Best);
     assert!(c.trust_forwarded && c.public_url.is_some());
     assert_eq!(
         c.cors_origins,
@@ -197,6 +201,7 @@ fn export_notes_say_what_was_not_written() {
         out: PathBuf::from("out/tree"),
         zooms,
         base_url: None,
+        png_compression: PngCompression::Balanced,
         progress: false,
     };
     let done = |no_tilejson| crate::export::Exported {

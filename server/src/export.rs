@@ -13,6 +13,7 @@ use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
 use anyhow::{bail, Context, Result};
 use rayon::prelude::*;
 use zerotile_codec::container::TileId;
+use zerotile_codec::formats::terrain_rgb::PngCompression;
 use zerotile_codec::geo::Scheme;
 
 use crate::serve::dataset::Dataset;
@@ -37,6 +38,8 @@ pub struct Export {
     pub zooms: Option<(u8, u8)>,
     /// The URL the tree will be served from: TileJSON needs absolute tile URLs.
     pub base_url: Option<String>,
+    /// DEFLATE effort of PNG tiles: written once, so `Balanced` by default.
+    pub png_compression: PngCompression,
     pub progress: bool,
 }
 
@@ -203,7 +206,11 @@ pub fn run(job: &Export) -> Result<Exported> {
     // the neighbours that stitching needs.
     let mut catalog = Catalog::default();
     catalog.insert(d);
-    let state = AppState::new(catalog, Config::default())?;
+    let config = Config {
+        png_compression: job.png_compression,
+        ..Config::default()
+    };
+    let state = AppState::new(catalog, config)?;
     let d = state
         .catalog
         .iter()

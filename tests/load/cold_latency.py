@@ -8,7 +8,9 @@ machine's drift falls on both): a fresh server per sample (empty caches), then
           neighbours decoded and meshed, cut to the footprint;
   block   a 6x6 block of zoom-10 tiles fetched in order, one at a time (ms per tile);
   block4  the same block with 4 requests in flight (ms per tile): the server busy on
-          every core, where parallel work inside one render has nothing left to gain.
+          every core, where parallel work inside one render has nothing left to gain;
+  png     the same block as 512² terrain-RGB PNGs, in order (ms per tile): one decode and
+          the PNG's compression each.
 
 Rounds alternate which binary goes first; the report gives each binary's medians and the
 median over rounds of B / A (below 1: B is faster).
@@ -28,7 +30,7 @@ ADDR = "127.0.0.1:18412"
 BASE = f"http://{ADDR}/v1/datasets/srtm"
 ACCEPT = {"Accept": "application/vnd.quantized-mesh"}
 VIEW = "/view?eye=-71.3,44.3,2500&target=-71.5,44.5,500&fov=60"
-KINDS = ("tile", "view", "block", "block4")
+KINDS = ("tile", "view", "block", "block4", "png")
 
 
 def get(url: str, headers: dict | None = None) -> None:
@@ -70,6 +72,9 @@ def sample(binary: str, data: str, kind: str) -> float:
             return timed_ms(lambda: get(BASE + VIEW))
         if kind == "block":
             return timed_ms(lambda: [get(u, ACCEPT) for u in urls]) / len(urls)
+        if kind == "png":
+            pngs = [u.replace(".terrain?threshold=4", ".png") for u in urls]
+            return timed_ms(lambda: [get(u) for u in pngs]) / len(pngs)
         with concurrent.futures.ThreadPoolExecutor(4) as pool:
             return timed_ms(lambda: list(pool.map(lambda u: get(u, ACCEPT), urls))) / len(urls)
     finally:

@@ -7,7 +7,7 @@ use zerotile_codec::container::TileId;
 use zerotile_codec::formats::layer_json::AvailableRange;
 use zerotile_codec::formats::mesh_bin::{self, MeshCrs};
 use zerotile_codec::formats::quantized_mesh::{self, Diagonals, QmOptions};
-use zerotile_codec::formats::terrain_rgb::{self, RgbOptions};
+use zerotile_codec::formats::terrain_rgb::{self, PngCompression, RgbOptions};
 use zerotile_codec::geo::{self, Scheme};
 use zerotile_codec::mesh::{io, Format, TriMesh};
 use zerotile_codec::raster::Encoding;
@@ -97,9 +97,15 @@ pub fn child_availability(d: &Dataset, id: TileId) -> Result<serde_json::Value> 
 }
 
 /// A terrain-RGB or Terrarium PNG of `size`² pixels over the tile.
-pub fn png(heights: &Grid<f64>, encoding: Encoding, size: u32) -> Result<Vec<u8>> {
+pub fn png(
+    heights: &Grid<f64>,
+    encoding: Encoding,
+    size: u32,
+    compression: PngCompression,
+) -> Result<Vec<u8>> {
     let opts = RgbOptions {
         size: Some(size),
+        compression,
         ..RgbOptions::new(encoding)
     };
     Ok(terrain_rgb::encode(heights, &opts)?)

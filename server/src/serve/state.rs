@@ -5,6 +5,7 @@ use std::sync::Arc;
 
 use anyhow::Context;
 use axum::http::StatusCode;
+use zerotile_codec::formats::terrain_rgb::PngCompression;
 
 use super::error::ApiError;
 
@@ -31,6 +32,9 @@ pub struct Config {
     /// of a render side by side (a cold tile's five decodes, a view's tiles), so a lone
     /// request uses every core, and however many renders hand it work it runs this many.
     pub render_threads: usize,
+    /// DEFLATE effort of terrain-RGB PNGs: rendered on request, `Fast` (1.7 ms for a 512²
+    /// tile, where `Balanced` takes 70 ms for 30 % fewer bytes).
+    pub png_compression: PngCompression,
     /// `Cache-Control: max-age` of tiles, seconds.
     pub tile_max_age: u32,
     /// Origins allowed by CORS; empty: any origin (tiles are public by default).
@@ -51,6 +55,7 @@ impl Default for Config {
             cpu_jobs: cores * 2,
             cpu_queue: cores * 64,
             render_threads: cores,
+            png_compression: PngCompression::Fast,
             tile_max_age: 3600,
             cors_origins: Vec::new(),
             public_url: None,

@@ -1461,6 +1461,37 @@ async fn a_view_meshes_the_deepest_zoom_that_fits() {
     assert_eq!(headers["x-zoom"], "1");
 }
 
+/// `png_compression` reaches the PNG route: a server set to `Best` answers with fewer bytes
+/// than one set to `Fast` (the default), and both hold the same heights.
+#[tokio::test]
+async fn png_tiles_follow_the_configured_compression_and_keep_their_heights() {
+    use zerotile_codec::formats::terrain_rgb::{self, PngCompression};
+    use zerotile_codec::raster::Encoding;
+
+    let mut tiles = Vec::new();
+    for compression in [PngCompression::Fast, PngCompression::Best] {
+        let mut d = hill_dataset("png-compression", "local", &[ROOT]);
+        d.name = "hill".into();
+        let mut catalog = Catalog::default();
+        catalog.insert(d);
+        let config = Config {
+            png_compression: compression,
+            ..Config::default()
+        };
+        let state = AppState::new(catalog, config).unwrap();
+        let (status, _, body) = get(&app(state), "/v1/datasets/hill/tiles/0/0/0.png").await;
+        assert_eq!(status, StatusCode::OK, "{compression:?}");
+        let heights = terrain_rgb::decode(&body, Encoding::TerrainRgb, 1 << 20).unwrap();
+        tiles.push((body.len(), heights));
+    }
+    let [(fast_len, fast), (best_len, best)] = &tiles[..] else {
+        unreachable!("two servers");
+    };
+    assert_eq!(Config::default().png_compression, PngCompression::Fast);
+    assert!(best_len < fast_len, "best {best_len} B, fast {fast_len} B");
+    assert_eq!(best.data(), fast.data());
+}
+
 /// A view's tiles are meshed side by side on the render pool: the answer is byte for byte
 /// the one a single render thread gives (the weld reads the tiles in order, not as their
 /// tasks finish), and no tile is decoded twice when tasks meet on a shared neighbour.

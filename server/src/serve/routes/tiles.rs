@@ -431,7 +431,8 @@ pub(crate) fn render_tile(
             } else {
                 Encoding::TerrainRgb
             };
-            (render::png(&dec.heights, enc, size)?, None)
+            let png = render::png(&dec.heights, enc, size, state.config.png_compression)?;
+            (png, None)
         }
         (TileFormat::Ezw, _) => {
             let dec = pipeline::decoded(state, d, id, Depth::for_threshold(t), cancel)?;
