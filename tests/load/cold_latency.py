@@ -19,12 +19,12 @@ usage: tests/load/cold_latency.py BIN_A BIN_B DATA_DIR [ROUNDS]
 DATA_DIR must hold srtm.ztd: zerotile ingest --scheme geodetic --name srtm --data DIR N44W072.hgt
 """
 import concurrent.futures
-import json
 import statistics
-import subprocess
 import sys
 import time
 import urllib.request
+
+from fresh_server import fresh_server
 
 ADDR = "127.0.0.1:18412"
 BASE = f"http://{ADDR}/v1/datasets/srtm"
@@ -53,18 +53,7 @@ def block(layer: dict) -> list[str]:
 
 def sample(binary: str, data: str, kind: str) -> float:
     """One cold measurement of `kind` on a fresh server, in ms (per tile for blocks)."""
-    server = subprocess.Popen([binary, "serve", "--data", data, "--addr", ADDR],
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    try:
-        for _ in range(100):
-            try:
-                with urllib.request.urlopen(BASE + "/layer.json") as r:
-                    layer = json.load(r)
-                break
-            except OSError:
-                time.sleep(0.1)
-        else:
-            sys.exit(f"the server at {ADDR} did not answer (is the port taken?)")
+    with fresh_server(binary, data, ADDR, "srtm") as layer:
         urls = block(layer)
         if kind == "tile":
             return timed_ms(lambda: get(urls[14].replace("?threshold=4", ""), ACCEPT))
@@ -77,9 +66,6 @@ def sample(binary: str, data: str, kind: str) -> float:
             return timed_ms(lambda: [get(u) for u in pngs]) / len(pngs)
         with concurrent.futures.ThreadPoolExecutor(4) as pool:
             return timed_ms(lambda: list(pool.map(lambda u: get(u, ACCEPT), urls))) / len(urls)
-    finally:
-        server.terminate()
-        server.wait()
 
 
 def main() -> None:

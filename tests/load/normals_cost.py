@@ -9,31 +9,20 @@ sample of each), so this is the price of corner normals that agree, plus the nor
 usage: tests/load/normals_cost.py ZEROTILE_BIN DATA_DIR
 DATA_DIR must hold srtm.ztd: zerotile ingest --scheme geodetic --name srtm --data DIR N44W072.hgt
 """
-import json
 import statistics
-import subprocess
 import sys
 import time
 import urllib.request
+
+from fresh_server import fresh_server
 
 ADDR = "127.0.0.1:18411"
 ACCEPT = "application/vnd.quantized-mesh"
 
 
 def run(binary: str, data: str, normals: bool) -> tuple[float, int]:
-    server = subprocess.Popen([binary, "serve", "--data", data, "--addr", ADDR],
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    try:
+    with fresh_server(binary, data, ADDR, "srtm") as layer:
         base = f"http://{ADDR}/v1/datasets/srtm"
-        for _ in range(100):
-            try:
-                with urllib.request.urlopen(base + "/layer.json") as r:
-                    layer = json.load(r)
-                break
-            except OSError:
-                time.sleep(0.1)
-        else:
-            sys.exit(f"the server at {ADDR} did not answer (is the port taken?)")
         r = layer["available"][10][0]
         accept = ACCEPT + (";extensions=octvertexnormals" if normals else "")
         t0, n = time.perf_counter(), 0
@@ -45,9 +34,6 @@ def run(binary: str, data: str, normals: bool) -> tuple[float, int]:
                     resp.read()
                 n += 1
         return (time.perf_counter() - t0) * 1000 / n, n
-    finally:
-        server.terminate()
-        server.wait()
 
 
 def main() -> None:

@@ -131,11 +131,16 @@ fn router_of(tag: &str, scheme: &str) -> Router {
 }
 
 /// The router over `d`, renamed `hill`.
-fn router_over(mut d: Dataset) -> Router {
+fn router_over(d: Dataset) -> Router {
+    app(state_over(d, Config::default()))
+}
+
+/// A server state holding `d`, renamed `hill`, with `config`.
+fn state_over(mut d: Dataset, config: Config) -> AppState {
     d.name = "hill".into();
     let mut catalog = Catalog::default();
     catalog.insert(d);
-    app(AppState::new(catalog, Config::default()).unwrap())
+    AppState::new(catalog, config).unwrap()
 }
 
 async fn send(
@@ -1470,15 +1475,11 @@ async fn png_tiles_follow_the_configured_compression_and_keep_their_heights() {
 
     let mut tiles = Vec::new();
     for compression in [PngCompression::Fast, PngCompression::Best] {
-        let mut d = hill_dataset("png-compression", "local", &[ROOT]);
-        d.name = "hill".into();
-        let mut catalog = Catalog::default();
-        catalog.insert(d);
         let config = Config {
             png_compression: compression,
             ..Config::default()
         };
-        let state = AppState::new(catalog, config).unwrap();
+        let state = state_over(hill_dataset("png-compression", "local", &[ROOT]), config);
         let (status, _, body) = get(&app(state), "/v1/datasets/hill/tiles/0/0/0.png").await;
         assert_eq!(status, StatusCode::OK, "{compression:?}");
         let heights = terrain_rgb::decode(&body, Encoding::TerrainRgb, 1 << 20).unwrap();
@@ -1505,15 +1506,12 @@ async fn a_view_on_four_render_threads_is_the_one_thread_view_and_decodes_each_t
     let uri = "/v1/datasets/hill/view?eye=10,10,3850000&target=10,10,0&fov=60";
     let mut runs = Vec::new();
     for threads in [1, 4] {
-        let mut d = hill_dataset(&format!("view-threads-{threads}"), "geodetic", &all);
-        d.name = "hill".into();
-        let mut catalog = Catalog::default();
-        catalog.insert(d);
+        let d = hill_dataset(&format!("view-threads-{threads}"), "geodetic", &all);
         let config = Config {
             render_threads: threads,
             ..Config::default()
         };
-        let state = AppState::new(catalog, config).unwrap();
+        let state = state_over(d, config);
         let (status, headers, body) = get(&app(state.clone()), uri).await;
         assert_eq!(status, StatusCode::OK, "{}", String::from_utf8_lossy(&body));
         assert_eq!(headers["x-zoom"], "2");
