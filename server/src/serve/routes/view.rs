@@ -16,7 +16,7 @@ use axum::http::HeaderValue;
 use axum::response::Response;
 use glam::DVec3;
 use rayon::prelude::*;
-use serde_json::json;
+use serde::Serialize;
 use zerotile_codec::container::TileId;
 use zerotile_codec::geo::{lonlat_to_mercator, Bounds, Scheme};
 use zerotile_codec::mesh::{io, Format, TriMesh};
@@ -84,20 +84,21 @@ pub async fn view(
     let triangles = mesh.faces.len();
     let (bytes, media) = match format {
         Format::Json => {
-            let positions: Vec<f64> = mesh.positions.iter().flat_map(|p| p.to_array()).collect();
-            let indices: Vec<u32> = mesh.faces.iter().flatten().copied().collect();
-            let v = json!({
-                "threshold": t,
-                "ratio": plane.ratio,
-                "a_v": plane.a_v,
-                "a_t": plane.a_t,
-                "zoom": zoom,
-                "footprint": plane.footprint,
-                "triangles": triangles,
-                "mesh": { "positions": positions, "indices": indices },
-            });
+            let body = ViewBody {
+                a_t: plane.a_t,
+                a_v: plane.a_v,
+                footprint: &plane.footprint,
+                mesh: MeshBody {
+                    indices: mesh.faces.iter().flatten().copied().collect(),
+                    positions: mesh.positions.iter().flat_map(|p| p.to_array()).collect(),
+                },
+                ratio: plane.ratio,
+                threshold: t,
+                triangles,
+                zoom,
+            };
             (
-                serde_json::to_vec(&v).map_err(ApiError::internal)?,
+                serde_json::to_vec(&body).map_err(ApiError::internal)?,
                 "application/json",
             )
         }
@@ -124,6 +125,28 @@ pub async fn view(
     h.insert("x-triangles", header(&triangles.to_string())?);
     h.insert("x-zoom", header(&zoom.to_string())?);
     Ok(res)
+}
+
+/// The JSON answer, serialised straight from the mesh (a `serde_json::Value` tree would box
+/// every coordinate first); fields in name order, as the `json!` object it replaced wrote
+/// them, so the bytes did not change.
+#[derive(Serialize)]
+struct ViewBody<'a> {
+    a_t: f64,
+    a_v: f64,
+    footprint: &'a [[f64; 2]],
+    mesh: MeshBody,
+    ratio: f64,
+    threshold: f64,
+    triangles: usize,
+    zoom: u8,
+}
+
+/// Flat arrays: x, y, z per vertex; three indices per triangle.
+#[derive(Serialize)]
+struct MeshBody {
+    indices: Vec<u32>,
+    positions: Vec<f64>,
 }
 
 fn header(s: &str) -> ApiResult<HeaderValue> {
