@@ -466,7 +466,8 @@ fn put_zigzag_deltas(out: &mut Vec<u8>, values: &[u16]) {
     for &value in values {
         let delta = i32::from(value) - previous;
         previous = i32::from(value);
-        // |delta| ≤ 32767, so the zig-zag code is at most 65534.
+        // |delta| ≤ 32767, so the zig-zag code is at most 65534 (and `delta >> 31`, the sign
+        // mask, equals `delta >> k` for any k from 15 up: those mutants are equivalent).
         let code = ((delta << 1) ^ (delta >> 31)) as u16;
         out.extend_from_slice(&code.to_le_bytes());
     }

@@ -152,6 +152,55 @@ fn round_trip_preserves_every_field() {
         .all(|v| v.is_finite()));
 }
 
+/// The header's f32 height range holds every f64 height: where the nearest f32 falls inside
+/// the range (0.1 rounds up, 0.7 down; the other way round below zero) it steps outwards,
+/// so no vertex quantises outside it, and by one f32 step at most.
+#[test]
+fn the_f32_height_range_is_rounded_outwards() {
+    let tile = TileGeo::geodetic(10.0, 45.0, 10.5, 45.5);
+    for (lo, hi) in [(0.1_f64, 0.7_f64), (-0.7, -0.1)] {
+        // The premise: the nearest f32 of each end lies inside the range.
+        assert!(f64::from(lo as f32) > lo && f64::from(hi as f32) < hi);
+        let height = |r, c| match (r, c) {
+            (0, 0) => lo,
+            (2, 2) => hi,
+            _ => (lo + hi) / 2.0,
+        };
+        let m = decode(&encode(&grid_mesh(3, 3, height), &tile, &QmOptions::default()).unwrap())
+            .unwrap();
+        let (min_h, max_h) = (m.header.min_height, m.header.max_height);
+        assert!(
+            f64::from(min_h) <= lo && f64::from(max_h) >= hi,
+            "{min_h}..{max_h}"
+        );
+        assert_eq!(
+            (min_h, max_h),
+            ((lo as f32).next_down(), (hi as f32).next_up())
+        );
+    }
+}
+
+/// The horizon occlusion point lies along the bounding sphere's centre in scaled space, as
+/// CesiumJS computes it, not along the tile's geographic centre: on a wide tile the two
+/// directions part.
+#[test]
+fn the_occlusion_point_is_aimed_at_the_bounding_spheres_centre() {
+    let e = Ellipsoid::WGS84;
+    let tile = TileGeo::geodetic(0.0, 0.0, 90.0, 60.0);
+    let m =
+        decode(&encode(&grid_mesh(9, 9, bumpy), &tile, &QmOptions::default()).unwrap()).unwrap();
+    let along = |p: [f64; 3]| e.to_scaled_space(DVec3::from_array(p)).normalize();
+    let sphere = along(m.header.bounding_sphere_center);
+    let centre = along(m.header.center);
+    let hop = DVec3::from_array(m.header.horizon_occlusion_point);
+    assert!(hop.is_finite(), "{hop}");
+    assert!(
+        sphere.cross(centre).length() > 1e-3,
+        "the directions differ here"
+    );
+    assert!(hop.normalize().cross(sphere).length() < 1e-12, "{hop}");
+}
+
 #[test]
 fn triangles_wind_counter_clockwise_in_uv() {
     let m = decode(
