@@ -200,7 +200,8 @@ impl Quantized {
                     quantize((lat - tile.south) / (tile.north - tile.south))
                 }
             });
-            // A flat tile (range 0) quantises every height to 0.
+            // A flat tile (range 0) quantises every height to 0 (so would the NaN of 0 / 0,
+            // through the clamp and the cast: `>` and `>=` here are equivalent mutants).
             q.h.push(if range > 0.0 {
                 quantize((z - lo) / range)
             } else {

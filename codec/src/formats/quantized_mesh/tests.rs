@@ -275,7 +275,20 @@ fn vertices_are_renumbered_by_first_use_and_unused_ones_go_last() {
     assert_eq!(m.vertex_count(), 10);
     // The unused vertex is last and highest.
     assert_eq!(m.height[9], QUANTIZED_MAX);
-    // Each decoded triangle sits where the original did.
+    // With no triangle to lean on, its normal is the ellipsoid's there (near 0.5°, 0.5°:
+    // about +X), not a fixed +Z.
+    let lit = QmOptions {
+        octvertexnormals: true,
+        ..QmOptions::default()
+    };
+    let normals = decode(&encode(&mesh, &tile, &lit).unwrap())
+        .unwrap()
+        .normals
+        .unwrap();
+    let up = Ellipsoid::WGS84.surface_normal_at(Ellipsoid::WGS84.to_ecef(0.5, 0.5, 500.0));
+    let got = oct_decode(normals[9]);
+    assert!(got.angle_between(up.unwrap()) < 0.05, "{got}"); // oct bytes: ~1° steps
+                                                             // Each decoded triangle sits where the original did.
     for (dt, ot) in m.triangles.iter().zip(&mesh.triangles) {
         for (&d, &o) in dt.iter().zip(ot) {
             let [x, y, _] = mesh.positions[o as usize];
