@@ -201,9 +201,9 @@ pub struct ServeArgs {
     pub render_threads: Option<usize>,
     /// DEFLATE effort of terrain-RGB PNG tiles: fast | balanced | best. The same pixels;
     /// rendered on request, fast keeps a cold 512² tile at ~2 ms of compression where
-    /// balanced takes ~70 ms for ~30 % fewer bytes.
-    #[arg(long, default_value = "fast", value_name = "EFFORT")]
-    pub png_compression: PngCompression,
+    /// balanced takes ~70 ms for ~30 % fewer bytes. Default: fast.
+    #[arg(long, value_name = "EFFORT")]
+    pub png_compression: Option<PngCompression>,
     /// The URL clients reach the server at, e.g. `https://tiles.example.org/terrain`: the
     /// absolute tile URLs of tiles.json (TileJSON) start with it. Default: each request's
     /// Host header, over http.
@@ -550,7 +550,7 @@ fn serve_config(a: &ServeArgs) -> anyhow::Result<crate::serve::Config> {
         cpu_jobs: a.cpu_jobs.unwrap_or(defaults.cpu_jobs),
         cpu_queue: a.cpu_queue.unwrap_or(defaults.cpu_queue),
         render_threads: a.render_threads.unwrap_or(defaults.render_threads),
-        png_compression: a.png_compression,
+        png_compression: a.png_compression.unwrap_or(defaults.png_compression),
         ..defaults
     })
 }

@@ -52,7 +52,8 @@ fn serve_defaults_and_sizes_come_through_as_given() {
             defaults.render_threads
         )
     );
-    assert_eq!(c.png_compression, PngCompression::Fast);
+    assert_eq!(c.png_compression, defaults.png_compression);
+    assert_eq!(defaults.png_compression, PngCompression::Fast);
     assert!(c.cors_origins.is_empty() && c.public_url.is_none() && !c.trust_forwarded);
 
     let c = serve_config(&serve_args(&[

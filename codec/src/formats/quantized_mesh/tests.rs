@@ -820,6 +820,23 @@ fn malformed_fields_are_named_errors() {
     ));
 }
 
+/// `got` is an encoding when `ok`, else the refusal of parameter `name`; `case` says which.
+fn accepted_or_refused_as(
+    got: Result<Vec<u8>, QmError>,
+    ok: bool,
+    name: &str,
+    case: &dyn std::fmt::Debug,
+) {
+    match (got, ok) {
+        (Ok(_), true) => {}
+        (Err(QmError::Parameter { name: refused, .. }), false) => assert_eq!(refused, name),
+        (got, _) => panic!(
+            "{case:?}: expected ok = {ok}, got {:?}",
+            got.map(|b| b.len())
+        ),
+    }
+}
+
 /// Each rule of the encoder's contract, checked at its edge: the last value it accepts and
 /// the first it refuses, and the refusal names the rule.
 #[test]
@@ -917,14 +934,7 @@ fn encoder_checks_each_rule_of_the_contract_at_its_edge() {
         (geodetic(0.0, 0.0, f64::INFINITY, 1.0), false),
         (geodetic(0.0, 0.0, 1.0, f64::NAN), false),
     ] {
-        match (encode(&good, &bounds, &o), ok) {
-            (Ok(_), true) => {}
-            (Err(QmError::Parameter { name, .. }), false) => assert_eq!(name, "tile bounds"),
-            (got, _) => panic!(
-                "{bounds:?}: expected ok = {ok}, got {:?}",
-                got.map(|b| b.len())
-            ),
-        }
+        accepted_or_refused_as(encode(&good, &bounds, &o), ok, "tile bounds", &bounds);
     }
 
     // Given normals: one finite vector per vertex.
@@ -959,14 +969,7 @@ fn encoder_checks_each_rule_of_the_contract_at_its_edge() {
             watermask: Some(WaterMask::Grid(vec![0; len])),
             ..QmOptions::default()
         };
-        match (encode(&good, &tile, &mask), ok) {
-            (Ok(_), true) => {}
-            (Err(QmError::Parameter { name, .. }), false) => assert_eq!(name, "water mask grid"),
-            (got, _) => panic!(
-                "{len} bytes: expected ok = {ok}, got {:?}",
-                got.map(|b| b.len())
-            ),
-        }
+        accepted_or_refused_as(encode(&good, &tile, &mask), ok, "water mask grid", &len);
     }
 }
 
