@@ -290,8 +290,39 @@ fn uploads_are_validated_limited_and_never_replace_a_mesh_with_a_bad_one() {
     let new = s.get("/v1/meshes/plain/original?format=obj", &[]);
     assert_eq!((old_faces > 1, obj_counts(&new.body).1), (true, 1));
     assert_ne!(new.header("etag"), old.header("etag"));
+    // One triangle's octree stops above the default level 2: without `level` that is the
+    // deepest level there is; asked for by name, a level past it is still refused.
+    let octree = s.get("/v1/meshes/plain/octree", &[]);
+    assert_eq!(octree.status, 200, "{}", String::from_utf8_lossy(&octree.body));
+    assert!(octree.header("x-error").unwrap().parse::<f64>().unwrap() < 2.0);
+    s.get("/v1/meshes/plain/octree?level=2", &[])
+        .error(400, "bad_mesh_query");
     s.post("/v1/meshes/cow2", "image/png", b"\x89PNG")
         .error(415, "unsupported_media_type");
+    // The JSON `?format=json` answers goes back in, labelled or sniffed, and stays.
+    let json = s.get("/v1/meshes/plain/original?format=json", &[]).body;
+    for (name, media) in [
+        ("j1", "application/json"),
+        ("j2", "application/octet-stream"),
+    ] {
+        let r = s.post(&format!("/v1/meshes/{name}"), media, &json);
+        assert_eq!(
+            r.status,
+            201,
+            "{media}: {}",
+            String::from_utf8_lossy(&r.body)
+        );
+        assert!(data.join(format!("meshes/{name}.json")).exists(), "{media}");
+    }
+    s.post("/v1/meshes/cow3?format=ply", "model/obj", &cow)
+        .error(400, "bad_query");
+    assert!(!data.join("meshes/cow3.obj").exists());
+    let restarted = Server::start(&data);
+    for name in ["j1", "j2"] {
+        let r = restarted.get(&format!("/v1/meshes/{name}"), &[]);
+        assert_eq!(r.status, 200, "{name} after a restart");
+        assert_eq!(r.json()["faces"], 1, "{name}");
+    }
     s.post("/v1/meshes/..%2Fescape", "model/obj", &cow)
         .error(400, "bad_name");
     s.post("/v1/meshes/empty", "model/obj", b"")

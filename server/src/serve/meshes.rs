@@ -24,6 +24,9 @@ pub const MESH_DIR: &str = "meshes";
 /// Largest upload, bytes (also the largest file read at start).
 pub const MAX_UPLOAD_BYTES: usize = 64 << 20;
 
+/// The extensions an upload is stored under, one per format read.
+const UPLOAD_EXTENSIONS: [&str; 4] = ["json", "obj", "ply", "stl"];
+
 /// Largest mesh served, faces: LOD structures hold a few copies of it.
 pub const MAX_FACES: usize = 2_000_000;
 
@@ -142,8 +145,8 @@ impl MeshCatalog {
     }
 
     /// Opens `data/meshes` (absent: an empty catalog). A mesh that fails to read is logged
-    /// and skipped; of two files of one name, the first in name order (obj, ply, stl) is
-    /// served.
+    /// and skipped; of two files of one name, the first in name order (json, obj, ply, stl)
+    /// is served.
     pub fn open(data: &Path, answer_bytes: u64) -> Self {
         let dir = data.join(MESH_DIR);
         let mut entries = BTreeMap::new();
@@ -200,15 +203,18 @@ impl MeshCatalog {
         let format = format
             .or_else(|| Format::sniff(bytes))
             .unwrap_or(Format::Obj);
+        // Stored as sent, under the extension `open` reads it back by.
         let ext = match format {
+            Format::Obj => "obj",
             Format::Ply => "ply",
             Format::Stl => "stl",
-            _ => "obj",
+            Format::Json => "json",
+            Format::Glb => anyhow::bail!("GLB uploads are not read"),
         };
         let path = self.dir.join(format!("{name}.{ext}"));
         crate::ingest::write_atomically(&path, bytes)?;
         // An older upload under another extension would shadow this one at the next start.
-        for other in ["obj", "ply", "stl"].iter().filter(|&&e| e != ext) {
+        for other in UPLOAD_EXTENSIONS.iter().filter(|&&e| e != ext) {
             let _ = std::fs::remove_file(self.dir.join(format!("{name}.{other}")));
         }
         let generation = self
@@ -306,8 +312,8 @@ mod tests {
         property float y\nproperty float z\nelement face 2\nproperty list uchar int \
         vertex_indices\nend_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n3 0 2 3\n";
 
-    /// Of two files of one name the first in name order (obj, ply, stl) is served, so an
-    /// upload in another format removes the older file: it would shadow the upload at the
+    /// Of two files of one name the first in name order (json, obj, ply, stl) is served, so
+    /// an upload in another format removes the older file: it would shadow the upload at the
     /// next start.
     #[test]
     fn an_upload_in_another_format_replaces_the_older_file() {
@@ -321,6 +327,25 @@ mod tests {
         std::fs::remove_file(meshes.join("a.ply")).unwrap();
         let e = cat.upload("a", QUAD_PLY, Some(Format::Ply)).unwrap();
         assert_eq!(e.source, meshes.join("a.ply"));
+        assert!(!meshes.join("a.obj").exists());
+        let reopened = MeshCatalog::open(&dir, 1 << 20);
+        assert_eq!(reopened.get("a").unwrap().mesh.face_count(), 2);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// A JSON mesh (what `?format=json` answers), sent without a format to sniff it by, is
+    /// stored as JSON and read back as JSON at the next start; stored as `.obj`, it was
+    /// served at once and then skipped as an OBJ with no faces.
+    #[test]
+    fn a_json_upload_is_stored_as_json_and_survives_a_restart() {
+        let dir = scratch("json");
+        let meshes = dir.join(MESH_DIR);
+        std::fs::write(meshes.join("a.obj"), TRI).unwrap();
+        let cat = MeshCatalog::open(&dir, 1 << 20);
+        let quad = br#"{"positions": [0,0,0, 1,0,0, 1,1,0, 0,1,0], "indices": [0,1,2, 0,2,3]}"#;
+        let e = cat.upload("a", quad, None).unwrap();
+        assert_eq!(e.source, meshes.join("a.json"));
+        assert_eq!(std::fs::read(meshes.join("a.json")).unwrap(), quad);
         assert!(!meshes.join("a.obj").exists());
         let reopened = MeshCatalog::open(&dir, 1 << 20);
         assert_eq!(reopened.get("a").unwrap().mesh.face_count(), 2);

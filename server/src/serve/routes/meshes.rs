@@ -68,7 +68,7 @@ pub async fn describe(
         "curvature": { "url": format!("{base}/curvature"), "params": "error=E | level=1..3 (ε 0.15, 0.20, 0.25; default 1)" },
         "silhouette": { "url": format!("{base}/silhouette"), "params": "level=0..7 and/or eye=x,y,z&target=x,y,z" },
         "qem": { "url": format!("{base}/qem"), "params": "faces=N | ratio=R | error=E (fraction of the diagonal)" },
-        "octree": { "url": format!("{base}/octree"), "params": "level=K (default 2) [&roi=x0,y0,x1,y1 (NDC, -1..1) &eye=x,y,z&target=x,y,z[&fov=DEG][&aspect=W/H]]" },
+        "octree": { "url": format!("{base}/octree"), "params": "level=K (default 2, or the deepest level if shallower) [&roi=x0,y0,x1,y1 (NDC, -1..1) &eye=x,y,z&target=x,y,z[&fov=DEG][&aspect=W/H]]" },
     });
     if let Some(o) = v.as_object_mut() {
         o.insert("methods".into(), methods);
@@ -117,10 +117,14 @@ enum Ask {
     QemFaces(usize),
     QemError(f64),
     Octree {
-        level: u32,
+        /// `None`: not asked, [`OCTREE_DEFAULT_LEVEL`] or the deepest level, the shallower.
+        level: Option<u32>,
         roi: Option<Browse>,
     },
 }
+
+/// The octree level served when `level` is not given.
+const OCTREE_DEFAULT_LEVEL: u32 = 2;
 
 /// The query parameters each LOD method takes besides `format` (assets/openapi.json lists
 /// every one; `site_tests` checks).
@@ -220,7 +224,10 @@ fn parse_ask(method: &str, q: &HashMap<String, String>, mesh: &TriMesh) -> ApiRe
         }
         "octree" => {
             only()?;
-            let level = integer("level", get("level").unwrap_or("2"), 0.0, 32.0)?;
+            let level = get("level")
+                .map(|l| integer("level", l, 0.0, 32.0))
+                .transpose()?
+                .map(|l| l as u32);
             let roi = match (get("roi"), get("eye"), get("target")) {
                 (None, None, None) => None,
                 (Some(r), Some(e), Some(t)) => {
@@ -255,10 +262,7 @@ fn parse_ask(method: &str, q: &HashMap<String, String>, mesh: &TriMesh) -> ApiRe
                     ))
                 }
             };
-            Ok(Ask::Octree {
-                level: level as u32,
-                roi,
-            })
+            Ok(Ask::Octree { level, roi })
         }
         other => Err(ApiError::not_found(
             "unknown_method",
@@ -322,6 +326,9 @@ fn compute(e: &MeshEntry, ask: &Ask) -> Result<(TriMesh, f64), ApiError> {
         }
         Ask::Octree { level, roi } => {
             let lod = e.octree().map_err(bad)?;
+            // A small mesh's octree can stop above the default level: the default is a
+            // starting point, not an ask, so it gives way to the deepest level there is.
+            let level = &level.unwrap_or_else(|| OCTREE_DEFAULT_LEVEL.min(lod.max_level()));
             let m = match roi {
                 None => lod.level(*level).map_err(|x| bad(x.to_string()))?,
                 Some((eye, target, fov, aspect, r)) => {
@@ -520,10 +527,11 @@ pub async fn read_upload(
 pub async fn upload(
     State(state): State<AppState>,
     path: Result<Path<String>, PathRejection>,
+    query: Result<Query<HashMap<String, String>>, QueryRejection>,
     headers: HeaderMap,
     body: Body,
 ) -> ApiResult<(StatusCode, Json<Value>)> {
-    let (name, format) = match upload_target(path, &headers) {
+    let (name, format) = match upload_target(path, query, &headers) {
         Ok(t) => t,
         Err(e) => {
             drain(body);
@@ -554,9 +562,17 @@ pub async fn upload(
 /// The name and format of an upload, checked before its body is read.
 fn upload_target(
     path: Result<Path<String>, PathRejection>,
+    query: Result<Query<HashMap<String, String>>, QueryRejection>,
     headers: &HeaderMap,
 ) -> ApiResult<(String, Option<Format>)> {
     let Path(name) = path?;
+    // A parameter an upload would ignore (`?format=ply` say) is the client's mistake.
+    if let Some(k) = query?.0.keys().next() {
+        return Err(ApiError::bad_request(
+            "bad_query",
+            format!("an upload takes no parameters, got {k:?}; its Content-Type names the format"),
+        ));
+    }
     crate::ingest::check_name_of("mesh", &name)
         .map_err(|e| ApiError::bad_request("bad_name", e.to_string()))?;
     let ct = headers
@@ -574,14 +590,16 @@ fn upload_target(
         Some("model/obj" | "text/plain") => Some(Format::Obj),
         Some("application/ply" | "model/ply" | "application/x-ply") => Some(Format::Ply),
         Some("model/stl" | "application/sla" | "application/vnd.ms-pki.stl") => Some(Format::Stl),
+        // What `?format=json` answers: {"positions": [...], "indices": [...]}.
+        Some("application/json") => Some(Format::Json),
         None | Some("application/octet-stream") => None,
         Some(other) => {
             return Err(ApiError::new(
                 StatusCode::UNSUPPORTED_MEDIA_TYPE,
                 "unsupported_media_type",
                 format!(
-                    "{other} is not a mesh; send model/obj, application/ply, model/stl or \
-                     application/octet-stream (sniffed)"
+                    "{other} is not a mesh; send model/obj, application/ply, model/stl, \
+                     application/json or application/octet-stream (sniffed)"
                 ),
             ))
         }
