@@ -274,6 +274,47 @@ async fn errors_are_json_with_their_codes() {
     }
 }
 
+/// On a world dataset `eye` and `target` are longitude, latitude and height: past ±180° or
+/// ±90° is a 400 naming the coordinate, for a view and for a tile's threshold alike; a view
+/// of the pole is answered with a footprint that stops at the globe's edges.
+#[tokio::test]
+async fn a_world_datasets_cameras_stay_on_the_globe() {
+    let app = router_of("globe", "geodetic");
+    for (uri, what) in [
+        (
+            "/v1/datasets/hill/view?eye=500,44,1000&target=-90,44,0&fov=60",
+            "eye's longitude",
+        ),
+        (
+            "/v1/datasets/hill/view?eye=-90,95,1000&target=-90,44,0&fov=60",
+            "eye's latitude",
+        ),
+        (
+            "/v1/datasets/hill/tiles/0/0/0.json?eye=-90,44,1000&target=-181,44,0&fov=60",
+            "target's longitude",
+        ),
+    ] {
+        let (s, _, body) = get(&app, uri).await;
+        assert_eq!(s, StatusCode::BAD_REQUEST, "{uri}");
+        assert_eq!(error_code(&body), "out_of_range", "{uri}");
+        let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
+        assert!(v["message"].as_str().unwrap().contains(what), "{uri}: {v}");
+    }
+    let (s, _, body) = get(
+        &app,
+        "/v1/datasets/hill/view?eye=-90,80,2000000&target=-90,90,0&fov=90",
+    )
+    .await;
+    assert_eq!(s, StatusCode::OK, "{}", String::from_utf8_lossy(&body));
+    let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
+    let footprint = v["footprint"].as_array().unwrap();
+    assert!(footprint.len() >= 3, "{v}");
+    for p in footprint {
+        let (lon, lat) = (p[0].as_f64().unwrap(), p[1].as_f64().unwrap());
+        assert!(lon.abs() <= 180.0 && lat.abs() <= 90.0, "{p}");
+    }
+}
+
 /// Tile addresses are plain decimal (`03` or `+3` would be a second URL, and cache entry,
 /// for tile 3), and a zoom outside the dataset's is named as such rather than as a missing
 /// tile.

@@ -8,14 +8,14 @@
 
 use std::collections::HashMap;
 
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 use serde::Serialize;
 use zerotile_codec::ezw::DecodeLimit;
 use zerotile_codec::geo::Scheme;
 
 use super::dataset::Dataset;
 use super::error::ApiError;
-use super::view_plane::{footprint, polygon_area, Camera};
+use super::view_plane::{clip_to_globe, footprint, polygon_area, Camera};
 
 /// Share of the budget spent on decoding, the same depth `zerotile eval terrain` reads to.
 pub use crate::eval::terrain::DECODE_SHARE;
@@ -194,6 +194,11 @@ pub fn view_plane(d: &Dataset, q: &HashMap<String, String>) -> Result<ViewPlane,
     let m = d.metadata();
     let [west, south, east, north] = m.bounds;
     let local = matches!(d.tiling.scheme(), Scheme::Local { .. });
+    if !local {
+        for (name, p) in [("eye", eye), ("target", target)] {
+            on_the_globe(name, p)?;
+        }
+    }
     let (lon0, lat0) = (target.x, target.y);
     let k = lat0.to_radians().cos().max(1e-6);
     let to_plane = |p: DVec3| {
@@ -235,13 +240,39 @@ pub fn view_plane(d: &Dataset, q: &HashMap<String, String>) -> Result<ViewPlane,
         footprint(&cam, far).map_err(|e| ApiError::bad_request("bad_view", e.to_string()))?;
     let a_v = polygon_area(&points);
     let a_t = a_t.max(1.0);
+    let mut footprint: Vec<DVec2> = points
+        .iter()
+        .map(|p| DVec2::from_array(from_plane(p.x, p.y)))
+        .collect();
+    if !local {
+        // Near a pole a metre of longitude is many degrees: the footprint stops at the
+        // globe's edges. It still holds the target, which is on the globe.
+        footprint = clip_to_globe(&footprint);
+    }
     Ok(ViewPlane {
         ratio: a_v / a_t,
         a_v,
         a_t,
-        footprint: points.iter().map(|p| from_plane(p.x, p.y)).collect(),
+        footprint: footprint.iter().map(|p| p.to_array()).collect(),
         target: [target.x, target.y],
     })
+}
+
+/// A world dataset's `eye` and `target` are longitude, latitude (degrees) and height: a
+/// point past the poles or the antimeridian is a mistake, not a view.
+fn on_the_globe(name: &str, p: DVec3) -> Result<(), ApiError> {
+    for (what, v, limit) in [("longitude", p.x, 180.0), ("latitude", p.y, 90.0)] {
+        if v.abs() > limit {
+            return Err(ApiError::bad_request(
+                "out_of_range",
+                format!(
+                    "{name}'s {what} must be in [-{limit}, {limit}] degrees on a world \
+                     dataset, got {v}"
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// `aspect` in [lo, hi], as a number (`1.78`) or as width/height (`16/9`), the way

@@ -79,6 +79,15 @@ pub fn footprint(cam: &Camera, far: f64) -> Result<Vec<DVec2>, ViewError> {
     Ok(polygon)
 }
 
+/// The part of a convex longitude/latitude polygon (degrees) on the globe: within ±180° of
+/// longitude and ±90° of latitude.
+pub fn clip_to_globe(polygon: &[DVec2]) -> Vec<DVec2> {
+    let mut p = clip(polygon, |q| 180.0 + q.x);
+    p = clip(&p, |q| 180.0 - q.x);
+    p = clip(&p, |q| 90.0 + q.y);
+    clip(&p, |q| 90.0 - q.y)
+}
+
 /// Sutherland–Hodgman: the part of convex `polygon` where `side` ≥ 0 (`side` linear).
 fn clip(polygon: &[DVec2], side: impl Fn(DVec2) -> f64) -> Vec<DVec2> {
     let mut out = Vec::with_capacity(polygon.len() + 1);
@@ -210,5 +219,28 @@ mod tests {
             aspect: 1.0,
         };
         assert_eq!(footprint(&cam, 10.0), Err(ViewError::BelowPlane));
+    }
+
+    #[test]
+    fn a_footprint_past_a_pole_stops_at_the_globes_edges() {
+        let square = [
+            DVec2::new(-600.0, 80.0),
+            DVec2::new(600.0, 80.0),
+            DVec2::new(600.0, 100.0),
+            DVec2::new(-600.0, 100.0),
+        ];
+        let on = clip_to_globe(&square);
+        assert!(
+            on.iter().all(|p| p.x.abs() <= 180.0 && p.y.abs() <= 90.0),
+            "{on:?}"
+        );
+        assert!((polygon_area(&on) - 360.0 * 10.0).abs() < 1e-9, "{on:?}");
+        // A footprint already on the globe is kept as it is.
+        let small = [
+            DVec2::new(10.0, 10.0),
+            DVec2::new(11.0, 10.0),
+            DVec2::new(11.0, 11.0),
+        ];
+        assert_eq!(clip_to_globe(&small), small.to_vec());
     }
 }
