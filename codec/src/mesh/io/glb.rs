@@ -3,6 +3,11 @@
 //! zeros, both to 4 bytes. One mesh, one triangle primitive: f32 POSITION (with the `min` /
 //! `max` the specification requires), unit f32 NORMAL, u32 indices.
 //!
+//! f32 keeps 24 bits: a terrain tile in EPSG:3857 metres (x ~ 8·10⁶) would be stored to
+//! half a metre, a 4.8 m grid at zoom 15 in steps of 4 or 5 m. A mesh that lies farther from
+//! the origin than its own size is therefore stored relative to its bounding box's centre,
+//! which the node's `translation` carries (JSON numbers: f64, as glTF viewers read them).
+//!
 //! A mesh without faces (an octree level coarser than the object, say) has no primitive
 //! glTF could hold (accessors need `count` ≥ 1, meshes a primitive): it is written as a
 //! GLB whose one scene is empty, with no node, mesh, buffer or BIN chunk, which viewers
@@ -11,7 +16,7 @@
 
 use std::io::Write;
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use serde_json::json;
 
 use crate::mesh::error::MeshError;
@@ -47,12 +52,18 @@ pub(super) fn write(mesh: &TriMesh, out: &mut impl Write) -> Result<(), MeshErro
         return write_container(&doc, None, out);
     }
     // Binary payload: positions, normals, indices, each 4-byte aligned by construction.
-    let positions: Vec<Vec3> = mesh.positions.iter().map(|p| p.as_vec3()).collect();
+    let origin = origin(&mesh.positions);
+    let positions: Vec<Vec3> = mesh
+        .positions
+        .iter()
+        .map(|p| (*p - origin).as_vec3())
+        .collect();
     if let Some((i, p)) = mesh
         .positions
         .iter()
+        .zip(&positions)
         .enumerate()
-        .find(|(_, p)| !p.as_vec3().is_finite())
+        .find_map(|(i, (p, stored))| (!stored.is_finite()).then_some((i, p)))
     {
         // glTF floats must be finite, and f32 ends near 3.4e38.
         return Err(encode_error(format!(
@@ -76,11 +87,16 @@ pub(super) fn write(mesh: &TriMesh, out: &mut impl Write) -> Result<(), MeshErro
             (lo.min(p), hi.max(p))
         });
     let (v, vbytes) = (positions.len(), 12 * positions.len());
+    let node = if origin == DVec3::ZERO {
+        json!({"mesh": 0})
+    } else {
+        json!({"mesh": 0, "translation": origin.to_array()})
+    };
     let doc = json!({
         "asset": {"version": "2.0", "generator": "zerotile"},
         "scene": 0,
         "scenes": [{"nodes": [0]}],
-        "nodes": [{"mesh": 0}],
+        "nodes": [node],
         "meshes": [{"primitives": [{
             "attributes": {"POSITION": 0, "NORMAL": 1},
             "indices": 2,
@@ -102,6 +118,23 @@ pub(super) fn write(mesh: &TriMesh, out: &mut impl Write) -> Result<(), MeshErro
         ],
     });
     write_container(&doc, Some(bin), out)
+}
+
+/// What the stored positions are measured from: the bounding box's centre when the mesh lies
+/// farther from the origin than its own extent, else the origin itself (object meshes keep
+/// their coordinates as they are).
+fn origin(positions: &[DVec3]) -> DVec3 {
+    let (lo, hi) = positions
+        .iter()
+        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &p| {
+            (lo.min(p), hi.max(p))
+        });
+    let centre = (lo + hi) / 2.0;
+    if centre.is_finite() && centre.abs().max_element() > (hi - lo).max_element() {
+        centre
+    } else {
+        DVec3::ZERO
+    }
 }
 
 /// Header, JSON chunk and, when there is one, the BIN chunk; every length must fit the u32

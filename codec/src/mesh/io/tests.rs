@@ -189,6 +189,54 @@ fn glb_views_are_aligned_and_normals_unit() {
     );
 }
 
+/// A zoom-15 web-mercator tile (EPSG:3857 metres, a 4.777 m grid near x = −8·10⁶): stored
+/// as f32 as they are, its columns came out 4 or 5 m apart. Relative to the node's
+/// translation every vertex reads back within a millimetre; a mesh about the origin gets no
+/// translation and keeps its coordinates.
+#[test]
+fn glb_of_a_far_mesh_is_stored_about_its_centre() {
+    let step = 4.777_314_267_823_516;
+    let (x0, y0) = (-7_959_202.3, 5_578_136.9);
+    let positions: Vec<DVec3> = (0..9)
+        .map(|k| {
+            DVec3::new(
+                x0 + step * f64::from(k % 3),
+                y0 + step * f64::from(k / 3),
+                312.25,
+            )
+        })
+        .collect();
+    let faces = (0..2u32)
+        .flat_map(|r| (0..2u32).map(move |c| 3 * r + c))
+        .flat_map(|a| [[a, a + 1, a + 4], [a, a + 4, a + 3]])
+        .collect();
+    let far = TriMesh::new(positions.clone(), faces);
+    let bytes = write_bytes(&far, Format::Glb).expect("glb");
+    let (doc, bin) = glb_chunks(&bytes);
+    let t: Vec<f64> = doc["nodes"][0]["translation"]
+        .as_array()
+        .expect("a translation")
+        .iter()
+        .map(|v| v.as_f64().expect("number"))
+        .collect();
+    for (k, p) in positions.iter().enumerate() {
+        let stored: Vec<f64> = bin[12 * k..12 * k + 12]
+            .chunks_exact(4)
+            .map(|b| f64::from(f32::from_le_bytes(b.try_into().expect("4 bytes"))))
+            .collect();
+        let back = DVec3::new(stored[0] + t[0], stored[1] + t[1], stored[2] + t[2]);
+        assert!(
+            (back - *p).abs().max_element() < 1e-3,
+            "{k}: {back} for {p}"
+        );
+    }
+    // Without it, the f32 grid would not have been a 4.777 m grid.
+    assert!((f64::from((x0 + step) as f32) - f64::from(x0 as f32) - step).abs() > 0.2);
+
+    let (doc, _) = glb_chunks(&write_bytes(&quad(), Format::Glb).expect("glb"));
+    assert_eq!(doc["nodes"][0], serde_json::json!({"mesh": 0}));
+}
+
 #[test]
 fn glb_of_a_mesh_without_faces_is_an_empty_scene() {
     // What an octree level coarser than the object gives: no face, so no primitive glTF
