@@ -1,7 +1,7 @@
 //! Content negotiation: quantized-mesh extensions from `Accept`, gzip from
 //! `Accept-Encoding`, conditional requests and byte ranges. Header parsing only.
 
-use axum::http::header::{ACCEPT, ACCEPT_ENCODING, IF_NONE_MATCH, RANGE};
+use axum::http::header::{ACCEPT, ACCEPT_ENCODING, IF_NONE_MATCH, IF_RANGE, RANGE};
 use axum::http::HeaderMap;
 
 use super::error::ApiError;
@@ -135,6 +135,16 @@ pub fn not_modified(headers: &HeaderMap, etag: &str) -> bool {
         .filter_map(|v| v.to_str().ok())
         .flat_map(|v| v.split(','))
         .any(|t| t.trim() == "*" || bare(t) == bare(etag))
+}
+
+/// Whether `Range` may be honoured (RFC 9110 §13.1.5): with no `If-Range`, or one naming
+/// this body's strong entity tag. A weak tag never matches, nor does a date (tiles carry no
+/// `Last-Modified`): the client then gets the whole body, never a part of another build.
+pub fn if_range_allows(headers: &HeaderMap, etag: &str) -> bool {
+    match headers.get(IF_RANGE) {
+        None => true,
+        Some(v) => !etag.starts_with("W/") && v.as_bytes() == etag.as_bytes(),
+    }
 }
 
 /// What a `Range` header asks of a body of `len` bytes.

@@ -142,7 +142,12 @@ pub async fn tile(
 
     // Conditional request.
     let etag_key = etag_hash(&d, id, t.t, format, variant);
-    let etag = format!("W/\"{etag_key:016x}\"");
+    // A stream prefix is never re-encoded, so its tag is strong: `If-Range` can name it.
+    let etag = if format == TileFormat::Ezw {
+        format!("\"{etag_key:016x}\"")
+    } else {
+        format!("W/\"{etag_key:016x}\"")
+    };
     let base = cache_headers(&state, &etag, t.t, format, variant)?;
     if negotiate::not_modified(&headers, &etag) {
         let mut res = Response::new(Body::empty());
@@ -197,7 +202,7 @@ pub async fn tile(
         res_headers.insert(CONTENT_ENCODING, HeaderValue::from_static("gzip"));
     }
     let (status, body) = if format == TileFormat::Ezw {
-        match ranged(&headers, &rendered.bytes, &mut res_headers)? {
+        match ranged(&headers, &etag, &rendered.bytes, &mut res_headers)? {
             Some(part) => part,
             None => {
                 let len = rendered.bytes.len();
@@ -250,13 +255,17 @@ fn cache_headers(
 }
 
 /// The body or the byte range `Range` asks for (206 with `Content-Range`); `None` when the
-/// range lies past the end.
+/// range lies past the end. An `If-Range` that does not name `etag` gets the whole body.
 fn ranged(
     headers: &HeaderMap,
+    etag: &str,
     body: &Bytes,
     res_headers: &mut HeaderMap,
 ) -> ApiResult<Option<(StatusCode, Bytes)>> {
     let len = body.len() as u64;
+    if !negotiate::if_range_allows(headers, etag) {
+        return Ok(Some((StatusCode::OK, body.clone())));
+    }
     Ok(match negotiate::range(headers, len) {
         RangeAsk::Full => Some((StatusCode::OK, body.clone())),
         RangeAsk::Part { start, end } => {
