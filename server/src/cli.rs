@@ -27,7 +27,7 @@ pub enum Command {
     Ingest(IngestArgs),
     /// Serve every dataset of a folder over HTTP (routes: docs/api.md).
     Serve(ServeArgs),
-    /// Write a dataset as a static tile tree (layer.json + z/x/y files) for a CDN.
+    /// Write a dataset as a static tile tree (z/x/y files, and layer.json for terrain) for a CDN.
     Export(ExportArgs),
     /// Describe a dataset file (tiling, zooms, bytes per zoom); with --verify, read and
     /// decode every tile (check a copy before serving it). Exit 0 when every check passes,
@@ -162,8 +162,9 @@ pub struct IngestArgs {
     #[arg(long)]
     pub key: Option<String>,
     /// Height for samples without data (default: the lowest valid height for local
-    /// datasets, 0 m around and inside geodetic and mercator ones).
-    #[arg(long, value_name = "METRES")]
+    /// datasets, 0 m around and inside geodetic and mercator ones). Below sea level is
+    /// written as it is: `--fill -5`.
+    #[arg(long, value_name = "METRES", allow_negative_numbers = true)]
     pub fill: Option<f64>,
     /// No progress bar.
     #[arg(long)]
@@ -178,8 +179,9 @@ pub struct ServeArgs {
     /// default data there first if it has none.
     #[arg(long)]
     pub data: Option<PathBuf>,
-    /// Address to listen on; port 0 picks a free port (the URL is printed).
-    #[arg(long, default_value = "127.0.0.1:8080")]
+    /// Address to listen on, HOST:PORT (an IP address or a name such as localhost); port 0
+    /// picks a free port (the URL is printed).
+    #[arg(long, default_value = "127.0.0.1:8080", value_parser = listen_addr)]
     pub addr: std::net::SocketAddr,
     /// Decoded-tile cache size, MiB.
     #[arg(long, default_value_t = 256, value_name = "MIB")]
@@ -441,6 +443,16 @@ fn info(a: InfoArgs) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+/// `--addr`: `HOST:PORT`, the host an IP address or a name, resolved once at start (the
+/// first address a name resolves to).
+fn listen_addr(s: &str) -> Result<std::net::SocketAddr, String> {
+    use std::net::ToSocketAddrs;
+    s.to_socket_addrs()
+        .map_err(|e| format!("{s:?} is not HOST:PORT ({e})"))?
+        .next()
+        .ok_or_else(|| format!("{s:?} resolves to no address"))
 }
 
 fn healthcheck(addr: &str) -> anyhow::Result<()> {

@@ -92,6 +92,27 @@ fn serve_defaults_and_sizes_come_through_as_given() {
     assert_eq!(c.cache_bytes, u64::MAX);
 }
 
+/// `--addr` takes a host name as well as an IP address; `--fill` a height below sea level
+/// written as a plain negative number.
+#[test]
+fn addresses_may_be_names_and_fill_heights_negative() {
+    let a = serve_args(&["--addr", "localhost:0"]);
+    assert!(
+        a.addr.ip().is_loopback() && a.addr.port() == 0,
+        "{}",
+        a.addr
+    );
+    assert_eq!(serve_args(&["--addr", "[::1]:8081"]).addr.port(), 8081);
+    for bad in ["localhost", "127.0.0.1:99999"] {
+        let e = Cli::try_parse_from(["zerotile", "serve", "--addr", bad]).unwrap_err();
+        assert!(e.to_string().contains("--addr"), "{bad}: {e}");
+    }
+    let Command::Ingest(a) = parse(&["ingest", "in.hgt", "--name", "n", "--fill", "-5"]) else {
+        panic!("not ingest")
+    };
+    assert_eq!(a.fill, Some(-5.0));
+}
+
 #[test]
 fn serve_refuses_origins_and_urls_it_could_not_honour() {
     for origin in [
