@@ -537,5 +537,17 @@ fn a_mercator_png_export_without_a_base_url_says_it_wrote_no_tilejson() {
     );
     assert!(!dir.join("rgb/tiles.json").exists());
     assert!(!files(&dir.join("rgb"), "png").is_empty());
+    // layer.json is CesiumJS's quantized-mesh manifest: a png or json tree of a world
+    // dataset has none (it used to get one saying "quantized-mesh-1.0" over .png files).
+    assert!(!dir.join("rgb/layer.json").exists());
+    let out = zerotile(
+        &[
+            "export", "lux", "--format", "json", "--out", "mesh", "--quiet",
+        ],
+        &dir,
+    );
+    assert_success(&out);
+    assert!(!files(&dir.join("mesh"), "json").is_empty());
+    assert!(!dir.join("mesh/layer.json").exists());
     let _ = std::fs::remove_dir_all(&dir);
 }

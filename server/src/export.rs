@@ -1,6 +1,7 @@
-//! `zerotile export`: a dataset as a static tile tree (`layer.json` + `{z}/{x}/{y}.EXT`, and
-//! for MapLibre a `tiles.json` once the tree's URL is known) for a CDN or any file server,
-//! rendered exactly as `zerotile serve` renders it at each zoom's default threshold.
+//! `zerotile export`: a dataset as a static tile tree (`{z}/{x}/{y}.EXT`; `layer.json` for
+//! quantized-mesh, and for MapLibre a `tiles.json` once the tree's URL is known) for a CDN or
+//! any file server, rendered exactly as `zerotile serve` renders it at each zoom's default
+//! threshold.
 //!
 //! Written into a temporary folder beside `--out` and swapped in at the end: a failed export
 //! leaves an existing `--out` as it was. Only an empty folder or an earlier export (which
@@ -227,7 +228,8 @@ pub fn run(job: &Export) -> Result<Exported> {
         job.progress,
     )
     .and_then(|n| {
-        if world {
+        // layer.json is CesiumJS's quantized-mesh manifest: other trees would only mislead it.
+        if format == TileFormat::Terrain {
             // Only the exported zooms: CesiumJS asks for every level layer.json makes
             // available, and a file server answers 404 for levels left out.
             let mut layer = layer(&d)?;
