@@ -77,6 +77,7 @@ impl IntoResponse for ApiError {
     fn into_response(self) -> Response {
         let body = serde_json::json!({ "error": self.code, "message": self.message });
         let mut res = (self.status, Json(body)).into_response();
+        res.extensions_mut().insert(ErrorBody);
         if self.status == StatusCode::SERVICE_UNAVAILABLE {
             res.headers_mut().insert(
                 axum::http::header::RETRY_AFTER,
@@ -118,34 +119,49 @@ pub async fn method_not_allowed(method: axum::http::Method) -> ApiError {
     )
 }
 
+/// Marks a response whose body is an [`ApiError`]'s, so [`json_errors`] leaves it alone.
+#[derive(Clone, Copy, Debug)]
+struct ErrorBody;
+
 /// Middleware: an error answer made by a layer rather than a handler (a timeout's 503, an
-/// extractor's plain-text rejection) is rewritten into the same JSON shape.
+/// extractor's plain-text rejection) is rewritten into the same JSON shape. So is an answer
+/// a layer turned into an error after the handler made it: the compression layer's 406 for
+/// `Accept-Encoding: identity;q=0` keeps the handler's body and headers (a tile, its ETag
+/// and Cache-Control), which must not go out as the error.
 pub async fn json_errors(req: axum::extract::Request, next: axum::middleware::Next) -> Response {
+    use axum::http::header;
     let res = next.run(req).await;
     let status = res.status();
-    let is_json = res
-        .headers()
-        .get(axum::http::header::CONTENT_TYPE)
-        .is_some_and(|v| v.as_bytes().starts_with(b"application/json"));
-    if !(status.is_client_error() || status.is_server_error()) || is_json {
+    if !(status.is_client_error() || status.is_server_error())
+        || res.extensions().get::<ErrorBody>().is_some()
+    {
         return res;
     }
-    let code = match status {
-        StatusCode::SERVICE_UNAVAILABLE => "unavailable",
-        StatusCode::REQUEST_TIMEOUT => "timeout",
-        StatusCode::PAYLOAD_TOO_LARGE => "too_large",
-        s if s.is_server_error() => "internal",
-        _ => "bad_request",
+    let (code, message) = match status {
+        StatusCode::SERVICE_UNAVAILABLE => ("unavailable", None),
+        StatusCode::REQUEST_TIMEOUT => ("timeout", None),
+        StatusCode::PAYLOAD_TOO_LARGE => ("too_large", None),
+        StatusCode::NOT_ACCEPTABLE => (
+            "not_acceptable",
+            Some("no content coding the client accepts: this server sends gzip, br or identity"),
+        ),
+        s if s.is_server_error() => ("internal", None),
+        _ => ("bad_request", None),
     };
-    let message = status
-        .canonical_reason()
+    let message = message
+        .or(status.canonical_reason())
         .unwrap_or("request failed")
         .to_string();
     let mut out = ApiError::new(status, code, message).into_response();
-    // Keep what the layer said about the response (CORS, Vary, Retry-After).
-    for (k, v) in res.headers() {
-        if k != axum::http::header::CONTENT_TYPE && k != axum::http::header::CONTENT_LENGTH {
-            out.headers_mut().insert(k.clone(), v.clone());
+    // Keep what a layer said about the answer (Vary, Retry-After, Allow); what the handler
+    // said about its own body (ETag, Cache-Control, X-Threshold …) is not this body's.
+    for k in [header::VARY, header::RETRY_AFTER, header::ALLOW] {
+        let said: Vec<_> = res.headers().get_all(&k).iter().cloned().collect();
+        if !said.is_empty() {
+            out.headers_mut().remove(&k);
+            for v in said {
+                out.headers_mut().append(k.clone(), v);
+            }
         }
     }
     out

@@ -1101,6 +1101,30 @@ async fn only_stream_prefixes_are_ranged() {
     assert_eq!(body, full);
 }
 
+/// A client that refuses every coding the server has (`identity;q=0` and nothing else) gets a
+/// 406 JSON error, not the answer it was going to get under a 406 status: no tile body, and
+/// none of the tile's ETag, Cache-Control or X-Threshold (a cache would keep them).
+#[tokio::test]
+async fn refusing_every_coding_is_a_406_error_not_a_tile() {
+    let app = router("identity-refused");
+    for uri in ["/v1/datasets/hill/tiles/0/0/0.json?threshold=4", "/healthz"] {
+        let (s, h, body) = send(
+            &app,
+            Method::GET,
+            uri,
+            &[("accept-encoding", "identity;q=0")],
+        )
+        .await;
+        assert_eq!(s, StatusCode::NOT_ACCEPTABLE, "{uri}");
+        assert_eq!(h[header::CONTENT_TYPE], "application/json", "{uri}");
+        assert_eq!(error_code(&body), "not_acceptable", "{uri}");
+        for k in [header::ETAG, header::CACHE_CONTROL] {
+            assert!(h.get(&k).is_none(), "{uri}: {k}");
+        }
+        assert!(h.get("x-threshold").is_none(), "{uri}");
+    }
+}
+
 /// Meshes and quantized-mesh are gzipped once, when the client accepts it, and say so; the
 /// body is the same mesh either way. Other bodies are sent as they are.
 #[tokio::test]
