@@ -119,6 +119,31 @@ async fn the_viewer_page_and_its_assets_are_served() {
     );
 }
 
+/// Assets keep their URLs across upgrades while the page changes, so they are revalidated
+/// as the page is: `no-cache` with an ETag of their bytes, 304 while it still matches.
+#[tokio::test]
+async fn assets_are_revalidated_by_their_etag() {
+    let send = |h: Option<String>| async move {
+        let mut req = Request::get("/assets/viewer.js");
+        if let Some(tag) = h {
+            req = req.header(header::IF_NONE_MATCH, tag);
+        }
+        app(AppState::new(Catalog::default(), Config::default()).unwrap())
+            .oneshot(req.body(Body::empty()).unwrap())
+            .await
+            .unwrap()
+    };
+    let res = send(None).await;
+    assert_eq!(res.status(), StatusCode::OK);
+    assert_eq!(res.headers()[header::CACHE_CONTROL], "no-cache");
+    let etag = res.headers()[header::ETAG].to_str().unwrap().to_string();
+    let again = send(Some(etag.clone())).await;
+    assert_eq!(again.status(), StatusCode::NOT_MODIFIED);
+    assert_eq!(again.headers()[header::ETAG], etag.as_str());
+    let other = send(Some("\"0000000000000000\"".into())).await;
+    assert_eq!(other.status(), StatusCode::OK);
+}
+
 #[tokio::test]
 async fn unknown_assets_are_json_404s() {
     for uri in [

@@ -5,12 +5,17 @@
 //! `web/package-lock.json` by `web/vendor.mjs` (see `web/README.md`); a fresh `cargo build`
 //! reads them from the repository and never runs npm.
 
+use std::hash::{DefaultHasher, Hash, Hasher};
+use std::sync::OnceLock;
+
 use axum::extract::rejection::PathRejection;
 use axum::extract::Path;
-use axum::http::header::{CACHE_CONTROL, CONTENT_TYPE};
+use axum::http::header::{CACHE_CONTROL, CONTENT_TYPE, ETAG};
+use axum::http::{HeaderMap, StatusCode};
 use axum::response::{IntoResponse, Response};
 
 use crate::serve::error::{ApiError, ApiResult};
+use crate::serve::negotiate;
 
 /// One embedded file: its name under `/assets/`, media type and bytes.
 struct Asset {
@@ -79,21 +84,43 @@ pub async fn openapi() -> Response {
         .into_response()
 }
 
+/// Each asset's ETag, a hash of its bytes, in [`ASSETS`] order.
+fn etags() -> &'static [String] {
+    static TAGS: OnceLock<Vec<String>> = OnceLock::new();
+    TAGS.get_or_init(|| {
+        ASSETS
+            .iter()
+            .map(|a| {
+                let mut h = DefaultHasher::new();
+                a.bytes.hash(&mut h);
+                format!("\"{:016x}\"", h.finish())
+            })
+            .collect()
+    })
+}
+
 /// `/assets/{*file}`: only the embedded names; anything else (`..`, unknown files) is 404.
-pub async fn asset(path: Result<Path<String>, PathRejection>) -> ApiResult<Response> {
+/// Their URLs do not change with the binary while `/` does, so they are revalidated like the
+/// page (a 304 while the bytes are the same): an upgraded server never gets old scripts run
+/// by its new page.
+pub async fn asset(
+    path: Result<Path<String>, PathRejection>,
+    headers: HeaderMap,
+) -> ApiResult<Response> {
     let Path(file) = path?;
-    let a = ASSETS.iter().find(|a| a.name == file).ok_or_else(|| {
-        ApiError::not_found(
-            "not_found",
-            format!("no asset {file:?} (GET / for the viewer)"),
-        )
-    })?;
-    Ok((
-        [
-            (CONTENT_TYPE, a.media),
-            (CACHE_CONTROL, "public, max-age=3600"),
-        ],
-        a.bytes,
-    )
-        .into_response())
+    let (a, etag) = ASSETS
+        .iter()
+        .zip(etags())
+        .find(|(a, _)| a.name == file)
+        .ok_or_else(|| {
+            ApiError::not_found(
+                "not_found",
+                format!("no asset {file:?} (GET / for the viewer)"),
+            )
+        })?;
+    let cache = [(CACHE_CONTROL, "no-cache"), (ETAG, etag.as_str())];
+    if negotiate::not_modified(&headers, etag) {
+        return Ok((StatusCode::NOT_MODIFIED, cache).into_response());
+    }
+    Ok((cache, [(CONTENT_TYPE, a.media)], a.bytes).into_response())
 }
