@@ -45,7 +45,14 @@ pub fn origin(config: &Config, headers: &HeaderMap, uri: &Uri) -> ApiResult<Stri
     if proto != "http" && proto != "https" {
         return Err(bad("X-Forwarded-Proto", "must be http or https"));
     }
-    let host = match forwarded("x-forwarded-host")? {
+    let forwarded_host = forwarded("x-forwarded-host")?;
+    // The header the host came from, for the error that names it.
+    let source = if forwarded_host.is_some() {
+        "X-Forwarded-Host"
+    } else {
+        "Host"
+    };
+    let host = match forwarded_host {
         Some(h) => h,
         None => match headers.get("host") {
             Some(v) => v
@@ -63,7 +70,7 @@ pub fn origin(config: &Config, headers: &HeaderMap, uri: &Uri) -> ApiResult<Stri
     };
     if !valid_host(&host) {
         return Err(bad(
-            "Host",
+            source,
             "must be a host name or address with an optional port",
         ));
     }
@@ -240,6 +247,17 @@ mod tests {
             headers(&[("host", "a.example"), ("x-forwarded-prefix", "/a?b")]),
         ] {
             assert!(origin(&trusting(), &h, &path()).is_err(), "{h:?}");
+        }
+        // The refusal names the header the bad host came from.
+        for (h, named) in [
+            (headers(&[("host", "a b")]), "): Host must"),
+            (
+                headers(&[("host", "a.example"), ("x-forwarded-host", "a b")]),
+                "): X-Forwarded-Host must",
+            ),
+        ] {
+            let e = origin(&trusting(), &h, &path()).unwrap_err();
+            assert!(e.to_string().contains(named), "{e}");
         }
     }
 

@@ -326,6 +326,8 @@ async fn tile_addresses_are_canonical_and_zooms_checked_against_the_dataset() {
         "/v1/datasets/hill/tiles/0/01/0.png",
         "/v1/datasets/hill/tiles/0/0/+0.png",
         "/v1/datasets/hill/tiles/0/-0/0.png",
+        "/v1/datasets/hill/tiles/%30/0/0.png",
+        "/v1/datasets/hill/tiles/0/0/0%2Epng",
     ] {
         let (s, _, body) = get(&app, uri).await;
         assert_eq!(s, StatusCode::BAD_REQUEST, "{uri}");

@@ -118,12 +118,24 @@ pub async fn tile(
     State(state): State<AppState>,
     path: Result<Path<(String, String, String, String)>, PathRejection>,
     query: Result<Query<HashMap<String, String>>, QueryRejection>,
+    uri: axum::http::Uri,
     headers: HeaderMap,
 ) -> ApiResult<Response> {
     // Address and format.
     let Path((name, z, x, y_ext)) = path?;
     let Query(query) = query?;
     let d = dataset(&state, &name)?;
+    // As sent, not percent-decoded: `%33` would name tile 3 under a second URL, as `03` would.
+    let sent: Vec<&str> = uri.path().rsplitn(4, '/').take(3).collect();
+    if sent != [y_ext.as_str(), x.as_str(), z.as_str()] {
+        return Err(ApiError::bad_request(
+            "bad_tile_address",
+            format!(
+                "a tile address is plain z/x/y.ext, not percent-encoded: got {}",
+                uri.path()
+            ),
+        ));
+    }
     let (id, format) = parse_address(&d, &z, &x, &y_ext)?;
 
     // A missing root tile of a world scheme is served flat: Cesium needs every root.
