@@ -226,9 +226,11 @@ fn export_refuses_to_replace_what_is_not_an_export() {
     std::fs::create_dir_all(dir.join("precious")).unwrap();
     std::fs::write(dir.join("precious/notes.txt"), "mine").unwrap();
     std::fs::write(dir.join("plain"), "also mine").unwrap();
+    // A place no folder can be made (procfs) is named, not left as a bare OS error.
     for (out, says) in [
         ("precious", "not an earlier zerotile export"),
         ("plain", "is a file"),
+        ("/proc/zerotile-export", "cannot create"),
     ] {
         let r = export(out);
         let err = String::from_utf8_lossy(&r.stderr);

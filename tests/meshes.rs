@@ -293,7 +293,12 @@ fn uploads_are_validated_limited_and_never_replace_a_mesh_with_a_bad_one() {
     // One triangle's octree stops above the default level 2: without `level` that is the
     // deepest level there is; asked for by name, a level past it is still refused.
     let octree = s.get("/v1/meshes/plain/octree", &[]);
-    assert_eq!(octree.status, 200, "{}", String::from_utf8_lossy(&octree.body));
+    assert_eq!(
+        octree.status,
+        200,
+        "{}",
+        String::from_utf8_lossy(&octree.body)
+    );
     assert!(octree.header("x-error").unwrap().parse::<f64>().unwrap() < 2.0);
     s.get("/v1/meshes/plain/octree?level=2", &[])
         .error(400, "bad_mesh_query");

@@ -218,6 +218,14 @@ pub fn run(job: &Export) -> Result<Exported> {
         .next()
         .context("dataset vanished")?
         .clone();
+    // Made here, so a folder that cannot hold the tree is named once, before any render.
+    std::fs::create_dir(&tmp).with_context(|| {
+        format!(
+            "--out {}: cannot create {} beside it",
+            job.out.display(),
+            tmp.display()
+        )
+    })?;
     let result = render_all(
         (&state, &d),
         &tiles,
@@ -317,8 +325,10 @@ fn render_all(
             // (layer.json scheme "tms"), XYZ rows for mercator ("slippyMap").
             let y = id.y;
             let folder = dir.join(id.z.to_string()).join(id.x.to_string());
-            std::fs::create_dir_all(&folder)?;
-            std::fs::write(folder.join(format!("{y}.{ext}")), &enc.bytes)?;
+            let file = folder.join(format!("{y}.{ext}"));
+            std::fs::create_dir_all(&folder)
+                .and_then(|()| std::fs::write(&file, &enc.bytes))
+                .with_context(|| format!("writing {}", file.display()))?;
             bytes.fetch_add(enc.bytes.len() as u64, Relaxed);
             bar.inc(1);
             Ok(())

@@ -145,7 +145,19 @@ pub fn read_path(path: &Path, limits: &MeshLimits) -> Result<TriMesh, MeshError>
     // Refuse oversized files before reading them into memory.
     limits.bytes(std::fs::metadata(path)?.len())?;
     let bytes = std::fs::read(path)?;
-    read_bytes(&bytes, Format::from_path(path), limits)
+    let by_name = Format::from_path(path);
+    match read_bytes(&bytes, by_name, limits) {
+        // Any text with a line starting `v` sniffs as OBJ: under a name that does not say
+        // mesh, "no faces" would describe a README rather than refuse it.
+        Err(MeshError::Invalid(InvalidMesh::Empty)) if by_name.is_none() => {
+            Err(MeshError::Unsupported(format!(
+                "not a mesh: the name does not end in .obj, .ply, .stl or .json, and read as {} \
+                 by its content it has no faces",
+                Format::sniff(&bytes).map_or("a mesh", Format::name)
+            )))
+        }
+        other => other,
+    }
 }
 
 /// Reads a mesh from bytes in `format`, or in the format [`Format::sniff`] recognises when

@@ -444,3 +444,18 @@ fn obj_groups_share_their_vertices_again() {
     assert_eq!(m.vertex_count(), 4);
     assert_eq!(m.edge_count(), 5);
 }
+
+/// A Markdown file starts like an OBJ (`#` is OBJ's comment): under a name that is no mesh
+/// format's, it is refused as not a mesh; named `.obj`, the same text is an OBJ without faces.
+#[test]
+fn text_under_another_name_is_not_a_mesh() {
+    let dir = crate::fixtures::scratch_dir("mesh-not-a-mesh");
+    let text = "# zerotile\n\nTerrain tiles stored as EZW streams.\n";
+    for (name, says) in [("README.md", "not a mesh"), ("notes.obj", "no faces")] {
+        let path = dir.join(name);
+        std::fs::write(&path, text).expect("write");
+        let e = read_path(&path, &limits()).expect_err("no faces");
+        assert!(e.to_string().contains(says), "{name}: {e}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
