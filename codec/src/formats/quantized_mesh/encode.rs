@@ -83,6 +83,8 @@ pub fn encode_with_normals(
     let wide = n > MAX_VERTICES_16_BIT;
     let index_bytes = if wide { 4 } else { 2 };
     let vertex_end = HEADER_BYTES + 4 + 6 * n;
+    // vertex_end = 92 + 6n is even, so the remainder is 0 or 2 and `index_bytes + …` would
+    // pad the same: an equivalent mutant.
     let padding = (index_bytes - vertex_end % index_bytes) % index_bytes;
     let edge_count: usize = edges.iter().map(Vec::len).sum();
     let normals_len = if opts.octvertexnormals { 5 + 2 * n } else { 0 };
@@ -250,6 +252,8 @@ fn header(tile: &TileGeo, ecef: &[DVec3], min_h: f32, max_h: f32) -> Header {
     });
     // Aim the occlusion point at the sphere's centre, or the tile's when that is degenerate;
     // with no point at all (wider than a hemisphere), NaN: Cesium's test never culls it.
+    // (`<=`, `==` and a far smaller bound are equivalent mutants: a centre within 0.1 b of
+    // the Earth's needs a tile wider than a hemisphere, whose point is NaN either way.)
     let direction = if sphere.center.length() < DEGENERATE_DIRECTION * e.b {
         center
     } else {

@@ -4,7 +4,7 @@ use glam::DVec3;
 
 use super::*;
 use crate::fixtures::{n44w072_crop, shared_data};
-use crate::geo::{is_scaled_point_visible, Ellipsoid, Scheme, TileId, Tiling};
+use crate::geo::{is_scaled_point_visible, BoundingSphere, Ellipsoid, Scheme, TileId, Tiling};
 use crate::zerotree::TerrainMesh;
 
 /// A full regular triangulation of a `rows` × `cols` grid, counter-clockwise seen from above
@@ -132,13 +132,34 @@ fn round_trip_preserves_every_field() {
     assert_eq!(m.water_mask, opts.watermask);
     assert_eq!(m.metadata, opts.metadata);
     assert!(m.unknown_extensions.is_empty());
+    // A one-byte mask (a tile all land or all water) too: its length is counted apart.
+    for value in [0, 255] {
+        let uniform = QmOptions {
+            watermask: Some(WaterMask::Uniform(value)),
+            ..all_extensions()
+        };
+        let u = decode(&encode(&mesh, &tile, &uniform).unwrap()).unwrap();
+        assert_eq!(u.water_mask, Some(WaterMask::Uniform(value)));
+        assert_eq!(u.metadata, opts.metadata);
+    }
 
-    // Header: the sphere holds what the client draws; the centre is the tile's middle.
+    // Header: the sphere holds what the client draws, and is that drawing's own sphere (the
+    // decoded heights, not the mesh's, nor heights reconstructed any other way); the centre
+    // is the tile's middle.
     let sphere_c = DVec3::from_array(m.header.bounding_sphere_center);
-    for i in 0..m.vertex_count() {
-        let p = ecef_of(&m, i, &tile);
+    let drawn: Vec<DVec3> = (0..m.vertex_count())
+        .map(|i| ecef_of(&m, i, &tile))
+        .collect();
+    for p in &drawn {
         assert!(p.distance(sphere_c) <= m.header.bounding_sphere_radius + 1e-6);
     }
+    let own = BoundingSphere::from_points(&drawn).unwrap();
+    assert!(
+        own.center.distance(sphere_c) < 1e-6
+            && (own.radius - m.header.bounding_sphere_radius).abs() < 1e-6,
+        "{own:?} against {:?}",
+        m.header
+    );
     let [lon, lat, h] = Ellipsoid::WGS84.to_geodetic(DVec3::from_array(m.header.center));
     assert!(
         (lon - 10.25).abs() < 1e-9
