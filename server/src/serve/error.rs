@@ -77,7 +77,7 @@ impl IntoResponse for ApiError {
     fn into_response(self) -> Response {
         let body = serde_json::json!({ "error": self.code, "message": self.message });
         let mut res = (self.status, Json(body)).into_response();
-        res.extensions_mut().insert(ErrorBody);
+        res.extensions_mut().insert(ErrorBody(self.status));
         if self.status == StatusCode::SERVICE_UNAVAILABLE {
             res.headers_mut().insert(
                 axum::http::header::RETRY_AFTER,
@@ -119,9 +119,10 @@ pub async fn method_not_allowed(method: axum::http::Method) -> ApiError {
     )
 }
 
-/// Marks a response whose body is an [`ApiError`]'s, so [`json_errors`] leaves it alone.
+/// Marks a response whose body is an [`ApiError`]'s, with the status it was made for, so
+/// [`json_errors`] leaves it alone unless a layer changed that status since.
 #[derive(Clone, Copy, Debug)]
-struct ErrorBody;
+struct ErrorBody(StatusCode);
 
 /// Middleware: an error answer made by a layer rather than a handler (a timeout's 503, an
 /// extractor's plain-text rejection) is rewritten into the same JSON shape. So is an answer
@@ -133,7 +134,10 @@ pub async fn json_errors(req: axum::extract::Request, next: axum::middleware::Ne
     let res = next.run(req).await;
     let status = res.status();
     if !(status.is_client_error() || status.is_server_error())
-        || res.extensions().get::<ErrorBody>().is_some()
+        || res
+            .extensions()
+            .get::<ErrorBody>()
+            .is_some_and(|made| made.0 == status)
     {
         return res;
     }

@@ -1072,6 +1072,19 @@ async fn only_stream_prefixes_are_ranged() {
     let (_, h, _) = get(&app, ezw).await;
     let etag = h[header::ETAG].to_str().unwrap().to_string();
     assert!(!etag.starts_with("W/"), "{etag}");
+    // The tag names the bytes: T = 5 reads to the same depth as T = 4 (2^-1 m), T = 8 deeper
+    // passes only to 2^0 m.
+    let tag = |t: &'static str| {
+        let app = app.clone();
+        async move {
+            let uri = format!("/v1/datasets/hill/tiles/0/0/0.ezw?threshold={t}");
+            let (_, h, body) = get(&app, &uri).await;
+            (h[header::ETAG].to_str().unwrap().to_string(), body)
+        }
+    };
+    assert_eq!(tag("5").await, (etag.clone(), whole.clone()));
+    let (eight, eight_body) = tag("8").await;
+    assert!(eight != etag && eight_body.len() < len, "{eight}");
     let weak = format!("W/{etag}");
     for (if_range, status) in [
         (etag.as_str(), StatusCode::PARTIAL_CONTENT),
@@ -1109,7 +1122,12 @@ async fn only_stream_prefixes_are_ranged() {
 #[tokio::test]
 async fn refusing_every_coding_is_a_406_error_not_a_tile() {
     let app = router("identity-refused");
-    for uri in ["/v1/datasets/hill/tiles/0/0/0.json?threshold=4", "/healthz"] {
+    // An error answer, too, is the 406's own: not a 404 body under a 406 status.
+    for uri in [
+        "/v1/datasets/hill/tiles/0/0/0.json?threshold=4",
+        "/healthz",
+        "/v1/datasets/nope",
+    ] {
         let (s, h, body) = send(
             &app,
             Method::GET,

@@ -384,7 +384,14 @@ fn etag_hash(d: &Dataset, id: TileId, t: f64, format: TileFormat, variant: Varia
     let mut h = DefaultHasher::new();
     d.version.hash(&mut h);
     id.hash(&mut h);
-    t.to_bits().hash(&mut h);
+    if format == TileFormat::Ezw {
+        // A prefix's bytes are the dataset's stream cut at a depth: its strong tag names the
+        // depth, so a server whose rule from T to depth differs never reuses it for other
+        // bytes (and two T of one depth share the bytes and the tag).
+        Depth::for_threshold(t).hash(&mut h);
+    } else {
+        t.to_bits().hash(&mut h);
+    }
     format.hash(&mut h);
     variant.hash(&mut h);
     h.finish()
