@@ -4,9 +4,10 @@
 //! `max` the specification requires), unit f32 NORMAL, u32 indices.
 //!
 //! f32 keeps 24 bits: a terrain tile in EPSG:3857 metres (x ~ 8·10⁶) would be stored to
-//! half a metre, a 4.8 m grid at zoom 15 in steps of 4 or 5 m. A mesh that lies farther from
-//! the origin than its own size is therefore stored relative to its bounding box's centre,
-//! which the node's `translation` carries (JSON numbers: f64, as glTF viewers read them).
+//! half a metre, a 4.8 m grid at zoom 15 in steps of 4 or 5 m. On each axis where a mesh lies
+//! farther from the origin than its own extent, it is therefore stored relative to its
+//! bounding box's centre, which the node's `translation` carries (JSON numbers: f64, as
+//! glTF viewers read them).
 //!
 //! A mesh without faces (an octree level coarser than the object, say) has no primitive
 //! glTF could hold (accessors need `count` ≥ 1, meshes a primitive): it is written as a
@@ -120,9 +121,10 @@ pub(super) fn write(mesh: &TriMesh, out: &mut impl Write) -> Result<(), MeshErro
     write_container(&doc, Some(bin), out)
 }
 
-/// What the stored positions are measured from: the bounding box's centre when the mesh lies
-/// farther from the origin than its own extent, else the origin itself (object meshes keep
-/// their coordinates as they are).
+/// What the stored positions are measured from, axis by axis: the bounding box's centre on
+/// an axis where the mesh lies farther from the origin than its extent, else 0 (object
+/// meshes keep their coordinates). Per axis, because a world tile's axes differ in unit and
+/// scale: degrees of longitude beside metres of height.
 fn origin(positions: &[DVec3]) -> DVec3 {
     let (lo, hi) = positions
         .iter()
@@ -130,11 +132,8 @@ fn origin(positions: &[DVec3]) -> DVec3 {
             (lo.min(p), hi.max(p))
         });
     let centre = (lo + hi) / 2.0;
-    if centre.is_finite() && centre.abs().max_element() > (hi - lo).max_element() {
-        centre
-    } else {
-        DVec3::ZERO
-    }
+    let far = centre.abs().cmpgt(hi - lo) & centre.is_finite_mask();
+    DVec3::select(far, centre, DVec3::ZERO)
 }
 
 /// Header, JSON chunk and, when there is one, the BIN chunk; every length must fit the u32

@@ -235,6 +235,30 @@ fn glb_of_a_far_mesh_is_stored_about_its_centre() {
 
     let (doc, _) = glb_chunks(&write_bytes(&quad(), Format::Glb).expect("glb"));
     assert_eq!(doc["nodes"][0], serde_json::json!({"mesh": 0}));
+
+    // A geodetic zoom-15 patch (2.1e-5° apart) with 200 m of relief: the degrees are far from
+    // the origin for their extent, the heights are not; each axis is judged on its own.
+    let d = 360.0 / f64::from(1u32 << 16);
+    let geo = TriMesh::new(
+        vec![
+            DVec3::new(-72.0, 44.0, 0.0),
+            DVec3::new(-72.0 + d, 44.0, 200.0),
+            DVec3::new(-72.0, 44.0 + d, 50.0),
+        ],
+        vec![[0, 1, 2]],
+    );
+    let bytes = write_bytes(&geo, Format::Glb).expect("glb");
+    let (doc, bin) = glb_chunks(&bytes);
+    let t = &doc["nodes"][0]["translation"];
+    assert_eq!(t[2], 0.0, "{t}");
+    for (k, p) in geo.positions.iter().enumerate() {
+        for axis in 0..2 {
+            let at = 12 * k + 4 * axis;
+            let stored = f32::from_le_bytes(bin[at..at + 4].try_into().expect("4 bytes"));
+            let back = f64::from(stored) + t[axis].as_f64().expect("number");
+            assert!((back - p[axis]).abs() < 1e-9, "{k}/{axis}: {back} for {p}");
+        }
+    }
 }
 
 #[test]
