@@ -445,13 +445,19 @@ fn info(a: InfoArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// `--addr`: `HOST:PORT`, the host an IP address or a name, resolved once at start (the
-/// first address a name resolves to).
+/// `--addr`: `HOST:PORT`, the host an IP address or a name, resolved once at start. Of a
+/// name's addresses the first IPv4 one is taken: `localhost` often lists `::1` first, and a
+/// server on `[::1]` alone is not reached at `127.0.0.1`, nor can it bind where IPv6 is off.
 fn listen_addr(s: &str) -> Result<std::net::SocketAddr, String> {
     use std::net::ToSocketAddrs;
-    s.to_socket_addrs()
+    let all: Vec<_> = s
+        .to_socket_addrs()
         .map_err(|e| format!("{s:?} is not HOST:PORT ({e})"))?
-        .next()
+        .collect();
+    all.iter()
+        .find(|a| a.is_ipv4())
+        .or(all.first())
+        .copied()
         .ok_or_else(|| format!("{s:?} resolves to no address"))
 }
 

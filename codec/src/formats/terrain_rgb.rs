@@ -444,6 +444,45 @@ mod tests {
             bytes.len()
         });
         assert!(sizes[0] > sizes[1] && sizes[1] >= sizes[2], "{sizes:?}");
+
+        // What each effort is, byte for byte: balanced is zlib level 6 with the Up filter,
+        // best the smallest of the four filters at that level.
+        let rgb: Vec<u8> = fuji
+            .data()
+            .iter()
+            .flat_map(|&h| encode_height(Encoding::TerrainRgb, h).unwrap())
+            .collect();
+        let with = |filter| {
+            let mut png = Vec::new();
+            PngEncoder::new_with_quality(&mut png, CompressionType::Default, filter)
+                .write_image(
+                    &rgb,
+                    fuji.cols() as u32,
+                    fuji.rows() as u32,
+                    ExtendedColorType::Rgb8,
+                )
+                .unwrap();
+            png
+        };
+        let effort = |compression| {
+            let opts = RgbOptions {
+                compression,
+                ..RgbOptions::new(Encoding::TerrainRgb)
+            };
+            encode(&fuji, &opts).unwrap()
+        };
+        assert_eq!(effort(PngCompression::Balanced), with(FilterType::Up));
+        let smallest = [
+            FilterType::Up,
+            FilterType::Adaptive,
+            FilterType::Sub,
+            FilterType::Avg,
+        ]
+        .map(with)
+        .into_iter()
+        .min_by_key(Vec::len)
+        .unwrap();
+        assert_eq!(effort(PngCompression::Best).len(), smallest.len());
     }
 
     #[test]

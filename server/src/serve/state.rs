@@ -32,8 +32,8 @@ pub struct Config {
     /// of a render side by side (a cold tile's five decodes, a view's tiles), so a lone
     /// request uses every core, and however many renders hand it work it runs this many.
     pub render_threads: usize,
-    /// DEFLATE effort of terrain-RGB PNGs: rendered on request, `Fast` (1.7 ms for a 512²
-    /// tile, where `Balanced` takes 70 ms for 30 % fewer bytes).
+    /// DEFLATE effort of terrain-RGB PNGs: rendered on request, `Fast` (a few ms for a 512²
+    /// tile, where `Balanced` takes ~4× as long for ~25 % fewer bytes).
     pub png_compression: PngCompression,
     /// `Cache-Control: max-age` of tiles, seconds.
     pub tile_max_age: u32,

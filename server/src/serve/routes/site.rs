@@ -93,7 +93,8 @@ fn etags() -> &'static [String] {
             .map(|a| {
                 let mut h = DefaultHasher::new();
                 a.bytes.hash(&mut h);
-                format!("\"{:016x}\"", h.finish())
+                // Weak: the compression layer sends these bytes gzipped or br under it.
+                format!("W/\"{:016x}\"", h.finish())
             })
             .collect()
     })
