@@ -173,6 +173,46 @@ fn round_trip_preserves_every_field() {
         .all(|v| v.is_finite()));
 }
 
+/// Without given normals, each vertex's normal is the area-weighted normal of the triangles
+/// around it as the client draws them (decoded positions, ECEF), to oct's precision. A
+/// ~1 km tile rising 300 m northwards and rippled east-west, slopes over 10 degrees: a
+/// normal summed wrongly (cargo-mutants: `(b - a)` as `(b + a)` in the cross product, which
+/// still points roughly up) is several degrees off.
+#[test]
+fn facet_normals_are_the_drawn_surfaces_area_weighted_normals() {
+    let mesh = grid_mesh(17, 17, |r, c| {
+        300.0 * (16 - r) as f64 / 16.0 + 60.0 * (c as f64 * 0.8).sin()
+    });
+    let tile = TileGeo::geodetic(6.0, 45.0, 6.01, 45.01);
+    let opts = QmOptions {
+        octvertexnormals: true,
+        ..QmOptions::default()
+    };
+    let m = decode(&encode(&mesh, &tile, &opts).unwrap()).unwrap();
+    let drawn: Vec<DVec3> = (0..m.vertex_count())
+        .map(|i| ecef_of(&m, i, &tile))
+        .collect();
+    let mut sums = vec![DVec3::ZERO; drawn.len()];
+    for t in &m.triangles {
+        let [a, b, c] = t.map(|i| drawn[i as usize]);
+        for &i in t {
+            sums[i as usize] += (b - a).cross(c - a);
+        }
+    }
+    let normals = m.normals.as_ref().unwrap();
+    let mut steepest: f64 = 0.0;
+    for (i, (&n, s)) in normals.iter().zip(&sums).enumerate() {
+        let want = s.normalize();
+        let angle = oct_decode(n).angle_between(want).to_degrees();
+        assert!(angle < 1.5, "vertex {i}: {angle} degrees off");
+        steepest = steepest.max(want.angle_between(drawn[i].normalize()).to_degrees());
+    }
+    assert!(
+        steepest > 10.0,
+        "the tile is too flat to tell: {steepest} degrees"
+    );
+}
+
 /// The header's f32 height range holds every f64 height: where the nearest f32 falls inside
 /// the range (0.1 rounds up, 0.7 down; the other way round below zero) it steps outwards,
 /// so no vertex quantises outside it, and by one f32 step at most.
