@@ -342,7 +342,8 @@ fn edge_lists(mesh: &TerrainMesh, order: &[u32], q: &Quantized) -> [Vec<u32>; 4]
 /// Area-weighted vertex normals in ECEF: the sum of each incident triangle's cross product
 /// (twice its area along its normal), normalised; the ellipsoid normal where that vanishes.
 fn vertex_normals(ecef: &[DVec3], triangles: &[[u32; 3]]) -> Vec<DVec3> {
-    // Relative to the first vertex: keeps the cross products' operands small.
+    // Relative to the first vertex: keeps the cross products' operands small. (Adding the
+    // origin instead of subtracting it cancels in the differences: an equivalent mutant.)
     let origin = ecef.first().copied().unwrap_or(DVec3::ZERO);
     let mut sums = vec![DVec3::ZERO; ecef.len()];
     for t in triangles {
