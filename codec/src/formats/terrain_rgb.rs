@@ -165,15 +165,27 @@ pub fn encode(heights: &Grid<f64>, opts: &RgbOptions) -> Result<Vec<u8>, Terrain
     };
     let mut smallest: Option<Vec<u8>> = None;
     for &filter in filters {
-        let mut png = Vec::new();
-        PngEncoder::new_with_quality(&mut png, level, filter)
-            .write_image(&rgb, width, height, ExtendedColorType::Rgb8)
-            .map_err(|e| TerrainRgbError::Encode(e.to_string()))?;
+        let png = write_png(&rgb, width, height, level, filter)?;
         if smallest.as_ref().is_none_or(|s| png.len() < s.len()) {
             smallest = Some(png);
         }
     }
     smallest.ok_or_else(|| TerrainRgbError::Encode("no PNG filter to try".into()))
+}
+
+/// One RGB PNG of `width` × `height` pixels at one DEFLATE level and row filter.
+fn write_png(
+    rgb: &[u8],
+    width: u32,
+    height: u32,
+    level: CompressionType,
+    filter: FilterType,
+) -> Result<Vec<u8>, TerrainRgbError> {
+    let mut png = Vec::new();
+    PngEncoder::new_with_quality(&mut png, level, filter)
+        .write_image(rgb, width, height, ExtendedColorType::Rgb8)
+        .map_err(|e| TerrainRgbError::Encode(e.to_string()))?;
+    Ok(png)
 }
 
 /// What [`PngCompression::Best`] tries, `Balanced`'s filter first. Higher zlib levels are
@@ -452,18 +464,8 @@ mod tests {
             .iter()
             .flat_map(|&h| encode_height(Encoding::TerrainRgb, h).unwrap())
             .collect();
-        let with = |filter| {
-            let mut png = Vec::new();
-            PngEncoder::new_with_quality(&mut png, CompressionType::Default, filter)
-                .write_image(
-                    &rgb,
-                    fuji.cols() as u32,
-                    fuji.rows() as u32,
-                    ExtendedColorType::Rgb8,
-                )
-                .unwrap();
-            png
-        };
+        let (cols, rows) = (fuji.cols() as u32, fuji.rows() as u32);
+        let with = |filter| write_png(&rgb, cols, rows, CompressionType::Default, filter).unwrap();
         let effort = |compression| {
             let opts = RgbOptions {
                 compression,

@@ -24,9 +24,6 @@ pub const MESH_DIR: &str = "meshes";
 /// Largest upload, bytes (also the largest file read at start).
 pub const MAX_UPLOAD_BYTES: usize = 64 << 20;
 
-/// The extensions an upload is stored under, one per format read.
-const UPLOAD_EXTENSIONS: [&str; 4] = ["json", "obj", "ply", "stl"];
-
 /// Largest mesh served, faces: LOD structures hold a few copies of it.
 pub const MAX_FACES: usize = 2_000_000;
 
@@ -203,19 +200,13 @@ impl MeshCatalog {
         let format = format
             .or_else(|| Format::sniff(bytes))
             .unwrap_or(Format::Obj);
-        // Stored as sent, under the extension `open` reads it back by.
-        let ext = match format {
-            Format::Obj => "obj",
-            Format::Ply => "ply",
-            Format::Stl => "stl",
-            Format::Json => "json",
-            Format::Glb => anyhow::bail!("GLB uploads are not read"),
-        };
-        let path = self.dir.join(format!("{name}.{ext}"));
+        // Stored as sent (a readable format: read_bytes refused anything else), under the
+        // extension `open` reads it back by.
+        let path = self.dir.join(format!("{name}.{}", format.extension()));
         crate::ingest::write_atomically(&path, bytes)?;
         // An older upload under another extension would shadow this one at the next start.
-        for other in UPLOAD_EXTENSIONS.iter().filter(|&&e| e != ext) {
-            let _ = std::fs::remove_file(self.dir.join(format!("{name}.{other}")));
+        for other in Format::READABLE.iter().filter(|&&f| f != format) {
+            let _ = std::fs::remove_file(self.dir.join(format!("{name}.{}", other.extension())));
         }
         let generation = self
             .next_generation

@@ -174,6 +174,15 @@ fn error_code(body: &[u8]) -> String {
     v["error"].as_str().unwrap().to_string()
 }
 
+/// GETs `uri`, checks it is refused with `status` and the JSON error `code`, and returns
+/// the error body.
+async fn refused(app: &Router, uri: &str, status: StatusCode, code: &str) -> serde_json::Value {
+    let (s, _, body) = get(app, uri).await;
+    assert_eq!(s, status, "{uri}");
+    assert_eq!(error_code(&body), code, "{uri}");
+    serde_json::from_slice(&body).unwrap()
+}
+
 #[tokio::test]
 async fn tiles_carry_threshold_triangles_and_cache_headers() {
     let app = router("headers");
@@ -294,10 +303,7 @@ async fn a_world_datasets_cameras_stay_on_the_globe() {
             "target's longitude",
         ),
     ] {
-        let (s, _, body) = get(&app, uri).await;
-        assert_eq!(s, StatusCode::BAD_REQUEST, "{uri}");
-        assert_eq!(error_code(&body), "out_of_range", "{uri}");
-        let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
+        let v = refused(&app, uri, StatusCode::BAD_REQUEST, "out_of_range").await;
         assert!(v["message"].as_str().unwrap().contains(what), "{uri}: {v}");
     }
     let (s, _, body) = get(
@@ -329,14 +335,10 @@ async fn tile_addresses_are_canonical_and_zooms_checked_against_the_dataset() {
         "/v1/datasets/hill/tiles/%30/0/0.png",
         "/v1/datasets/hill/tiles/0/0/0%2Epng",
     ] {
-        let (s, _, body) = get(&app, uri).await;
-        assert_eq!(s, StatusCode::BAD_REQUEST, "{uri}");
-        assert_eq!(error_code(&body), "bad_tile_address", "{uri}");
+        refused(&app, uri, StatusCode::BAD_REQUEST, "bad_tile_address").await;
     }
-    let (s, _, body) = get(&app, "/v1/datasets/hill/tiles/1/0/0.png").await;
-    assert_eq!(s, StatusCode::NOT_FOUND);
-    let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
-    assert_eq!(v["error"], "tile_not_found");
+    let uri = "/v1/datasets/hill/tiles/1/0/0.png";
+    let v = refused(&app, uri, StatusCode::NOT_FOUND, "tile_not_found").await;
     assert_eq!(v["message"], "zoom 1 is outside 0..=0 of hill");
 }
 
@@ -1225,9 +1227,7 @@ async fn only_a_missing_world_root_is_served_flat() {
         "/v1/datasets/hill/tiles/0/2/0.terrain?threshold=4",
         "/v1/datasets/hill/tiles/0/0/1.terrain?threshold=4",
     ] {
-        let (s, _, body) = get(&geo, uri).await;
-        assert_eq!(s, StatusCode::NOT_FOUND, "{uri}");
-        assert_eq!(error_code(&body), "tile_not_found", "{uri}");
+        refused(&geo, uri, StatusCode::NOT_FOUND, "tile_not_found").await;
     }
 }
 

@@ -212,14 +212,14 @@ pub fn view_plane(d: &Dataset, q: &HashMap<String, String>) -> Result<ViewPlane,
             )
         }
     };
-    let from_plane = |x: f64, y: f64| {
+    let from_plane = |p: &DVec2| {
         if local {
-            [x, -y]
+            DVec2::new(p.x, -p.y)
         } else {
-            [
-                lon0 + x / (METRES_PER_DEGREE * k),
-                lat0 + y / METRES_PER_DEGREE,
-            ]
+            DVec2::new(
+                lon0 + p.x / (METRES_PER_DEGREE * k),
+                lat0 + p.y / METRES_PER_DEGREE,
+            )
         }
     };
     let a_t = if local {
@@ -240,10 +240,7 @@ pub fn view_plane(d: &Dataset, q: &HashMap<String, String>) -> Result<ViewPlane,
         footprint(&cam, far).map_err(|e| ApiError::bad_request("bad_view", e.to_string()))?;
     let a_v = polygon_area(&points);
     let a_t = a_t.max(1.0);
-    let mut footprint: Vec<DVec2> = points
-        .iter()
-        .map(|p| DVec2::from_array(from_plane(p.x, p.y)))
-        .collect();
+    let mut footprint: Vec<DVec2> = points.iter().map(from_plane).collect();
     if !local {
         // Near a pole a metre of longitude is many degrees: the footprint stops at the
         // globe's edges. It still holds the target, which is on the globe.

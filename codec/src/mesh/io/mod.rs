@@ -37,6 +37,20 @@ impl Format {
         Self::from_extension(&ext)
     }
 
+    /// The formats [`read_bytes`] reads (GLB is written only).
+    pub const READABLE: [Self; 4] = [Self::Json, Self::Obj, Self::Ply, Self::Stl];
+
+    /// The file extension of the format, lower case: what [`Self::from_extension`] reads back.
+    pub fn extension(self) -> &'static str {
+        match self {
+            Self::Obj => "obj",
+            Self::Ply => "ply",
+            Self::Stl => "stl",
+            Self::Glb => "glb",
+            Self::Json => "json",
+        }
+    }
+
     /// `"obj"`, `"ply"`, `"stl"`, `"glb"`, `"json"` (case-insensitive).
     pub fn from_extension(ext: &str) -> Option<Self> {
         match ext.to_ascii_lowercase().as_str() {

@@ -483,3 +483,21 @@ fn text_under_another_name_is_not_a_mesh() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Each format's extension names it again: an upload stored under `extension()` is found
+/// by `from_path` at the next start. GLB, written only, is not among the readable formats.
+#[test]
+fn extensions_name_their_formats() {
+    for f in [
+        Format::Obj,
+        Format::Ply,
+        Format::Stl,
+        Format::Glb,
+        Format::Json,
+    ] {
+        assert_eq!(Format::from_extension(f.extension()), Some(f));
+    }
+    assert!(!Format::READABLE.contains(&Format::Glb));
+    let glb = write_bytes(&quad(), Format::Glb).expect("writes");
+    assert!(read_bytes(&glb, Some(Format::Glb), &limits()).is_err());
+}
