@@ -60,7 +60,9 @@ pub fn ensure(data: &Path, force: bool, progress: bool) -> Result<Built> {
         built.terrain = true;
     }
     let dir = data.join(MESH_DIR);
-    if force || !has(&dir, &["obj", "ply", "stl"]) {
+    // Any format the server reads: a folder of JSON uploads holds meshes too.
+    let readable = io::Format::READABLE.map(io::Format::extension);
+    if force || !has(&dir, &readable) {
         std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
         for (name, mesh) in meshes::all() {
             let path = dir.join(format!("{name}.obj"));
@@ -113,6 +115,20 @@ mod tests {
             assert!(m.faces.len() > 1000, "{name}");
         }
         assert_eq!(ensure(&dir, false, false).unwrap(), Built::default());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// A meshes folder holding only a JSON upload has meshes: the default ones are not
+    /// added beside it.
+    #[test]
+    fn a_folder_of_json_meshes_gets_no_default_meshes() {
+        let dir = std::env::temp_dir().join(format!("zerotile-demo-json-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(dir.join(MESH_DIR)).unwrap();
+        let tri = br#"{"positions": [0,0,0, 1,0,0, 0,1,0], "indices": [0,1,2]}"#;
+        std::fs::write(dir.join(MESH_DIR).join("mine.json"), tri).unwrap();
+        assert_eq!(ensure(&dir, false, false).unwrap().meshes, 0);
+        assert_eq!(std::fs::read_dir(dir.join(MESH_DIR)).unwrap().count(), 1);
         let _ = std::fs::remove_dir_all(&dir);
     }
 }
