@@ -69,6 +69,19 @@ fn lods_come_in_every_format_with_their_counts() {
     assert_eq!(bare.number("x-faces"), r.number("x-faces"));
     let octree = s.get("/v1/meshes/uv-sphere-5002/octree", &[]);
     assert_eq!((octree.status, octree.number("x-error")), (200, 2.0));
+    // The levelled methods name their deepest level; the others have none to name.
+    assert!(octree.number("x-max-level") > 2.0);
+    assert_eq!(
+        (r.number("x-max-level"), bare.number("x-max-level")),
+        (3.0, 3.0)
+    );
+    let by_error = s.get("/v1/meshes/uv-sphere-5002/curvature?error=0.2", &[]);
+    assert_eq!(
+        (by_error.status, by_error.header("x-max-level")),
+        (200, None)
+    );
+    let qem = s.get("/v1/meshes/uv-sphere-5002/qem?ratio=0.5", &[]);
+    assert_eq!((qem.status, qem.header("x-max-level")), (200, None));
     // A larger ε keeps fewer faces.
     let r3 = s.get(
         "/v1/meshes/uv-sphere-5002/curvature?level=3&format=obj",
@@ -300,6 +313,17 @@ fn uploads_are_validated_limited_and_never_replace_a_mesh_with_a_bad_one() {
         String::from_utf8_lossy(&octree.body)
     );
     assert!(octree.header("x-error").unwrap().parse::<f64>().unwrap() < 2.0);
+    // X-Max-Level names that deepest level (a client sizes its level control by it): it is
+    // served, one past it is refused.
+    let deepest = octree.number("x-max-level");
+    assert_eq!(deepest, octree.number("x-error"));
+    let at = s.get(&format!("/v1/meshes/plain/octree?level={deepest}"), &[]);
+    assert_eq!((at.status, at.number("x-error")), (200, deepest));
+    s.get(
+        &format!("/v1/meshes/plain/octree?level={}", deepest + 1.0),
+        &[],
+    )
+    .error(400, "bad_mesh_query");
     s.get("/v1/meshes/plain/octree?level=2", &[])
         .error(400, "bad_mesh_query");
     s.post("/v1/meshes/cow2", "image/png", b"\x89PNG")

@@ -16,11 +16,13 @@ const MAX_TILES = 16;
 
 /// Controls per LOD method: a slider for the parameter that sets the level of detail. A
 /// method the page does not know (added to the server later) still gets the free query box.
+/// `value: null` sends no value until the slider is moved: the server's default fits the
+/// mesh (an octree's depth depends on it), and its `X-Max-Level` then sets the slider's end.
 const METHOD_SLIDERS = {
   curvature: { param: "level", min: 1, max: 3, step: 1, value: 2 },
   silhouette: { param: "level", min: 0, max: 7, step: 1, value: 3 },
   qem: { param: "ratio", min: 0.01, max: 1, step: 0.01, value: 0.25 },
-  octree: { param: "level", min: 1, max: 8, step: 1, value: 4 },
+  octree: { param: "level", min: 0, max: 20, step: 1, value: null },
 };
 
 /// What the tests read: the last figures, and how many views have finished loading.
@@ -279,9 +281,13 @@ function renderMethodControls() {
   const s = METHOD_SLIDERS[method];
   if (s) {
     const label = document.createElement("label");
-    label.innerHTML = `${s.param} <input id="m-value" type="range" min="${s.min}" max="${s.max}" step="${s.step}" value="${s.value}"> <output id="m-out">${s.value}</output>`;
+    const start = s.value ?? s.min;
+    label.innerHTML = `${s.param} <input id="m-value" type="range" min="${s.min}" max="${s.max}" step="${s.step}" value="${start}"> <output id="m-out">${s.value ?? "default"}</output>`;
     box.appendChild(label);
-    label.querySelector("input").addEventListener("input", (e) => {
+    const input = label.querySelector("input");
+    input.dataset.moved = s.value === null ? "" : "1";
+    input.addEventListener("input", (e) => {
+      e.target.dataset.moved = "1";
       $("m-out").textContent = e.target.value;
       loadMesh(false);
     });
@@ -294,13 +300,30 @@ function renderMethodControls() {
   }
 }
 
+/// Ends a level slider at the mesh's deepest level, and shows the level the server chose
+/// while the slider has not been moved.
+function fitSlider(slider, headers) {
+  if (!slider) return;
+  const deepest = headers.get("x-max-level");
+  if (deepest !== null) {
+    slider.max = deepest;
+    if (Number(slider.value) > Number(deepest)) slider.value = deepest;
+  }
+  const drawn = headers.get("x-error");
+  if (!slider.dataset.moved && drawn !== null) {
+    slider.value = drawn;
+    $("m-out").textContent = drawn;
+  }
+}
+
 async function loadMesh(frame) {
   const my = ++ticket;
   const t0 = performance.now();
   const method = $("method").value;
   const params = new URLSearchParams();
   const s = METHOD_SLIDERS[method];
-  if (s && $("m-value")) params.set(s.param, $("m-value").value);
+  const slider = $("m-value");
+  if (s && slider && slider.dataset.moved) params.set(s.param, slider.value);
   const extra = $("m-extra") && $("m-extra").value.trim();
   if (extra) for (const [k, v] of new URLSearchParams(extra)) params.set(k, v);
   params.set("format", "json");
@@ -308,6 +331,7 @@ async function loadMesh(frame) {
   try {
     const a = await getJson(`${methodUrl(meshInfo.methods[method])}?${params}`);
     if (my !== ticket) return;
+    fitSlider(slider, a.headers);
     const faces = Number(a.headers.get("x-faces") ?? a.json.indices.length / 3);
     figures({
       triangles: faces,

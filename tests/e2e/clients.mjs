@@ -354,8 +354,16 @@ async function viewer() {
   console.log(`viewer: silhouette faces ${s2.triangles} at level 2, ${s6.triangles} at level 6`);
   check(s6.triangles !== s2.triangles, `viewer: the silhouette level did not change the face count (${s2.triangles})`);
   if (methods.includes("octree")) {
+    // The slider starts at the server's default level and ends at the mesh's deepest
+    // (X-Max-Level), so every position it offers is a level the mesh has.
     const o = await after(() => c.page.selectOption("#method", "octree"));
-    console.log(`viewer: octree faces ${o.triangles}`);
+    const [start, deepest] = await c.page.$eval("#m-value", (el) => [Number(el.value), Number(el.max)]);
+    const od = await after(() => setRange("#m-value", deepest));
+    console.log(`viewer: octree faces ${o.triangles} at the default level ${start}, ${od.triangles} at the deepest, ${deepest}`);
+    // Before the first answer the slider ends at the octree depth limit, 20: a mesh that deep
+    // would be a 400 at its end, counted in the page errors checked below.
+    check(deepest >= start && deepest < 20, `viewer: the octree slider does not end at the mesh's deepest level (${start}..${deepest})`);
+    check(deepest === start || od.triangles > o.triangles, `viewer: the deepest octree level did not add faces (${o.triangles} -> ${od.triangles})`);
   }
   await c.page.check("#wire");
   await c.page.waitForTimeout(300);

@@ -92,6 +92,8 @@ pub struct MeshAnswer {
     pub faces: usize,
     /// The method's own error figure (ε, level, or the QEM error), for `X-Error`.
     pub error: f64,
+    /// The deepest level of a level-indexed method, for `X-Max-Level`.
+    pub max_level: Option<u32>,
 }
 
 #[derive(Clone, Copy, Debug, Default)]

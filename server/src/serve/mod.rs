@@ -120,6 +120,7 @@ pub fn app(state: AppState) -> Router {
             header::HeaderName::from_static("x-vertices"),
             header::HeaderName::from_static("x-faces"),
             header::HeaderName::from_static("x-error"),
+            header::HeaderName::from_static("x-max-level"),
         ]);
     routes
         .layer(axum::middleware::from_fn_with_state(

@@ -167,3 +167,72 @@ async fn openapi_json_is_served() {
     let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
     assert!(v["paths"]["/v1/meshes/{name}/{method}"]["get"].is_object());
 }
+
+/// The `"x-…"` string literals of a source file: the custom headers its routes set.
+fn custom_headers(src: &str) -> BTreeSet<String> {
+    src.split("\"x-")
+        .skip(1)
+        .filter_map(|rest| {
+            let name = rest.split('"').next()?;
+            let ok = !name.is_empty() && name.bytes().all(|b| b.is_ascii_lowercase() || b == b'-');
+            ok.then(|| format!("x-{name}"))
+        })
+        .collect()
+}
+
+/// A browser client reads a response header only when CORS exposes it, so every custom
+/// header a route sets is exposed, and docs/api.md names exactly the exposed set (X-Max-Level
+/// was once set by the mesh routes without being listed).
+#[tokio::test]
+async fn cors_exposes_every_header_the_routes_set_and_the_api_documents_them() {
+    let res = app(AppState::new(Catalog::default(), Config::default()).unwrap())
+        .oneshot(
+            Request::get("/healthz")
+                .header(header::ORIGIN, "https://a.example")
+                .body(Body::empty())
+                .unwrap(),
+        )
+        .await
+        .unwrap();
+    let exposed: BTreeSet<String> = res
+        .headers()
+        .get(header::ACCESS_CONTROL_EXPOSE_HEADERS)
+        .expect("CORS exposes headers")
+        .to_str()
+        .unwrap()
+        .split(',')
+        .map(|s| s.trim().to_ascii_lowercase())
+        .collect();
+
+    let set: BTreeSet<String> = [
+        include_str!("routes/tiles.rs"),
+        include_str!("routes/view.rs"),
+        include_str!("routes/meshes.rs"),
+    ]
+    .into_iter()
+    .flat_map(custom_headers)
+    .collect();
+    assert!(set.len() >= 9, "scan found too few headers: {set:?}");
+    let hidden: Vec<_> = set.difference(&exposed).collect();
+    assert!(hidden.is_empty(), "set by a route, not exposed: {hidden:?}");
+
+    // The API reference's CORS paragraph: every backticked header name in it.
+    let api = include_str!("../../../docs/api.md");
+    let para = api
+        .split("CORS allows")
+        .nth(1)
+        .and_then(|s| s.split("Compression:").next())
+        .expect("docs/api.md has the CORS paragraph");
+    let documented: BTreeSet<String> = para
+        .split('`')
+        .skip(1)
+        .step_by(2)
+        .filter(|w| w.contains('-') && w.bytes().all(|b| b.is_ascii_alphabetic() || b == b'-'))
+        .chain(["ETag"])
+        .map(str::to_ascii_lowercase)
+        .collect();
+    assert_eq!(
+        documented, exposed,
+        "docs/api.md's CORS paragraph against the server"
+    );
+}

@@ -4,8 +4,9 @@
 //! - `GET /v1/meshes/{name}/{method}` with `method` one of `original`, `curvature`
 //!   (`error=E` or `level=1..3`), `silhouette` (`level=K` and/or `eye=x,y,z&target=x,y,z`),
 //!   `qem` (`faces=N`, `ratio=R` or `error=E`), `octree` (`level=K`, and for region-of-
-//!   interest browsing `roi=x0,y0,x1,y1` in NDC with `eye`, `target`, `fov`, `aspect`), and `format=obj|ply|glb|json`; headers
-//!   `X-Vertices`, `X-Faces`, `X-Error`.
+//!   interest browsing `roi=x0,y0,x1,y1` in NDC with `eye`, `target`, `fov`, `aspect`), and
+//!   `format=obj|ply|glb|json`; headers `X-Vertices`, `X-Faces`, `X-Error`, and for the
+//!   methods with levels (curvature by level, silhouette, octree) `X-Max-Level`.
 //! - `POST /v1/meshes/{name}`: an OBJ, PLY or STL body (≤ 64 MiB), validated, stored.
 
 use std::collections::HashMap;
@@ -285,15 +286,39 @@ fn parse_format(q: &HashMap<String, String>) -> ApiResult<(Format, &'static str)
     }
 }
 
-/// Runs an ask: the mesh and its error figure.
-fn compute(e: &MeshEntry, ask: &Ask) -> Result<(TriMesh, f64), ApiError> {
+/// What an ask computes: the mesh, the method's error figure (`X-Error`), and for the
+/// level-indexed methods the deepest level this mesh has (`X-Max-Level`), so a client's
+/// level control can fit a small mesh instead of asking for levels it does not have.
+struct Computed {
+    mesh: TriMesh,
+    error: f64,
+    max_level: Option<u32>,
+}
+
+impl Computed {
+    fn new(mesh: TriMesh, error: f64) -> Self {
+        Self {
+            mesh,
+            error,
+            max_level: None,
+        }
+    }
+
+    fn with_max_level(mut self, max_level: u32) -> Self {
+        self.max_level = Some(max_level);
+        self
+    }
+}
+
+/// Runs an ask.
+fn compute(e: &MeshEntry, ask: &Ask) -> Result<Computed, ApiError> {
     let bad = |m: String| ApiError::bad_request("bad_mesh_query", m);
     match ask {
-        Ask::Original => Ok((e.mesh.clone(), 0.0)),
+        Ask::Original => Ok(Computed::new(e.mesh.clone(), 0.0)),
         Ask::Curvature(eps) => {
             let m = curvature::to_error(&e.mesh, *eps, &CurvatureOptions::default())
                 .map_err(|x| bad(x.to_string()))?;
-            Ok((m, *eps))
+            Ok(Computed::new(m, *eps))
         }
         Ask::CurvatureLevel(k) => {
             let levels = e.curvature_levels().map_err(bad)?;
@@ -301,28 +326,31 @@ fn compute(e: &MeshEntry, ask: &Ask) -> Result<(TriMesh, f64), ApiError> {
                 .checked_sub(1)
                 .and_then(|i| levels.get(i))
                 .ok_or_else(|| bad(format!("no level {k}")))?;
-            Ok((level.mesh.clone(), level.error))
+            Ok(Computed::new(level.mesh.clone(), level.error)
+                .with_max_level(u32::try_from(levels.len()).unwrap_or(u32::MAX)))
         }
         Ask::Silhouette { level, view } => {
             let vs = e.view_sphere().map_err(bad)?;
-            match view {
+            let deepest = u32::from(vs.max_level());
+            let answer = match view {
                 Some(v) => {
                     let (m, drawn) = vs.view(v, *level).map_err(|x| bad(x.to_string()))?;
-                    Ok((m, f64::from(drawn.level)))
+                    Computed::new(m, f64::from(drawn.level))
                 }
                 None => {
                     let level = level.unwrap_or(vs.max_level());
-                    Ok((
+                    Computed::new(
                         vs.level(level).map_err(|x| bad(x.to_string()))?,
                         f64::from(level),
-                    ))
+                    )
                 }
-            }
+            };
+            Ok(answer.with_max_level(deepest))
         }
         Ask::QemFaces(n) => {
             let (m, r) = qem::simplify(&e.mesh, &QemOptions::to_faces(*n))
                 .map_err(|x| bad(x.to_string()))?;
-            Ok((m, r.max_error))
+            Ok(Computed::new(m, r.max_error))
         }
         Ask::Octree { level, roi } => {
             let lod = e.octree().map_err(bad)?;
@@ -350,12 +378,12 @@ fn compute(e: &MeshEntry, ask: &Ask) -> Result<(TriMesh, f64), ApiError> {
                         .mesh
                 }
             };
-            Ok((m, f64::from(*level)))
+            Ok(Computed::new(m, f64::from(*level)).with_max_level(lod.max_level()))
         }
         Ask::QemError(err) => {
             let (m, r) = qem::simplify(&e.mesh, &QemOptions::to_error(*err))
                 .map_err(|x| bad(x.to_string()))?;
-            Ok((m, r.max_error))
+            Ok(Computed::new(m, r.max_error))
         }
     }
 }
@@ -397,13 +425,14 @@ pub async fn lod(
             let job = e.clone();
             let fresh = tokio::task::spawn_blocking(move || -> ApiResult<MeshAnswer> {
                 ticket.run(|| {
-                    let (mesh, error) = compute(&job, &ask)?;
-                    let bytes = io::write_bytes(&mesh, format).map_err(ApiError::internal)?;
+                    let c = compute(&job, &ask)?;
+                    let bytes = io::write_bytes(&c.mesh, format).map_err(ApiError::internal)?;
                     Ok(MeshAnswer {
                         bytes: bytes.into(),
-                        vertices: mesh.vertex_count(),
-                        faces: mesh.face_count(),
-                        error,
+                        vertices: c.mesh.vertex_count(),
+                        faces: c.mesh.face_count(),
+                        error: c.error,
+                        max_level: c.max_level,
                     })
                 })
             })
@@ -426,6 +455,9 @@ pub async fn lod(
     h.insert("x-vertices", value(&answer.vertices.to_string())?);
     h.insert("x-faces", value(&answer.faces.to_string())?);
     h.insert("x-error", value(&answer.error.to_string())?);
+    if let Some(k) = answer.max_level {
+        h.insert("x-max-level", value(&k.to_string())?);
+    }
     Ok(res)
 }
 
