@@ -197,9 +197,21 @@ pub fn encode(heights: &Grid<f64>, params: &EncodeParams) -> Result<Encoded, Par
     if params.wavelet == Wavelet::LeGall53 && (hi - lo) * 2.0 >= INT53_LIMIT {
         return Err(out_of_range(
             "height range / step",
-            "below 2^19 for the integer 5/3 path",
+            "below 2^19 for the integer 5/3 path (the 9/7 wavelet takes any range)",
             hi - lo,
         ));
+    }
+    // The residual pass snaps each height to a bin of 2E: a bin below the heights' float
+    // resolution cannot hold the bound, and the pass would keep a broken promise silently.
+    if let Some(e) = params.max_error {
+        let e_units = e / params.step;
+        if e_units < MIN_BOUND_UNITS || e_units < (hi - lo).max(1.0) * MIN_BOUND_OF_RANGE {
+            return Err(out_of_range(
+                "max_error",
+                "at least step x 2^-20 and height range x 2^-40 (lossless gives exact heights)",
+                e,
+            ));
+        }
     }
     let (mags, negs, qexp) = quantize::forward(&centered, params.wavelet, &layout);
     let plan = Plan::new(
@@ -225,6 +237,14 @@ pub fn encode(heights: &Grid<f64>, params: &EncodeParams) -> Result<Encoded, Par
     // encoder decodes itself (its state is the decoder's) and records the error bound.
     let max = mags.iter().copied().max().unwrap_or(0);
     let top_plane = (max > 0).then(|| 63 - max.leading_zeros());
+    if top_plane.is_some_and(|t| t > MAX_TOP_PLANE) {
+        return Err(out_of_range(
+            "height range / step",
+            "small enough for 63 bit planes (a no-data sentinel such as -3.4e38 left in the \
+             heights, or a step far too fine)",
+            hi - lo,
+        ));
+    }
     header.top_plane = top_plane.map(|t| t as u8);
     let mut segments: Vec<Vec<u8>> = Vec::new();
     let mut state = State::new(&plan);
@@ -548,6 +568,15 @@ fn decode_pass<I: passes::BitIo>(
     };
     done
 }
+
+/// The deepest top bit plane a stream may have ([`stream::Header`] refuses more): the
+/// magnitudes are u64, and a saturated one would read as plane 63.
+const MAX_TOP_PLANE: u32 = 62;
+
+/// The smallest max-error bound, in steps, and as a fraction of the height range (in steps):
+/// far above f64's resolution of the heights, so the residual's bins stay exact.
+const MIN_BOUND_UNITS: f64 = 1.0 / (1u64 << 20) as f64;
+const MIN_BOUND_OF_RANGE: f64 = 1.0 / (1u64 << 40) as f64;
 
 fn out_of_range(name: &'static str, expected: &'static str, got: f64) -> ParamError {
     ParamError::OutOfRange {

@@ -183,7 +183,7 @@ impl Header {
         }
         let top = r.u8()?;
         let top_plane = (top != u8::MAX).then_some(top);
-        if top_plane.is_some_and(|t| t > 62) {
+        if top_plane.is_some_and(|t| u32::from(t) > super::MAX_TOP_PLANE) {
             return Err(DecodeError::Malformed(format!("top bit plane {top}")));
         }
         let nseg = r.varint()?;

@@ -329,6 +329,63 @@ fn bad_parameters_are_errors() {
     assert!(encode(&g, &params).is_err());
 }
 
+/// A range the coder's 62 bit planes cannot hold (a float no-data sentinel left in the
+/// heights, a step far too fine) is refused by the encoder, not written as a stream the
+/// decoder refuses; the largest range that fits still round-trips within its bound.
+#[test]
+fn ranges_past_the_top_bit_plane_are_refused_when_encoding() {
+    let name = |r: Result<Encoded, ParamError>| match r {
+        Err(ParamError::OutOfRange { name, .. }) => name,
+        other => panic!("expected a range error, got {other:?}"),
+    };
+    let sentinel = Grid::new(2, 2, vec![-f64::from(f32::MAX), 10.0, 12.0, 11.0]).unwrap();
+    for w in [Wavelet::Cdf97, Wavelet::LeGall53] {
+        assert!(name(encode(&sentinel, &EncodeParams::new(w, 1.0))).starts_with("height range"));
+    }
+    let fine = Grid::new(2, 2, vec![0.0, 1.0, 2.0, 3.0]).unwrap();
+    assert_eq!(
+        name(encode(&fine, &EncodeParams::new(Wavelet::Cdf97, 1e-300))),
+        "height range / step"
+    );
+    // 2^40 steps of range is well inside: decoded whole, it is within a step.
+    let big = Grid::new(2, 2, vec![0.0, 1e12, 5e11, 2.5e11]).unwrap();
+    let enc = encode(&big, &EncodeParams::new(Wavelet::Cdf97, 1.0)).unwrap();
+    let d = decode(&enc.bytes, DecodeLimit::All, DEFAULT_MAX_SAMPLES).unwrap();
+    assert!(max_abs_diff(&d.heights, &big) <= 1.0, "{:?}", d.heights);
+}
+
+/// A max-error bound below the heights' resolution cannot be kept: refused, where the
+/// residual pass once returned 331 m errors for E = 1e-50 and reported success.
+#[test]
+fn bounds_below_the_float_resolution_are_refused() {
+    let g = n44w072_crop(300, 500, 33);
+    for e in [1e-20, 1e-50, 1e-300] {
+        let params = EncodeParams {
+            max_error: Some(e),
+            ..EncodeParams::new(Wavelet::Cdf97, 1.0)
+        };
+        assert!(
+            matches!(
+                encode(&g, &params),
+                Err(ParamError::OutOfRange {
+                    name: "max_error",
+                    ..
+                })
+            ),
+            "E = {e}"
+        );
+    }
+    // Just above the floor the bound holds.
+    let e = 2.0 / (1u64 << 20) as f64;
+    let params = EncodeParams {
+        max_error: Some(e),
+        ..EncodeParams::new(Wavelet::Cdf97, 1.0)
+    };
+    let enc = encode(&g, &params).unwrap();
+    let d = decode(&enc.bytes, DecodeLimit::All, DEFAULT_MAX_SAMPLES).unwrap();
+    assert!(max_abs_diff(&d.heights, &g) <= e);
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(64))]
 
