@@ -83,7 +83,7 @@ pub fn read_heightmap(
     opts: &ReadOptions,
 ) -> Result<Heightmap, RasterError> {
     let path = path.as_ref();
-    match extension(path).as_str() {
+    let map = match extension(path).as_str() {
         "hgt" => hgt::read(path, opts),
         "tif" | "tiff" => geotiff::read(path, opts),
         "png" => png::read(path, opts),
@@ -94,7 +94,23 @@ pub fn read_heightmap(
             path,
             format!("unknown heightmap extension; zerotile reads {EXTENSIONS}"),
         )),
+    }?;
+    // NaN is no-data (filled later); an infinity is neither a height nor marked missing,
+    // and once slipped into a dataset's height range as JSON null.
+    let h = &map.heights;
+    if let Some(i) = h.data().iter().position(|v| v.is_infinite()) {
+        return Err(RasterError::format(
+            path,
+            format!(
+                "row {}, column {}: {} is not a finite height (mark no-data as NaN or the \
+                 file's no-data value)",
+                i / h.cols(),
+                i % h.cols(),
+                h.data()[i]
+            ),
+        ));
     }
+    Ok(map)
 }
 
 /// The lower-case extension [`read_heightmap`] chooses the reader by ("" for none).

@@ -420,6 +420,32 @@ mod tests {
         assert!((lat - (36.44625 + d / 2.0)).abs() < 1e-9, "{lat}");
     }
 
+    /// An infinity is refused where it is read, naming the file and the sample: NaN is
+    /// no-data and gets filled, an infinity is neither and once became a dataset whose
+    /// height range was JSON null.
+    #[test]
+    fn infinite_heights_are_refused_by_file_and_sample() {
+        for (test, bad) in [
+            ("npy-inf", f64::INFINITY),
+            ("npy-neginf", f64::NEG_INFINITY),
+        ] {
+            let data: Vec<u8> = [1.0, 2.0, 3.0, 4.0, bad, 6.0]
+                .iter()
+                .flat_map(|v: &f64| v.to_le_bytes())
+                .collect();
+            let path = write_npy(test, &npy_bytes("<f8", false, "(2, 3)", &data));
+            let err = crate::raster::read_heightmap(&path, &ReadOptions::default()).unwrap_err();
+            let message = err.to_string();
+            assert!(matches!(err, RasterError::Format { .. }), "{message}");
+            assert!(
+                message.contains(&format!("{test}.npy"))
+                    && message.contains("row 1, column 1")
+                    && message.contains("not a finite height"),
+                "{message}"
+            );
+        }
+    }
+
     #[test]
     fn a_missing_npz_key_lists_the_keys() {
         let opts = ReadOptions {
