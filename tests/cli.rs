@@ -239,6 +239,40 @@ fn messages_name_what_was_wrong_once() {
         "{err}"
     );
     assert_eq!(std::fs::read_to_string(dir.join("afile")).unwrap(), "x");
+    // A store URL is for serve: ingest once wrote it as a local folder named "s3:" and
+    // printed the URL, as if it had uploaded.
+    let out = zerotile(&[
+        "ingest",
+        tif.to_str().unwrap(),
+        "--name",
+        "x",
+        "--data",
+        "s3://tiles/prod",
+        "--quiet",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("ingest writes a local folder"), "{err}");
+    assert!(!dir.join("s3:").exists());
+    // Metro samples are bounded (10^12 once asked for 24 TB and aborted): a usage error.
+    let fandisk = shared_data().join("meshes/fandisk.obj");
+    let out = zerotile(&[
+        "eval",
+        "mesh",
+        fandisk.to_str().unwrap(),
+        "--method",
+        "qem",
+        "--faces",
+        "100",
+        "--samples",
+        "1000000000000",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("--samples") && err.contains("10000000"),
+        "{err}"
+    );
 
     let out = zerotile(&["subdivide", "--help"]);
     assert!(String::from_utf8_lossy(&out.stdout).contains("1–4"));

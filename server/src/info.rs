@@ -6,7 +6,7 @@
 //! the end, before the file goes live.
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::Mutex;
 
 use anyhow::{bail, Context, Result};
@@ -115,13 +115,13 @@ pub fn run(job: &Info) -> Result<Report> {
             );
         }
     }
-    if Path::new(&job.dataset).is_dir() {
+    let path = crate::ingest::dataset_path(&job.dataset, &job.data)?;
+    if path.is_dir() {
         bail!(
             "{}: a folder; give a .ztd file, or a dataset name with --data FOLDER",
-            job.dataset
+            path.display()
         );
     }
-    let path = crate::ingest::dataset_path(&job.dataset, &job.data)?;
     if !path.is_file() {
         bail!(
             "{}: no such dataset file (give a .ztd path, or a name in --data {})",
@@ -704,6 +704,16 @@ mod tests {
         assert!(e.contains("a folder; give a .ztd file"), "{e}");
         let e = run(&job("nothing".into())).unwrap_err().to_string();
         assert!(e.contains("no such dataset file"), "{e}");
+        // A dataset of that name in --data wins over a file or folder of the name in the
+        // current folder (`info n44` once read a stray ./n44).
+        let cwd = std::env::current_dir().unwrap();
+        let stray = cwd.join("src");
+        assert!(stray.is_dir(), "the test runs in the crate folder");
+        let e = run(&job("src".into())).unwrap_err().to_string();
+        assert!(e.contains("a folder; give a .ztd file"), "{e}");
+        std::fs::write(dir.join("src.ztd"), b"not a dataset").unwrap();
+        let e = format!("{:#}", run(&job("src".into())).unwrap_err());
+        assert!(e.contains("src.ztd") && !e.contains("a folder"), "{e}");
         let _ = std::fs::remove_dir_all(&dir);
     }
     /// Failures are listed in tile order (zoom, then rows, then columns), whatever order

@@ -9,6 +9,9 @@ use clap::{ArgGroup, Args, ValueEnum};
 use serde::Serialize;
 use zerotile_codec::mesh::curvature::{self, CurvatureOptions};
 use zerotile_codec::mesh::distance::DEFAULT_SAMPLES;
+
+/// The most Metro samples `--samples` takes: 50× the default, ~0.5 GB of sample points.
+const MAX_SAMPLES: u64 = 10_000_000;
 use zerotile_codec::mesh::io::{self, MeshLimits};
 use zerotile_codec::mesh::silhouette::{View, ViewSphere};
 use zerotile_codec::mesh::{
@@ -62,8 +65,10 @@ pub struct MeshArgs {
     /// Timed runs, 1–100 (the median is reported).
     #[arg(long, default_value_t = DEFAULT_REPEAT, value_parser = super::parse_repeat())]
     pub repeat: usize,
-    /// Metro samples per direction for the distances (0: skip them).
-    #[arg(long, default_value_t = DEFAULT_SAMPLES)]
+    /// Metro samples per direction for the distances, 0–10,000,000 (0: skip them).
+    // Bounded: each sample is 24 bytes a side, so 10^12 asked for 24 TB and aborted.
+    #[arg(long, default_value_t = DEFAULT_SAMPLES,
+          value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(0..=MAX_SAMPLES))]
     pub samples: usize,
     /// Merge bit-identical vertex positions first (unwelded exports such as the teapot).
     #[arg(long)]

@@ -61,15 +61,26 @@ struct Plan {
     bounds: [f64; 4],
 }
 
-/// The container a command names: a path to a `.ztd` file (or any existing file), else
-/// the dataset `NAME` in the folder `data`.
+/// The container a command names: a path to a `.ztd` file; else the dataset `NAME` in the
+/// folder `data` when it is there; else an existing path; else `NAME` in `data` again (for
+/// the caller's "no such dataset" message).
 pub fn dataset_path(dataset: &str, data: &Path) -> Result<PathBuf> {
     let as_path = Path::new(dataset);
-    if as_path.extension().is_some_and(|e| e == EXTENSION) || as_path.is_file() {
+    if as_path.extension().is_some_and(|e| e == EXTENSION) {
+        return Ok(as_path.to_path_buf());
+    }
+    // A dataset of that name wins over a file or folder of that name in the current
+    // folder: `info n44 --data d` once read a stray ./n44, and `info web` the folder.
+    let named = data.join(format!("{dataset}.{EXTENSION}"));
+    if check_name(dataset).is_ok() && named.is_file() {
+        return Ok(named);
+    }
+    // Otherwise a path that exists is what was meant (a folder is refused by the caller).
+    if as_path.exists() {
         return Ok(as_path.to_path_buf());
     }
     check_name(dataset)?;
-    Ok(data.join(format!("{dataset}.{EXTENSION}")))
+    Ok(named)
 }
 
 /// Dataset names become file names: keep them to a safe alphabet.
@@ -94,6 +105,14 @@ pub fn check_name_of(kind: &str, name: &str) -> Result<()> {
 /// Errors if `data` names a file: caught before any work, where writing the finished
 /// dataset would only say "File exists", after all the encoding.
 pub fn check_data_dir(data: &Path) -> Result<()> {
+    // `serve --data` reads store URLs; a write here would make a local folder named "s3:".
+    if crate::serve::storage::is_url(&data.to_string_lossy()) {
+        bail!(
+            "--data {}: ingest writes a local folder; ingest there, then copy the .ztd file \
+             to the store (serve --data reads store URLs)",
+            data.display()
+        );
+    }
     if data.exists() && !data.is_dir() {
         bail!(
             "--data {}: is a file, not a folder; give the folder the datasets go in",

@@ -9,7 +9,9 @@
 use anyhow::{bail, Context, Result};
 use rayon::prelude::*;
 use zerotile_codec::container::Availability;
-use zerotile_codec::geo::tiling::{lonlat_to_mercator, mercator_to_lonlat, Bounds};
+use zerotile_codec::geo::tiling::{
+    lonlat_to_mercator, mercator_to_lonlat, Bounds, MERCATOR_MAX_LATITUDE,
+};
 use zerotile_codec::geo::{Resolution, Scheme, TileId, Tiling};
 use zerotile_codec::pyramid::Level;
 use zerotile_codec::raster::Crs;
@@ -88,6 +90,19 @@ pub fn build(source: &Source, scheme: Scheme, max_zoom: Option<u8>) -> Result<Wo
             })?
         }
     };
+    // Web mercator stops at ±85.05°: a source wholly past it would be stored as fill only
+    // (the tile range clamps to the tiling's edge rather than coming back empty).
+    if scheme == Scheme::Mercator
+        && (bounds[1] >= MERCATOR_MAX_LATITUDE || bounds[3] <= -MERCATOR_MAX_LATITUDE)
+    {
+        bail!(
+            "the source spans lat {:.4}..{:.4}, wholly beyond web mercator's ±{:.4}°: use \
+             --scheme geodetic",
+            bounds[1],
+            bounds[3],
+            MERCATOR_MAX_LATITUDE
+        );
+    }
     let bbox = Bounds {
         min_x: bounds[0],
         min_y: bounds[1],
@@ -274,6 +289,24 @@ mod tests {
         let source = Source::new(&g, &georef, 0.0).unwrap();
         let err = build(&source, Scheme::Geodetic, Some(1)).err().unwrap();
         assert!(err.to_string().contains("outside the world"), "{err}");
+    }
+
+    /// A source wholly beyond mercator's ±85.05° is refused for mercator (it once became a
+    /// dataset of fill only), and still builds as geodetic.
+    #[test]
+    fn sources_wholly_past_mercator_are_refused_for_mercator() {
+        let g = grid(3, 3, |r, c| (r * 3 + c) as f64);
+        for north in [89.9, -86.0] {
+            let georef = Georef::north_up(Crs::Geographic, 10.0, north, 1.0, 1.0);
+            let source = Source::new(&g, &georef, 0.0).unwrap();
+            let err = build(&source, Scheme::Mercator, Some(2)).err().unwrap();
+            assert!(err.to_string().contains("--scheme geodetic"), "{err}");
+            assert!(build(&source, Scheme::Geodetic, Some(2)).is_ok());
+        }
+        // Partly inside: built.
+        let georef = Georef::north_up(Crs::Geographic, 10.0, 86.0, 1.0, 1.0);
+        let source = Source::new(&g, &georef, 0.0).unwrap();
+        assert!(build(&source, Scheme::Mercator, Some(2)).is_ok());
     }
 
     /// A lattice too big for memory is refused with what to do, before it is allocated.
