@@ -73,6 +73,10 @@ pub(crate) fn edge_spill(hierarchy: &Hierarchy) -> Vec<u32> {
     for from in 0..4 {
         let forced = Forced::new(hierarchy, (0..n).map(|i| edge(from, i)));
         for to in (0..4).filter(|&to| to != from) {
+            // `to / 2` (and `e / 2` below) as `% 2` changes nothing: the bintree of a square is
+            // symmetric under the transpose and the half turn, and what forcing reaches on an
+            // edge is symmetric end to end (checked by mutation up to 1025²), so every edge
+            // gets one set of positions however the four are paired.
             for (i, hit) in along[to / 2].iter_mut().enumerate() {
                 if forced.get(edge(to, i) as u32) {
                     *hit = true;
@@ -162,6 +166,10 @@ pub fn border_vertices(
         value: &errors.value,
         tolerance: f32_at_or_below(tolerance),
         forced: None,
+        // `levels() / 1` (one level more) changes nothing here: the extra splits cut unit
+        // triangles at (a + b) / 2, which marks a border sample only if its value is above
+        // the tolerance, and such a sample is a vertex of the plain mesh already (its
+        // ancestors' values are at least its own).
         splittable: hierarchy.levels() - 1,
     };
     let last = (n - 1) as i64;
@@ -221,6 +229,10 @@ impl Walk<'_> {
     fn border_leaves(&self, n: usize, emit: &mut impl FnMut(&Tri)) {
         let last = (n - 1) as i64;
         let coords = Coords::new(n);
+        // Only pruning: the caller marks border edges itself, so a looser test here (either
+        // `&&` as `||`, either `py == qy`/`px == qx` as `!=`: a triangle with an edge on the
+        // border also has one leaving it from a border vertex) visits more triangles and
+        // finds the same ones.
         self.walk(
             |t: &Tri| {
                 [(t.a, t.b), (t.b, t.c), (t.c, t.a)].iter().any(|&(p, q)| {

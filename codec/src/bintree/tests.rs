@@ -1,5 +1,6 @@
 use super::*;
-use crate::fixtures::n44w072_crop;
+use crate::fixtures::{n44w072, n44w072_crop};
+use crate::grid::Grid;
 use crate::zerotree::mesh_error;
 use crate::zerotree::terrain_mesh::assert_watertight;
 
@@ -114,5 +115,132 @@ fn border_vertices_are_the_mesh_vertices_on_each_edge() {
         for side in [&b.north, &b.south, &b.west, &b.east] {
             assert!(side[1..n - 1].iter().any(|&v| v), "tolerance {tol}");
         }
+    }
+}
+
+/// Forcing adds only what is forced and its ancestors: forcing nothing, or the plain mesh's
+/// own vertices (already closed under ancestors), gives the plain mesh back exactly. The mesh
+/// also carries the grid size it covers.
+#[test]
+fn forcing_nothing_or_the_meshs_own_vertices_changes_nothing() {
+    let n = 65;
+    let g = n44w072_crop(300, 500, n);
+    let h = Hierarchy::new(n).unwrap();
+    let e = TileErrors::new(&h, &g);
+    for tol in [2.0, 16.0] {
+        let plain = extract(&h, &e, &g, tol, None);
+        assert_eq!((plain.rows, plain.cols), (n, n));
+        assert!(plain.triangle_count() < 2 * 64 * 64, "tolerance {tol}");
+        let none = extract(&h, &e, &g, tol, Some(&Forced::new(&h, [])));
+        assert_eq!(none.positions, plain.positions, "tolerance {tol}");
+        assert_eq!(none.triangles, plain.triangles, "tolerance {tol}");
+        let own = plain
+            .positions
+            .iter()
+            .map(|p| p[1] as usize * n + p[0] as usize);
+        let same = extract(&h, &e, &g, tol, Some(&Forced::new(&h, own)));
+        assert_eq!(same.positions, plain.positions, "tolerance {tol}");
+        assert_eq!(same.triangles, plain.triangles, "tolerance {tol}");
+    }
+}
+
+/// Errors or heights of another size than the hierarchy's are a broken contract: a debug
+/// assertion names it (rather than an index out of bounds or a mesh of the wrong grid), and
+/// a release build returns an empty mesh.
+#[test]
+fn shapes_other_than_the_hierarchys_are_refused() {
+    let n = 65;
+    let h = Hierarchy::new(n).unwrap();
+    let g = n44w072_crop(300, 500, n);
+    let small = n44w072_crop(300, 500, 33);
+    let small_errors = TileErrors::new(&Hierarchy::new(33).unwrap(), &small);
+    let e = TileErrors::new(&h, &g);
+    let wide = n44w072().crop(300, 500, n, n + 1).unwrap();
+    let tall = n44w072().crop(300, 500, n + 1, n).unwrap();
+    let cases: [(&str, &TileErrors, &Grid<f64>); 3] = [
+        ("errors", &small_errors, &g),
+        ("columns", &e, &wide),
+        ("rows", &e, &tall),
+    ];
+    for (what, errors, heights) in cases {
+        let got = std::panic::catch_unwind(|| extract(&h, errors, heights, 4.0, None));
+        if cfg!(debug_assertions) {
+            let message = got.err().and_then(|p| {
+                p.downcast_ref::<&str>()
+                    .map(|m| m.to_string())
+                    .or_else(|| p.downcast_ref::<String>().cloned())
+            });
+            assert!(
+                message
+                    .as_deref()
+                    .is_some_and(|m| m.contains("shapes differ")),
+                "{what}: {message:?}"
+            );
+        } else {
+            let m = got.unwrap();
+            assert_eq!(m.triangle_count(), 0, "{what}");
+        }
+    }
+}
+
+/// The vertices of a mesh as row-major sample indices, sorted.
+fn vertex_samples(m: &crate::zerotree::TerrainMesh) -> Vec<u32> {
+    let mut v: Vec<u32> = m
+        .positions
+        .iter()
+        .map(|p| (p[1] as usize * m.cols + p[0] as usize) as u32)
+        .collect();
+    v.sort_unstable();
+    v
+}
+
+/// The corner samples every stitched tile forces (`Hierarchy::edge_spill`): exactly the
+/// positions along an edge that forcing the whole of another edge reaches, on that edge and
+/// mirrored onto its opposite one; a staircase towards each corner (at 257², the four
+/// corners and 13 samples inside each edge), not whole edges. Forcing is read back from a
+/// flat tile's mesh at an infinite tolerance, whose only vertices are the corners and the
+/// forced samples.
+#[test]
+fn edge_spill_is_what_forcing_one_edge_reaches_on_the_others_mirrored() {
+    for n in [17, 129, 257] {
+        let h = Hierarchy::new(n).unwrap();
+        let flat = Grid::<f64>::zeros(n, n);
+        let e = TileErrors::new(&h, &flat);
+        let last = n - 1;
+        // Edge `e`'s i-th sample: north, south, west, east; `e ^ 1` is the opposite edge.
+        let at = |e: usize, i: usize| match e {
+            0 => i,
+            1 => last * n + i,
+            2 => i * n,
+            _ => i * n + last,
+        };
+        let mut expected = std::collections::BTreeSet::new();
+        for from in 0..4 {
+            let forced = Forced::new(&h, (0..n).map(|i| at(from, i)));
+            let m = extract(&h, &e, &flat, f64::INFINITY, Some(&forced));
+            let vertices = vertex_samples(&m);
+            assert!(
+                (0..n).all(|i| vertices.binary_search(&(at(from, i) as u32)).is_ok()),
+                "n {n}: edge {from} is forced"
+            );
+            for to in (0..4).filter(|&to| to != from) {
+                for i in 0..n {
+                    if vertices.binary_search(&(at(to, i) as u32)).is_ok() {
+                        expected.insert(at(to, i) as u32);
+                        expected.insert(at(to ^ 1, i) as u32);
+                    }
+                }
+            }
+        }
+        let spill = h.edge_spill();
+        assert_eq!(
+            spill,
+            expected.into_iter().collect::<Vec<_>>().as_slice(),
+            "n {n}"
+        );
+        // A staircase towards each corner, not whole edges: at most two samples per power
+        // of two along each edge, and the corners.
+        let steps = (n - 1).ilog2() as usize;
+        assert!(spill.len() <= 4 + 4 * 2 * steps, "n {n}: {}", spill.len());
     }
 }
