@@ -62,6 +62,11 @@ impl TileErrors {
         }
         let h = heights.data();
         let coords = Coords::new(n);
+        // `levels() / 1` (the cell-centre level once more, through the general pass) moves
+        // no value on the test tiles: that level's plane errors are the deviations
+        // `finest_two_levels` took (a plane is the mean of an edge's ends along it), equal
+        // unless the two expressions round to different f32, which
+        // `values_equal_the_former_scanline_on_real_tiles` finds nowhere.
         let splittable = hierarchy.levels() - 1;
         finest_two_levels(h, n, &mut value);
         // The children's midpoints are those of c–a and b–c; their extents are even, so
@@ -158,6 +163,9 @@ impl Prune {
 
     /// The errors of `l` if it is a pruning level.
     fn own(&self, l: usize) -> Option<&[f64]> {
+        // Only a saving: returning None recomputes the level under `quiet_at(l)`, the same
+        // flags (of the pruning level above it) its errors were computed under, so the same
+        // errors.
         self.levels
             .iter()
             .find(|(p, _, _)| *p == l)
@@ -176,6 +184,9 @@ fn quiet_in(levels: &[(usize, Vec<f64>, Vec<bool>)], l: usize) -> Option<Quiet<'
     levels
         .iter()
         .rev()
+        // `<=` would change nothing: callers never ask for a pruning level's own flags (a
+        // pruning level reads its errors from `Prune::own`, and `Prune::new` asks before
+        // pushing the level).
         .find(|(p, _, _)| *p < l)
         .filter(|(_, _, flags)| flags.contains(&true))
         .map(|(p, _, flags)| Quiet {
