@@ -195,18 +195,26 @@ fn messages_name_what_was_wrong_once() {
             .output()
             .unwrap()
     };
+    // Runs a command that must fail with `code`; its stderr.
+    let refused = |args: &[&str], code: i32| {
+        let out = zerotile(args);
+        let err = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert_eq!(out.status.code(), Some(code), "{args:?}: {err}");
+        err
+    };
 
-    let out = zerotile(&[
-        "eval",
-        "mesh",
-        "missing.obj",
-        "--method",
-        "qem",
-        "--faces",
-        "9",
-    ]);
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{err}");
+    let err = refused(
+        &[
+            "eval",
+            "mesh",
+            "missing.obj",
+            "--method",
+            "qem",
+            "--faces",
+            "9",
+        ],
+        1,
+    );
     assert!(err.contains("missing.obj"), "{err}");
     assert_eq!(err.matches("(os error").count(), 1, "{err}");
 
@@ -216,24 +224,24 @@ fn messages_name_what_was_wrong_once() {
         .local_addr()
         .unwrap()
         .to_string();
-    let out = zerotile(&["healthcheck", "--addr", &addr]);
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{err}");
+    let err = refused(&["healthcheck", "--addr", &addr], 1);
     assert!(err.contains(&addr), "{err}");
 
     std::fs::write(dir.join("afile"), "x").unwrap();
     let tif = shared_data().join("dem/terra_elev.tif");
-    let out = zerotile(&[
-        "ingest",
-        tif.to_str().unwrap(),
-        "--name",
-        "x",
-        "--data",
-        "afile",
-        "--quiet",
-    ]);
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{err}");
+    let ingest_to = |data: &str| {
+        let args = [
+            "ingest",
+            tif.to_str().unwrap(),
+            "--name",
+            "x",
+            "--data",
+            data,
+            "--quiet",
+        ];
+        refused(&args, 1)
+    };
+    let err = ingest_to("afile");
     assert!(
         err.contains("--data afile: is a file, not a folder"),
         "{err}"
@@ -241,34 +249,25 @@ fn messages_name_what_was_wrong_once() {
     assert_eq!(std::fs::read_to_string(dir.join("afile")).unwrap(), "x");
     // A store URL is for serve: ingest once wrote it as a local folder named "s3:" and
     // printed the URL, as if it had uploaded.
-    let out = zerotile(&[
-        "ingest",
-        tif.to_str().unwrap(),
-        "--name",
-        "x",
-        "--data",
-        "s3://tiles/prod",
-        "--quiet",
-    ]);
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{err}");
+    let err = ingest_to("s3://tiles/prod");
     assert!(err.contains("ingest writes a local folder"), "{err}");
     assert!(!dir.join("s3:").exists());
     // Metro samples are bounded (10^12 once asked for 24 TB and aborted): a usage error.
     let fandisk = shared_data().join("meshes/fandisk.obj");
-    let out = zerotile(&[
-        "eval",
-        "mesh",
-        fandisk.to_str().unwrap(),
-        "--method",
-        "qem",
-        "--faces",
-        "100",
-        "--samples",
-        "1000000000000",
-    ]);
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{err}");
+    let err = refused(
+        &[
+            "eval",
+            "mesh",
+            fandisk.to_str().unwrap(),
+            "--method",
+            "qem",
+            "--faces",
+            "100",
+            "--samples",
+            "1000000000000",
+        ],
+        2,
+    );
     assert!(
         err.contains("--samples") && err.contains("10000000"),
         "{err}"

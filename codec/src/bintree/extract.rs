@@ -47,6 +47,18 @@ impl Forced {
     }
 }
 
+/// Sample `i` of edge `e` of an `n × n` tile, row-major: edges north, south, west, east
+/// (`e ^ 1` is the opposite edge), each from its first row or column.
+pub(crate) fn edge_sample(n: usize, e: usize, i: usize) -> usize {
+    let last = n - 1;
+    match e {
+        0 => i,
+        1 => last * n + i,
+        2 => i * n,
+        _ => i * n + last,
+    }
+}
+
 /// The border samples that forcing vertices on one edge can make vertices of another edge,
 /// mirrored onto the opposite edge too; sorted, row-major.
 ///
@@ -59,14 +71,7 @@ impl Forced {
 /// north). A few dozen samples, near the corners.
 pub(crate) fn edge_spill(hierarchy: &Hierarchy) -> Vec<u32> {
     let n = hierarchy.side();
-    let last = n - 1;
-    // The four edges as sample lists: north, south, west, east.
-    let edge = |e: usize, i: usize| match e {
-        0 => i,
-        1 => last * n + i,
-        2 => i * n,
-        _ => i * n + last,
-    };
+    let edge = |e: usize, i: usize| edge_sample(n, e, i);
     // Positions along the edge, for the two edge directions (rows: north/south, columns:
     // west/east), that some other edge's forcing reaches.
     let mut along = [vec![false; n], vec![false; n]];

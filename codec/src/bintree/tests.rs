@@ -206,14 +206,7 @@ fn edge_spill_is_what_forcing_one_edge_reaches_on_the_others_mirrored() {
         let h = Hierarchy::new(n).unwrap();
         let flat = Grid::<f64>::zeros(n, n);
         let e = TileErrors::new(&h, &flat);
-        let last = n - 1;
-        // Edge `e`'s i-th sample: north, south, west, east; `e ^ 1` is the opposite edge.
-        let at = |e: usize, i: usize| match e {
-            0 => i,
-            1 => last * n + i,
-            2 => i * n,
-            _ => i * n + last,
-        };
+        let at = |e: usize, i: usize| extract::edge_sample(n, e, i);
         let mut expected = std::collections::BTreeSet::new();
         for from in 0..4 {
             let forced = Forced::new(&h, (0..n).map(|i| at(from, i)));

@@ -9,9 +9,6 @@ use clap::{ArgGroup, Args, ValueEnum};
 use serde::Serialize;
 use zerotile_codec::mesh::curvature::{self, CurvatureOptions};
 use zerotile_codec::mesh::distance::DEFAULT_SAMPLES;
-
-/// The most Metro samples `--samples` takes: 50× the default, ~0.5 GB of sample points.
-const MAX_SAMPLES: u64 = 10_000_000;
 use zerotile_codec::mesh::io::{self, MeshLimits};
 use zerotile_codec::mesh::silhouette::{View, ViewSphere};
 use zerotile_codec::mesh::{
@@ -23,6 +20,9 @@ use super::median_ms;
 
 /// Timed runs when `--repeat` is not given (the benchmark's peers report medians of 5).
 pub const DEFAULT_REPEAT: usize = 5;
+
+/// The most Metro samples `--samples` takes: 50× the default, ~0.5 GB of sample points.
+const MAX_SAMPLES: u64 = 10_000_000;
 
 /// The simplifiers `eval mesh` can run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, Serialize)]

@@ -71,16 +71,15 @@ pub fn dataset_path(dataset: &str, data: &Path) -> Result<PathBuf> {
     }
     // A dataset of that name wins over a file or folder of that name in the current
     // folder: `info n44 --data d` once read a stray ./n44, and `info web` the folder.
-    let named = data.join(format!("{dataset}.{EXTENSION}"));
-    if check_name(dataset).is_ok() && named.is_file() {
-        return Ok(named);
+    let named = check_name(dataset).map(|()| data.join(format!("{dataset}.{EXTENSION}")));
+    if named.as_ref().is_ok_and(|f| f.is_file()) {
+        return named;
     }
     // Otherwise a path that exists is what was meant (a folder is refused by the caller).
     if as_path.exists() {
         return Ok(as_path.to_path_buf());
     }
-    check_name(dataset)?;
-    Ok(named)
+    named
 }
 
 /// Dataset names become file names: keep them to a safe alphabet.
