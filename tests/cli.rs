@@ -120,6 +120,34 @@ fn eval_terrain_names_the_smallest_usable_rate() {
     assert_eq!(point["mode"], "bpp", "{point}");
 }
 
+/// A threshold below the 9/7 stream's floor still gives its point (the scripts read every
+/// line), with a warning on stderr that the mesh is within the floor, not T.
+#[test]
+fn eval_terrain_warns_below_the_streams_floor() {
+    let hgt = shared_data().join("dem/N44W072.hgt");
+    let out = Command::new(zerotile_bin())
+        .args(["eval", "terrain"])
+        .arg(&hgt)
+        .args(["--crop", "0,0,65", "--repeat", "1", "--json"])
+        .args(["--threshold", "0.001,4"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert_eq!(err.matches("warning:").count(), 1, "{err}");
+    assert!(err.contains("--threshold 0.001: below"), "{err}");
+    let points: Vec<serde_json::Value> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(points.len(), 2);
+    assert!(points[0]["mesh_max_abs_err"].as_f64().unwrap() > 0.001);
+    assert!(
+        points[0].get("below_floor").is_none(),
+        "the JSON fields stay the contract's"
+    );
+}
+
 /// Flags that would be ignored are refused: --encoding and --key on inputs whose reader does
 /// not use them (exit 1, as other refused combinations) and --repeat outside 1–100 (a usage
 /// error, exit 2).

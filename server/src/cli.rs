@@ -577,6 +577,9 @@ fn serve_config(a: &ServeArgs) -> anyhow::Result<crate::serve::Config> {
 fn eval_terrain(a: TerrainArgs) -> anyhow::Result<()> {
     let json = a.json;
     let points = terrain::run(&terrain_eval(a)?)?;
+    for warning in points.iter().filter_map(terrain::floor_warning) {
+        eprintln!("{warning}");
+    }
     if json {
         for p in &points {
             println!("{}", serde_json::to_string(p)?);

@@ -16,7 +16,7 @@ use zerotile_codec::mesh::{
     SurfaceDistance, TriMesh,
 };
 
-use super::median_ms;
+use super::{cell, median_ms, short};
 
 /// Timed runs when `--repeat` is not given (the benchmark's peers report medians of 5).
 pub const DEFAULT_REPEAT: usize = 5;
@@ -374,16 +374,16 @@ fn print_table(p: &MeshPoint) {
 
 /// [`print_table`]'s text: the input's counts, then one row for the point.
 pub(super) fn table(p: &MeshPoint) -> String {
-    let pct = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.4}%"));
+    let pct = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{}%", cell(v, 4, 10)));
     let param = match p.param {
-        Param::Error(e) => format!("error {e}"),
+        Param::Error(e) => format!("error {}", short(e, 8)),
         Param::Level(k) => format!("level {k}"),
         Param::Faces(n) => format!("faces {n}"),
     };
     format!(
         "{} ({} vertices, {} faces)\n\
          {:>10} {:>14} {:>9} {:>9} {:>9} {:>11} {:>11}\n\
-         {:>10} {:>14} {:>9} {:>9} {:>9.2} {:>11} {:>11}\n",
+         {:>10} {:>14} {:>9} {:>9} {:>9} {:>11} {:>11}\n",
         p.input,
         p.vertices_in,
         p.faces_in,
@@ -398,7 +398,7 @@ pub(super) fn table(p: &MeshPoint) -> String {
         param,
         p.vertices,
         p.faces,
-        p.ms,
+        cell(p.ms, 2, 9),
         pct(p.hausdorff_pct),
         pct(p.mean_pct)
     )

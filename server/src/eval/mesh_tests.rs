@@ -418,3 +418,20 @@ fn the_table_gives_the_point_in_one_row() {
         "{text}"
     );
 }
+
+/// A cell is fixed-point while that fits its width and keeps a nonzero value nonzero, and
+/// exponent form otherwise.
+#[test]
+fn a_cell_switches_to_exponent_form_only_when_fixed_would_mislead() {
+    use super::{cell, short};
+    assert_eq!(cell(12.345, 2, 9), "12.35");
+    assert_eq!(cell(0.0, 3, 9), "0.000");
+    assert_eq!(cell(0.0006, 3, 9), "0.001");
+    assert_eq!(cell(0.0004, 3, 9), "4.00e-4");
+    assert_eq!(cell(123_456_789.0, 3, 9), "1.23e8");
+    assert_eq!(cell(-5.5, 1, 4), "-5.5");
+    assert_eq!(cell(f64::INFINITY, 2, 9), "inf");
+    assert_eq!(short(0.5, 9), "0.5");
+    assert_eq!(short(1e12, 9), "1.00e12");
+    assert_eq!(short(1.0 / 3.0, 9), "3.33e-1");
+}

@@ -27,6 +27,30 @@ pub fn median_ms<T>(repeat: usize, mut f: impl FnMut() -> T) -> (f64, T) {
     }
 }
 
+/// `v` for a table cell `width` wide: fixed with `decimals` places where that fits and does
+/// not round a nonzero value to zero, else three significant digits in exponent form, so a
+/// 1e12 threshold or a 1e-7 error keeps its column and its size.
+pub fn cell(v: f64, decimals: usize, width: usize) -> String {
+    let fixed = format!("{v:.decimals$}");
+    let rounds_away = v != 0.0 && v.abs() < 0.5 * 10f64.powi(-(decimals as i32));
+    if !v.is_finite() || (fixed.len() <= width && !rounds_away) {
+        fixed
+    } else {
+        format!("{v:.2e}")
+    }
+}
+
+/// A parameter as the user would write it (`0.5`, `16`), in exponent form when that is
+/// longer than `width`.
+pub fn short(v: f64, width: usize) -> String {
+    let plain = v.to_string();
+    if plain.len() <= width {
+        plain
+    } else {
+        format!("{v:.2e}")
+    }
+}
+
 /// `--repeat`: 1–100 timed runs, refused outside that range (clap's usage error) rather
 /// than clamped, so the count run is the count asked for.
 pub fn parse_repeat() -> clap::builder::RangedU64ValueParser<usize> {

@@ -14,7 +14,7 @@ use zerotile_codec::wavelet::Wavelet;
 use zerotile_codec::zerotree::{self, Complexity};
 use zerotile_codec::Grid;
 
-use super::median_ms;
+use super::{cell, median_ms, short};
 
 /// What to sweep.
 #[derive(Clone, Debug, PartialEq)]
@@ -82,6 +82,11 @@ pub struct Point {
     pub encode_ms: f64,
     pub decode_ms: f64,
     pub mesh_ms: f64,
+    /// Bintree threshold points: the decode alone erred by more than T, so the mesh keeps
+    /// every sample and its error is the stream's floor, not T (see [`floor_warning`]). Not
+    /// in the JSON, whose fields are the benchmark scripts' contract; its errors say it.
+    #[serde(skip)]
+    pub below_floor: bool,
 }
 
 /// Loads the input (cropped) and returns heights, the step and the PSNR peak.
@@ -320,6 +325,8 @@ fn measure(
     };
     let (dec, coefficients) = dec.context("decoding our own stream")?;
     let (max_abs_err, rmse) = errors(&dec.heights, heights);
+    let below_floor =
+        mesher == Mesher::Bintree && mode == "threshold" && param.is_some_and(|t| max_abs_err > t);
     let mesh_t = match (mesher, param) {
         // Budget minus the decode's measured error (eval knows the source; the server reads
         // the bound the stream records).
@@ -378,6 +385,21 @@ fn measure(
         encode_ms,
         decode_ms,
         mesh_ms,
+        below_floor,
+    })
+}
+
+/// What to tell the user about a point whose T the stream cannot reach: a lossy stream
+/// stops at a finest pass set by the height step, and below its error no threshold buys more.
+pub fn floor_warning(p: &Point) -> Option<String> {
+    p.below_floor.then(|| {
+        let t = short(p.param.unwrap_or(p.threshold), 12);
+        format!(
+            "warning: --threshold {t}: below what this {} stream can reach (its last pass decodes \
+             within {:.4}), so the mesh keeps every sample and errs by up to {:.4}, not {t}; \
+             --wavelet 53 decodes exactly, a smaller --step lowers the floor",
+            p.wavelet, p.max_abs_err, p.mesh_max_abs_err,
+        )
     })
 }
 
@@ -446,7 +468,7 @@ pub fn table(points: &[Point]) -> String {
         "dec+mesh"
     );
     for p in points {
-        let f = |v: Option<f64>| v.map_or("inf".to_string(), |v| format!("{v:.2}"));
+        let f = |v: Option<f64>| v.map_or("inf".to_string(), |v| cell(v, 2, 9));
         let full = 2 * p.rows.saturating_sub(1) * p.cols.saturating_sub(1);
         let remain = if full == 0 {
             String::from("-")
@@ -455,18 +477,18 @@ pub fn table(points: &[Point]) -> String {
         };
         let _ = writeln!(
             out,
-            "{:>10} {:>9} {:>9.3} {:>7.3} {:>9} {:>9.3} {:>9.3} {:>9} {:>10} {:>7} {:>6.2}ms",
+            "{:>10} {:>9} {:>9} {:>7} {:>9} {:>9} {:>9} {:>9} {:>10} {:>7} {:>6}ms",
             p.mode,
-            p.param.map_or("-".into(), |v| format!("{v}")),
-            p.threshold,
-            p.bps,
+            p.param.map_or("-".into(), |v| short(v, 9)),
+            cell(p.threshold, 3, 9),
+            cell(p.bps, 3, 7),
             f(p.psnr_db),
-            p.max_abs_err,
-            p.rmse,
+            cell(p.max_abs_err, 3, 9),
+            cell(p.rmse, 3, 9),
             f(p.mesh_psnr_db),
             p.mesh_triangles,
             remain,
-            p.decode_ms + p.mesh_ms
+            cell(p.decode_ms + p.mesh_ms, 2, 6)
         );
     }
     out

@@ -8,8 +8,8 @@ use zerotile_codec::Grid;
 
 use super::parse_list;
 use super::terrain::{
-    check_rates, errors, is_8bit, load, parse_crop, psnr, run, table, Point, Sweep, TerrainEval,
-    DECODE_SHARE,
+    check_rates, errors, floor_warning, is_8bit, load, parse_crop, psnr, run, table, Point, Sweep,
+    TerrainEval, DECODE_SHARE,
 };
 use crate::fixtures::shared_data;
 
@@ -292,4 +292,52 @@ fn the_table_gives_each_meshs_share_of_the_full_mesh() {
     assert_eq!(column(&table(&points), 9), "-");
     points[0].psnr_db = None;
     assert_eq!(column(&table(&points), 4), "inf");
+}
+
+/// Numbers far from a column's usual size keep the column and their size: a 1e12 threshold
+/// does not widen the row past the header, a 1e-7 error does not print as 0.000.
+#[test]
+fn the_table_writes_extreme_numbers_in_exponent_form() {
+    let mut points = run(&n44(65, Sweep::Threshold(vec![4.0]))).unwrap();
+    let header_len = table(&points).lines().nth(1).unwrap().len();
+    let p = &mut points[0];
+    (p.param, p.threshold, p.max_abs_err, p.rmse) = (Some(1e12), 1e12, 1e-7, 0.0);
+    let text = table(&points);
+    let row = text.lines().nth(2).unwrap();
+    let cells: Vec<&str> = row.split_whitespace().collect();
+    assert_eq!(cells[1..3].to_vec(), ["1.00e12", "1.00e12"], "{text}");
+    assert_eq!(cells[5], "1.00e-7", "{text}");
+    assert_eq!(cells[6], "0.000", "exact zero stays plain: {text}");
+    assert_eq!(row.chars().count(), header_len, "{text}");
+}
+
+/// A threshold below the 9/7 stream's floor (its last pass, set by the 1 m step, decodes
+/// within ~0.04 m) cannot be kept: the point says so instead of passing a mesh error above T
+/// off as T's. Above the floor nothing is said, and the mesh is within T.
+#[test]
+fn a_threshold_below_the_streams_floor_is_flagged() {
+    let points = run(&n44(65, Sweep::Threshold(vec![0.001, 0.5]))).unwrap();
+    let (below, above) = (&points[0], &points[1]);
+    assert!(below.max_abs_err > 0.001, "{below:?}");
+    assert!(
+        below.below_floor && below.mesh_max_abs_err > 0.001,
+        "{below:?}"
+    );
+    let w = floor_warning(below).unwrap();
+    assert!(
+        w.contains("--threshold 0.001") && w.contains("--wavelet 53"),
+        "{w}"
+    );
+    assert!(
+        !above.below_floor && above.mesh_max_abs_err <= 0.5,
+        "{above:?}"
+    );
+    assert_eq!(floor_warning(above), None);
+    // The exact 5/3 stream has no floor.
+    let exact = run(&TerrainEval {
+        wavelet: Some(Wavelet::LeGall53),
+        ..n44(65, Sweep::Threshold(vec![0.001]))
+    })
+    .unwrap();
+    assert!(!exact[0].below_floor && exact[0].mesh_max_abs_err <= 0.001);
 }
