@@ -47,8 +47,11 @@ impl Extensions {
     }
 }
 
-/// Extensions from `Accept` and `?extensions=`. An `Accept` header that names neither
-/// quantized-mesh nor a wildcard nor `application/octet-stream` is refused with 406.
+/// Extensions from `Accept` and `?extensions=`. The most specific range that names
+/// quantized-mesh decides (RFC 9110 §12.5.1): its own entries, else `application/*`, else
+/// `*/*`; `application/octet-stream` also does, for clients that ask for any binary body. So
+/// `application/vnd.quantized-mesh;q=0, */*` (anything but quantized-mesh) is refused with
+/// 406, as is an `Accept` naming none of them.
 pub fn terrain_extensions(
     headers: &HeaderMap,
     query: Option<&str>,
@@ -61,7 +64,9 @@ pub fn terrain_extensions(
         return Ok(ext);
     };
     let accept = accept.to_str().map_err(|_| not_acceptable())?;
-    let mut acceptable = false;
+    // Per range: listed at all, and listed with q > 0.
+    let (mut exact, mut octet, mut application, mut any) = (None, None, None, None);
+    let listed = |slot: &mut Option<bool>, ok: bool| *slot = Some(slot.unwrap_or(false) || ok);
     for range in accept.split(',') {
         let mut parts = range.split(';');
         let media = parts.next().unwrap_or("").trim().to_ascii_lowercase();
@@ -74,25 +79,28 @@ pub fn terrain_extensions(
                 ))
             })
             .collect();
-        let refused = params
+        let ok = !params
             .iter()
             .any(|(k, v)| k == "q" && v.parse::<f64>().is_ok_and(|q| q <= 0.0));
-        if refused {
-            continue;
-        }
         match media.as_str() {
             QUANTIZED_MESH => {
-                acceptable = true;
-                for (k, v) in &params {
-                    if k == "extensions" {
-                        ext.add_list(v);
+                listed(&mut exact, ok);
+                if ok {
+                    for (k, v) in &params {
+                        if k == "extensions" {
+                            ext.add_list(v);
+                        }
                     }
                 }
             }
-            "*/*" | "application/*" | "application/octet-stream" => acceptable = true,
+            "application/octet-stream" => listed(&mut octet, ok),
+            "application/*" => listed(&mut application, ok),
+            "*/*" => listed(&mut any, ok),
             _ => {}
         }
     }
+    let acceptable =
+        exact.unwrap_or_else(|| octet == Some(true) || application.or(any).unwrap_or(false));
     if acceptable {
         Ok(ext)
     } else {
@@ -242,6 +250,40 @@ mod tests {
                 .names(),
             "metadata"
         );
+    }
+
+    /// The most specific range decides: refusing quantized-mesh by name is not undone by a
+    /// wildcard, and `application/*;q=0` outranks `*/*`.
+    #[test]
+    fn a_named_refusal_of_quantized_mesh_outranks_wildcards() {
+        for refused in [
+            "application/vnd.quantized-mesh;q=0, */*",
+            "*/*, application/vnd.quantized-mesh;q=0",
+            "application/*;q=0, */*",
+            "application/vnd.quantized-mesh;q=0, application/octet-stream;q=0, */*",
+        ] {
+            assert!(
+                terrain_extensions(&with(ACCEPT, refused), None).is_err(),
+                "{refused}"
+            );
+        }
+        for allowed in [
+            "application/vnd.quantized-mesh;q=0.5, */*;q=0",
+            "application/octet-stream, */*;q=0",
+            "application/octet-stream;q=0, */*",
+            "application/*, */*;q=0",
+        ] {
+            assert!(
+                terrain_extensions(&with(ACCEPT, allowed), None).is_ok(),
+                "{allowed}"
+            );
+        }
+        // A refused entry's extensions are not taken from it.
+        let h = with(
+            ACCEPT,
+            "application/vnd.quantized-mesh;extensions=metadata;q=0, application/vnd.quantized-mesh",
+        );
+        assert_eq!(terrain_extensions(&h, None).unwrap(), Extensions::default());
     }
 
     #[test]
