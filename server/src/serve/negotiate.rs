@@ -116,12 +116,19 @@ fn not_acceptable() -> ApiError {
     )
 }
 
-/// Whether `Accept-Encoding` allows gzip (`gzip` or `*` with q > 0).
+/// Whether `Accept-Encoding` allows gzip: its own entry (`gzip`, `x-gzip`) decides when
+/// listed, else `*`, which stands only for codings not listed (RFC 9110 §12.5.3), each with
+/// q > 0. So `gzip;q=0, *` is no gzip: the tile is sent as the other layers would send it.
+/// Every `Accept-Encoding` line counts, as one list.
 pub fn accepts_gzip(headers: &HeaderMap) -> bool {
-    let Some(v) = headers.get(ACCEPT_ENCODING).and_then(|v| v.to_str().ok()) else {
-        return false;
-    };
-    v.split(',').any(|item| {
+    let (mut named, mut any) = (None, None);
+    let listed = |slot: &mut Option<bool>, ok: bool| *slot = Some(slot.unwrap_or(false) || ok);
+    for item in headers
+        .get_all(ACCEPT_ENCODING)
+        .iter()
+        .filter_map(|v| v.to_str().ok())
+        .flat_map(|v| v.split(','))
+    {
         let mut parts = item.split(';');
         let coding = parts.next().unwrap_or("").trim().to_ascii_lowercase();
         let q_ok = parts.all(|p| match p.trim().split_once('=') {
@@ -130,8 +137,13 @@ pub fn accepts_gzip(headers: &HeaderMap) -> bool {
             }
             _ => true,
         });
-        (coding == "gzip" || coding == "x-gzip" || coding == "*") && q_ok
-    })
+        match coding.as_str() {
+            "gzip" | "x-gzip" => listed(&mut named, q_ok),
+            "*" => listed(&mut any, q_ok),
+            _ => {}
+        }
+    }
+    named.or(any).unwrap_or(false)
 }
 
 /// Whether `If-None-Match` lists `etag` (weak comparison, as RFC 9110 asks for GET) or `*`.
@@ -292,6 +304,15 @@ mod tests {
         assert!(!accepts_gzip(&with(ACCEPT_ENCODING, "gzip;q=0, br")));
         assert!(!accepts_gzip(&with(ACCEPT_ENCODING, "identity")));
         assert!(!accepts_gzip(&HeaderMap::new()));
+        // `*` stands only for the codings not listed: a refused gzip stays refused.
+        assert!(!accepts_gzip(&with(ACCEPT_ENCODING, "gzip;q=0, *")));
+        assert!(!accepts_gzip(&with(ACCEPT_ENCODING, "*, br;q=0, gzip;q=0")));
+        assert!(accepts_gzip(&with(ACCEPT_ENCODING, "br;q=0, *")));
+        assert!(accepts_gzip(&with(ACCEPT_ENCODING, "gzip;q=0.5, *;q=0")));
+        // Two header lines are one list.
+        let mut h = with(ACCEPT_ENCODING, "br");
+        h.append(ACCEPT_ENCODING, HeaderValue::from_static("gzip"));
+        assert!(accepts_gzip(&h));
     }
 
     #[test]
