@@ -31,8 +31,12 @@ pub const MAX_FACES: usize = 2_000_000;
 pub struct MeshEntry {
     pub name: String,
     pub mesh: TriMesh,
-    /// Bumped on every replacement, so cached answers of an old upload never match.
-    pub generation: u64,
+    /// A hash of the mesh as served (after repair), which names its cached answers and
+    /// their ETags: a replacement with other content never matches an old answer, in this
+    /// process or after a restart (a count of loads, which restarts from 1, gave a mesh
+    /// replaced before a restart its predecessor's tags, and a revalidating client a 304 for
+    /// the old mesh).
+    pub content: u64,
     pub source: PathBuf,
     silhouette: OnceLock<Result<ViewSphere, String>>,
     octree: OnceLock<Result<OctreeLod, String>>,
@@ -40,11 +44,11 @@ pub struct MeshEntry {
 }
 
 impl MeshEntry {
-    fn new(name: String, mesh: TriMesh, generation: u64, source: PathBuf) -> Self {
+    fn new(name: String, mesh: TriMesh, source: PathBuf) -> Self {
         Self {
             name,
+            content: content_hash(&mesh),
             mesh,
-            generation,
             source,
             silhouette: OnceLock::new(),
             octree: OnceLock::new(),
@@ -109,7 +113,6 @@ impl Weighter<u64, Arc<MeshAnswer>> for AnswerBytes {
 pub struct MeshCatalog {
     dir: PathBuf,
     entries: RwLock<BTreeMap<String, Arc<MeshEntry>>>,
-    next_generation: std::sync::atomic::AtomicU64,
     pub answers: Cache<u64, Arc<MeshAnswer>, AnswerBytes>,
 }
 
@@ -125,20 +128,18 @@ pub fn limits() -> MeshLimits {
 impl MeshCatalog {
     /// No meshes (uploads are refused: there is no folder to keep them in).
     pub fn empty(answer_bytes: u64) -> Self {
-        Self::with_entries(PathBuf::new(), BTreeMap::new(), 0, answer_bytes)
+        Self::with_entries(PathBuf::new(), BTreeMap::new(), answer_bytes)
     }
 
     fn with_entries(
         dir: PathBuf,
         entries: BTreeMap<String, Arc<MeshEntry>>,
-        generation: u64,
         answer_bytes: u64,
     ) -> Self {
         let items = (answer_bytes / 200_000).clamp(16, 1 << 16) as usize;
         Self {
             dir,
             entries: RwLock::new(entries),
-            next_generation: std::sync::atomic::AtomicU64::new(generation + 1),
             answers: Cache::with_weighter(items, answer_bytes.max(1), AnswerBytes),
         }
     }
@@ -149,7 +150,6 @@ impl MeshCatalog {
     pub fn open(data: &Path, answer_bytes: u64) -> Self {
         let dir = data.join(MESH_DIR);
         let mut entries = BTreeMap::new();
-        let mut generation = 0;
         if let Ok(rd) = std::fs::read_dir(&dir) {
             let mut paths: Vec<PathBuf> = rd.filter_map(|e| e.ok().map(|e| e.path())).collect();
             paths.sort();
@@ -165,15 +165,14 @@ impl MeshCatalog {
                 }
                 match load(&path) {
                     Ok(mesh) => {
-                        generation += 1;
-                        let e = MeshEntry::new(stem.to_string(), mesh, generation, path.clone());
+                        let e = MeshEntry::new(stem.to_string(), mesh, path.clone());
                         entries.insert(stem.to_string(), Arc::new(e));
                     }
                     Err(e) => tracing::warn!("skipping mesh {}: {e:#}", path.display()),
                 }
             }
         }
-        Self::with_entries(dir, entries, generation, answer_bytes)
+        Self::with_entries(dir, entries, answer_bytes)
     }
 
     pub fn list(&self) -> Vec<Arc<MeshEntry>> {
@@ -210,10 +209,7 @@ impl MeshCatalog {
         for other in Format::READABLE.iter().filter(|&&f| f != format) {
             let _ = std::fs::remove_file(self.dir.join(format!("{name}.{}", other.extension())));
         }
-        let generation = self
-            .next_generation
-            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        let entry = Arc::new(MeshEntry::new(name.to_string(), mesh, generation, path));
+        let entry = Arc::new(MeshEntry::new(name.to_string(), mesh, path));
         let mut map = self
             .entries
             .write()
@@ -221,6 +217,18 @@ impl MeshCatalog {
         map.insert(name.to_string(), entry.clone());
         Ok(entry)
     }
+}
+
+/// [`MeshEntry::content`]: every coordinate's bits and every index.
+fn content_hash(mesh: &TriMesh) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    mesh.positions.len().hash(&mut h);
+    for p in &mesh.positions {
+        p.to_array().map(f64::to_bits).hash(&mut h);
+    }
+    mesh.faces.hash(&mut h);
+    h.finish()
 }
 
 fn load(path: &Path) -> Result<TriMesh> {
@@ -345,27 +353,30 @@ mod tests {
         let _ = std::fs::remove_dir_all(&dir);
     }
 
-    /// Answers are cached under (name, generation): an upload that replaces a mesh read at
-    /// start, the last one read included, must get a generation no entry has had.
+    /// Answers are cached under (name, content): an upload with other content gets a tag no
+    /// entry had, one with the same content shares the old answers, and a restart over the
+    /// same files gives the same tags.
     #[test]
-    fn a_replacing_upload_gets_a_new_generation() {
-        let dir = scratch("generation");
+    fn a_replacing_upload_gets_a_new_content_tag() {
+        let dir = scratch("content");
         std::fs::write(dir.join(MESH_DIR).join("a.obj"), TRI).unwrap();
         std::fs::write(dir.join(MESH_DIR).join("b.obj"), TRI).unwrap();
         let cat = MeshCatalog::open(&dir, 1 << 20);
-        let before: Vec<u64> = cat.list().iter().map(|e| e.generation).collect();
+        let before: Vec<u64> = cat.list().iter().map(|e| e.content).collect();
+        assert_eq!(before[0], before[1], "one mesh, one tag");
         let quad = b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3\nf 1 3 4\n";
         for name in ["b", "a"] {
             let e = cat.upload(name, quad, Some(Format::Obj)).unwrap();
-            assert!(
-                !before.contains(&e.generation),
-                "{name}: {} reused",
-                e.generation
-            );
+            assert!(!before.contains(&e.content), "{name}: {} reused", e.content);
             assert_eq!(cat.get(name).unwrap().mesh.face_count(), 2);
         }
-        let after: Vec<u64> = cat.list().iter().map(|e| e.generation).collect();
-        assert_ne!(after[0], after[1]);
+        let reopened = MeshCatalog::open(&dir, 1 << 20);
+        for name in ["a", "b"] {
+            assert_eq!(
+                reopened.get(name).unwrap().content,
+                cat.get(name).unwrap().content
+            );
+        }
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

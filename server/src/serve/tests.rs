@@ -789,6 +789,54 @@ async fn a_wrong_method_is_told_to_see_allow_not_a_fixed_list() {
     }
 }
 
+/// The router over the object meshes of `data/meshes` (and the one-tile `hill`).
+fn router_with_meshes(tag: &str, data: &std::path::Path) -> Router {
+    let state = state_over(hill_dataset(tag, "local", &[ROOT]), Config::default())
+        .with_meshes(crate::serve::meshes::MeshCatalog::open(data, 1 << 20));
+    app(state)
+}
+
+/// A mesh replaced on disk while the server was down is a new mesh after the restart: a
+/// client revalidating its copy of the old one gets the new one, not a 304. (Tags counted
+/// loads from 1 at every start, so the replacement came back under its predecessor's.)
+#[tokio::test]
+async fn a_mesh_replaced_across_a_restart_gets_new_etags() {
+    let data = crate::fixtures::scratch("router-mesh-restart");
+    let meshes = data.join("meshes");
+    std::fs::create_dir_all(&meshes).unwrap();
+    std::fs::write(meshes.join("a.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let uri = "/v1/meshes/a/original?format=obj";
+    let (s, h, _) = get(&router_with_meshes("mesh-restart-1", &data), uri).await;
+    assert_eq!(s, StatusCode::OK);
+    let old = h[header::ETAG].to_str().unwrap().to_string();
+
+    std::fs::write(
+        meshes.join("a.obj"),
+        "v 0 0 0\nv 2 0 0\nv 2 2 0\nv 0 2 0\nf 1 2 3\nf 1 3 4\n",
+    )
+    .unwrap();
+    let restarted = router_with_meshes("mesh-restart-2", &data);
+    let (s, h, body) = send(&restarted, Method::GET, uri, &[("if-none-match", &old)]).await;
+    assert_eq!(s, StatusCode::OK, "a 304 would keep the old mesh");
+    assert_ne!(h[header::ETAG].to_str().unwrap(), old);
+    assert_eq!(
+        String::from_utf8_lossy(&body).matches("\nf ").count(),
+        2,
+        "the new mesh"
+    );
+    // The same files after another restart: the same tags, so copies stay valid.
+    let again = router_with_meshes("mesh-restart-3", &data);
+    let (s, _, _) = send(
+        &again,
+        Method::GET,
+        uri,
+        &[("if-none-match", h[header::ETAG].to_str().unwrap())],
+    )
+    .await;
+    assert_eq!(s, StatusCode::NOT_MODIFIED);
+    let _ = std::fs::remove_dir_all(&data);
+}
+
 #[tokio::test]
 async fn a_bad_mesh_name_is_called_a_mesh_name() {
     let app = router("mesh-name");

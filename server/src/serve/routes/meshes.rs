@@ -403,7 +403,7 @@ pub async fn lod(
     let mut h = std::collections::hash_map::DefaultHasher::new();
     (
         e.name.as_str(),
-        e.generation,
+        e.content,
         format!("{ask:?}"),
         format.name(),
     )
