@@ -801,7 +801,7 @@ fn router_with_meshes(tag: &str, data: &std::path::Path) -> Router {
 /// loads from 1 at every start, so the replacement came back under its predecessor's.)
 #[tokio::test]
 async fn a_mesh_replaced_across_a_restart_gets_new_etags() {
-    let data = crate::fixtures::scratch("router-mesh-restart");
+    let data = crate::fixtures::scratch("lod-restart");
     let meshes = data.join("meshes");
     std::fs::create_dir_all(&meshes).unwrap();
     std::fs::write(meshes.join("a.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
@@ -834,6 +834,34 @@ async fn a_mesh_replaced_across_a_restart_gets_new_etags() {
     )
     .await;
     assert_eq!(s, StatusCode::NOT_MODIFIED);
+    let _ = std::fs::remove_dir_all(&data);
+}
+
+/// An upload replaces a mesh at the same URLs and is served at once, so its LODs are
+/// revalidated on every use (`no-cache`, on the 304 too), not kept fresh for an hour: a
+/// browser holding the old answer asks again and gets the new mesh.
+#[tokio::test]
+async fn mesh_lods_are_revalidated_since_an_upload_replaces_them() {
+    let data = crate::fixtures::scratch("lod-cache-control");
+    std::fs::create_dir_all(data.join("meshes")).unwrap();
+    std::fs::write(
+        data.join("meshes/a.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    )
+    .unwrap();
+    let app = router_with_meshes("mesh-no-cache", &data);
+    for uri in [
+        "/v1/meshes/a/original",
+        "/v1/meshes/a/qem?faces=1&format=glb",
+    ] {
+        let (s, h, _) = get(&app, uri).await;
+        assert_eq!(s, StatusCode::OK, "{uri}");
+        assert_eq!(h[header::CACHE_CONTROL], "public, no-cache", "{uri}");
+        let tag = h[header::ETAG].to_str().unwrap().to_string();
+        let (s, h, _) = send(&app, Method::GET, uri, &[("if-none-match", &tag)]).await;
+        assert_eq!(s, StatusCode::NOT_MODIFIED, "{uri}");
+        assert_eq!(h[header::CACHE_CONTROL], "public, no-cache", "{uri}");
+    }
     let _ = std::fs::remove_dir_all(&data);
 }
 

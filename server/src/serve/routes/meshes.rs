@@ -388,6 +388,12 @@ fn compute(e: &MeshEntry, ask: &Ask) -> Result<Computed, ApiError> {
     }
 }
 
+/// Mesh LODs may be kept but are revalidated on every use: an upload replaces the mesh at
+/// the same URL and is served at once, which a freshness lifetime (the tiles' hour) would
+/// hide from every client holding a copy. The revalidation is cheap: the ETag comes from the
+/// ask, before any mesh work, and a 304 has no body.
+pub const LOD_CACHE_CONTROL: &str = "public, no-cache";
+
 pub async fn lod(
     State(state): State<AppState>,
     path: Result<Path<(String, String)>, PathRejection>,
@@ -415,6 +421,8 @@ pub async fn lod(
         let mut res = Response::new(Body::empty());
         *res.status_mut() = StatusCode::NOT_MODIFIED;
         res.headers_mut().insert(ETAG, value(&etag)?);
+        res.headers_mut()
+            .insert(CACHE_CONTROL, HeaderValue::from_static(LOD_CACHE_CONTROL));
         return Ok(res);
     }
 
@@ -448,10 +456,7 @@ pub async fn lod(
     let h = res.headers_mut();
     h.insert(CONTENT_TYPE, HeaderValue::from_static(content_type));
     h.insert(ETAG, value(&etag)?);
-    h.insert(
-        CACHE_CONTROL,
-        HeaderValue::from_static("public, max-age=3600"),
-    );
+    h.insert(CACHE_CONTROL, HeaderValue::from_static(LOD_CACHE_CONTROL));
     h.insert("x-vertices", value(&answer.vertices.to_string())?);
     h.insert("x-faces", value(&answer.faces.to_string())?);
     h.insert("x-error", value(&answer.error.to_string())?);
