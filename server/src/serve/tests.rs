@@ -865,6 +865,35 @@ async fn mesh_lods_are_revalidated_since_an_upload_replaces_them() {
     let _ = std::fs::remove_dir_all(&data);
 }
 
+/// `curl --data-binary @mesh.obj URL`, the first upload a curl user tries, labels the body
+/// a form: still a 415 (a form is not a mesh), but one that says which header to add.
+#[tokio::test]
+async fn a_form_labelled_upload_is_told_to_set_its_content_type() {
+    let app = router("upload-form");
+    let (s, _, body) = send(
+        &app,
+        Method::POST,
+        "/v1/meshes/a",
+        &[("content-type", "application/x-www-form-urlencoded")],
+    )
+    .await;
+    assert_eq!(s, StatusCode::UNSUPPORTED_MEDIA_TYPE);
+    let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
+    assert_eq!(v["error"], "unsupported_media_type");
+    let m = v["message"].as_str().unwrap();
+    assert!(m.contains("-H 'Content-Type: model/obj'"), "{m}");
+    // Other types keep the plain message.
+    let (_, _, body) = send(
+        &app,
+        Method::POST,
+        "/v1/meshes/a",
+        &[("content-type", "image/png")],
+    )
+    .await;
+    let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
+    assert!(!v["message"].as_str().unwrap().contains("curl"), "{v}");
+}
+
 #[tokio::test]
 async fn a_bad_mesh_name_is_called_a_mesh_name() {
     let app = router("mesh-name");

@@ -631,14 +631,21 @@ fn upload_target(
         Some("application/json") => Some(Format::Json),
         None | Some("application/octet-stream") => None,
         Some(other) => {
+            // What `curl --data-binary @mesh.obj` sends unless told otherwise: say how.
+            let hint = if other == "application/x-www-form-urlencoded" {
+                " (curl's -d/--data-binary default: add -H 'Content-Type: model/obj', or \
+                 application/octet-stream to have the format sniffed)"
+            } else {
+                ""
+            };
             return Err(ApiError::new(
                 StatusCode::UNSUPPORTED_MEDIA_TYPE,
                 "unsupported_media_type",
                 format!(
-                    "{other} is not a mesh; send model/obj, application/ply, model/stl, \
+                    "{other} is not a mesh{hint}; send model/obj, application/ply, model/stl, \
                      application/json or application/octet-stream (sniffed)"
                 ),
-            ))
+            ));
         }
     };
     Ok((name, format))
