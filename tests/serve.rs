@@ -560,6 +560,19 @@ fn bad_requests_are_4xx_json() {
             400,
             "conflicting_threshold",
         ),
+        // Part of a camera beside a threshold is a second source, not a stray to drop.
+        (
+            &format!("{t}/1/0/0.png?threshold=4&fov=60"),
+            400,
+            "conflicting_threshold",
+        ),
+        (
+            &format!("{t}/1/0/0.png?ratio=0.1&target=0,0,0"),
+            400,
+            "conflicting_threshold",
+        ),
+        // Alone, it is an incomplete camera.
+        (&format!("{t}/1/0/0.png?aspect=2"), 400, "missing_parameter"),
         (
             &format!("{t}/1/0/0.json?eye=1,2&target=0,0,0&fov=60"),
             400,

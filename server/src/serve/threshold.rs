@@ -121,7 +121,7 @@ pub fn from_query(d: &Dataset, z: u8, q: &HashMap<String, String>) -> Result<Thr
             choice: Choice::Ratio { ratio },
         });
     }
-    if has("eye") || has("target") || has("fov") {
+    if CAMERA.iter().any(|k| has(k)) {
         let ViewPlane {
             ratio, a_v, a_t, ..
         } = view_plane(d, q)?;
@@ -136,17 +136,24 @@ pub fn from_query(d: &Dataset, z: u8, q: &HashMap<String, String>) -> Result<Thr
     })
 }
 
-/// At most one source of T in a query: `threshold`, `ratio` or a camera (`eye`). Tiles and
-/// `/view` share it, so a second source is refused everywhere rather than ignored somewhere.
+/// The parameters of a camera; any one of them makes the query a view.
+const CAMERA: [&str; 4] = ["eye", "target", "fov", "aspect"];
+
+/// At most one source of T in a query: `threshold`, `ratio` or a camera (any of
+/// [`CAMERA`]: `?threshold=4&fov=60` is two sources, not a threshold with a stray camera part
+/// dropped). Tiles and `/view` share it, so a second source is refused everywhere rather than
+/// ignored somewhere.
 pub fn one_source(q: &HashMap<String, String>) -> Result<(), ApiError> {
-    let given = ["threshold", "ratio", "eye"]
+    let camera = CAMERA.iter().any(|k| q.contains_key(*k));
+    let given = ["threshold", "ratio"]
         .iter()
         .filter(|k| q.contains_key(**k))
-        .count();
+        .count()
+        + usize::from(camera);
     if given > 1 {
         return Err(ApiError::bad_request(
             "conflicting_threshold",
-            "give one of threshold, ratio or eye/target/fov",
+            "give one of threshold, ratio or a camera (eye, target, fov, aspect)",
         ));
     }
     Ok(())
