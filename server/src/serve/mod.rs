@@ -134,7 +134,14 @@ pub fn app(state: AppState) -> Router {
         ))
         .layer(axum::middleware::from_fn(error::json_errors))
         // One span per request (method, URI, status, latency) at DEBUG: `RUST_LOG=debug`.
-        .layer(TraceLayer::new_for_http())
+        // Failures too: a 500 has logged its cause at ERROR already (`ApiError::internal`),
+        // and the default, an ERROR line per 5xx without its URI, turned every request shed
+        // by an overload into one (the shed count is in /metrics).
+        .layer(
+            TraceLayer::new_for_http().on_failure(
+                tower_http::trace::DefaultOnFailure::new().level(tracing::Level::DEBUG),
+            ),
+        )
         .layer(cors)
         .with_state(state)
 }
