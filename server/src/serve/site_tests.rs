@@ -94,6 +94,44 @@ fn openapi_lists_every_parameter_the_mesh_lods_take() {
     }
 }
 
+/// The tile route's bounds and media types in the spec are the ones the server holds to, so
+/// a client validating against the spec refuses what the server would, and no more.
+#[test]
+fn openapi_gives_the_tile_route_the_servers_bounds_and_media_types() {
+    use super::routes::tiles::{TileFormat, PNG_DEFAULT_SIZE, PNG_MAX_SIZE, PNG_MIN_SIZE};
+    use super::threshold::{MAX_RATIO, MAX_THRESHOLD};
+    let doc: serde_json::Value = serde_json::from_str(super::routes::site::OPENAPI_JSON).unwrap();
+    let get = &doc["paths"]["/v1/datasets/{name}/tiles/{z}/{x}/{y}"]["get"];
+    let schema = |name: &str| {
+        get["parameters"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|p| p["name"] == name)
+            .unwrap_or_else(|| panic!("{name} is not described"))["schema"]
+            .clone()
+    };
+    let num = |v: &serde_json::Value| v.as_f64().unwrap();
+    assert_eq!(num(&schema("threshold")["maximum"]), MAX_THRESHOLD);
+    assert_eq!(num(&schema("ratio")["maximum"]), MAX_RATIO);
+    let z_max = zerotile_codec::geo::MAX_ZOOM;
+    assert_eq!(num(&schema("z")["maximum"]), f64::from(z_max));
+    let size = schema("size");
+    assert_eq!(
+        [&size["minimum"], &size["maximum"], &size["default"]].map(num),
+        [PNG_MIN_SIZE, PNG_MAX_SIZE, PNG_DEFAULT_SIZE].map(f64::from)
+    );
+    let content = get["responses"]["200"]["content"].as_object().unwrap();
+    for f in TileFormat::ALL {
+        assert!(
+            content.contains_key(f.media_type()),
+            "{f:?}: {} is not among the 200's media types",
+            f.media_type()
+        );
+    }
+    assert_eq!(content.len(), TileFormat::ALL.len(), "{content:?}");
+}
+
 #[tokio::test]
 async fn the_viewer_page_and_its_assets_are_served() {
     let (status, media, body) = get("/").await;

@@ -43,9 +43,9 @@ pub const EZW_MEDIA: &str = "application/vnd.zerotile.ezw";
 /// Media type of `.bin` (ZTM1) meshes.
 pub const ZTM1_MEDIA: &str = "application/vnd.zerotile.ztm1";
 /// Default and largest PNG side, pixels (MapLibre's raster-dem default is 512).
-const PNG_DEFAULT_SIZE: u32 = 512;
-const PNG_MAX_SIZE: u32 = 1024;
-const PNG_MIN_SIZE: u32 = 16;
+pub(crate) const PNG_DEFAULT_SIZE: u32 = 512;
+pub(crate) const PNG_MAX_SIZE: u32 = 1024;
+pub(crate) const PNG_MIN_SIZE: u32 = 16;
 
 /// The formats a tile comes in, by file extension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -60,6 +60,18 @@ pub enum TileFormat {
 }
 
 impl TileFormat {
+    /// Every format, for the checks that the docs list each.
+    #[cfg(test)]
+    pub(crate) const ALL: [Self; 7] = [
+        Self::Terrain,
+        Self::Png,
+        Self::Json,
+        Self::Bin,
+        Self::Obj,
+        Self::Glb,
+        Self::Ezw,
+    ];
+
     fn from_extension(ext: &str) -> Option<Self> {
         Some(match ext {
             "terrain" => Self::Terrain,
@@ -73,7 +85,7 @@ impl TileFormat {
         })
     }
 
-    fn media_type(self) -> &'static str {
+    pub(crate) fn media_type(self) -> &'static str {
         match self {
             Self::Terrain => QUANTIZED_MESH,
             Self::Png => "image/png",
