@@ -104,9 +104,18 @@ impl From<QueryRejection> for ApiError {
 /// Handler result.
 pub type ApiResult<T> = Result<T, ApiError>;
 
-/// Unknown routes: JSON 404, like every other error.
-pub async fn not_found() -> ApiError {
-    ApiError::not_found("not_found", "no such route; see docs/api.md")
+/// Unknown routes: JSON 404, like every other error. A trailing slash is the common slip
+/// (`/v1/datasets/`), so the message names the path without it; a redirect would cost a
+/// CORS round trip and hide the slip from whoever wrote the URL.
+pub async fn not_found(uri: axum::http::Uri) -> ApiError {
+    let path = uri.path();
+    let message = match path.strip_suffix('/') {
+        Some(bare) if !bare.is_empty() => {
+            format!("no such route; routes have no trailing slash: try {bare}; see docs/api.md")
+        }
+        _ => "no such route; see docs/api.md".to_string(),
+    };
+    ApiError::not_found("not_found", message)
 }
 
 /// Known routes with the wrong method. Routes answer different methods and axum adds their

@@ -228,6 +228,23 @@ async fn default_threshold_is_the_geometric_error_capped_at_the_relief() {
     assert_eq!(h["x-threshold"], "80");
 }
 
+/// A trailing slash is a 404 whose message gives the path without it, which works.
+#[tokio::test]
+async fn a_trailing_slash_is_named_in_the_404() {
+    let app = router("trailing-slash");
+    for (slashed, bare) in [
+        ("/v1/datasets/", "/v1/datasets"),
+        ("/v1/datasets/hill/", "/v1/datasets/hill"),
+    ] {
+        let v = refused(&app, slashed, StatusCode::NOT_FOUND, "not_found").await;
+        let message = v["message"].as_str().unwrap();
+        assert!(message.contains(&format!("try {bare};")), "{message}");
+        assert_eq!(get(&app, bare).await.0, StatusCode::OK, "{bare}");
+    }
+    let v = refused(&app, "/nope", StatusCode::NOT_FOUND, "not_found").await;
+    assert!(!v["message"].as_str().unwrap().contains("try"), "{v}");
+}
+
 #[tokio::test]
 async fn errors_are_json_with_their_codes() {
     let app = router("errors");
