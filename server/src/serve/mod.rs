@@ -55,6 +55,9 @@ pub use state::{AppState, Config};
 /// client forever.
 pub const REQUEST_TIMEOUT: Duration = Duration::from_secs(30);
 
+/// How long a browser may cache a CORS preflight's answer.
+pub const CORS_MAX_AGE: Duration = Duration::from_secs(7200);
+
 /// The service: every route, with CORS, compression, timeouts and metrics.
 pub fn app(state: AppState) -> Router {
     let routes = Router::new()
@@ -107,6 +110,9 @@ pub fn app(state: AppState) -> Router {
         })
         .allow_methods([Method::GET, Method::HEAD, Method::OPTIONS, Method::POST])
         .allow_headers(Any)
+        // A browser may keep a preflight's answer this long (Chromium caps it at two hours)
+        // instead of asking again before each upload or header-carrying request.
+        .max_age(CORS_MAX_AGE)
         .expose_headers([
             header::ETAG,
             header::CONTENT_RANGE,

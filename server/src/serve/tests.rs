@@ -228,6 +228,35 @@ async fn default_threshold_is_the_geometric_error_capped_at_the_relief() {
     assert_eq!(h["x-threshold"], "80");
 }
 
+/// A CORS preflight (an upload's, with its Content-Type) is answered for any origin with the
+/// methods and a max age, so a browser does not ask again before every request.
+#[tokio::test]
+async fn cors_preflights_are_answered_and_may_be_cached() {
+    let app = router("preflight");
+    let (s, h, _) = send(
+        &app,
+        Method::OPTIONS,
+        "/v1/meshes/upload",
+        &[
+            ("origin", "https://example.org"),
+            ("access-control-request-method", "POST"),
+            ("access-control-request-headers", "content-type"),
+        ],
+    )
+    .await;
+    assert_eq!(s, StatusCode::OK);
+    assert_eq!(h["access-control-allow-origin"], "*");
+    let methods = h["access-control-allow-methods"].to_str().unwrap();
+    assert!(
+        methods.contains("POST") && methods.contains("GET"),
+        "{methods}"
+    );
+    assert_eq!(
+        h["access-control-max-age"],
+        super::CORS_MAX_AGE.as_secs().to_string()
+    );
+}
+
 /// A trailing slash is a 404 whose message gives the path without it, which works.
 #[tokio::test]
 async fn a_trailing_slash_is_named_in_the_404() {

@@ -139,7 +139,7 @@ impl ViewSphere {
         }
         (view.target - view.eye)
             .try_normalize()
-            .ok_or_else(|| bad("eye − target distance", "> 0", 0.0).into())
+            .ok_or_else(|| bad("the distance from eye to target", "> 0", 0.0).into())
     }
 
     /// Per face, the region key of its cell at the level `level_of(finest cell)` picks.

@@ -94,7 +94,11 @@ fn open_and_real_meshes_keep_their_boundaries_and_bad_views_are_refused() {
         eye: DVec3::ONE,
         target: DVec3::ONE,
     };
-    assert!(vs.view(&same, None).is_err());
+    let e = vs.view(&same, None).unwrap_err().to_string();
+    assert_eq!(
+        e, "the distance from eye to target must be > 0, got 0",
+        "{e}"
+    );
     assert!(vs.level(MAX_LEVEL + 1).is_err());
     let far = View {
         eye: DVec3::new(0.0, 0.0, 1e4),
