@@ -117,12 +117,12 @@ impl Hierarchy {
         Some(hierarchy)
     }
 
-    /// Samples per side.
     /// The border samples every stitched tile forces (`extract::edge_spill`).
     pub(crate) fn edge_spill(&self) -> &[u32] {
         self.spill.get_or_init(|| super::extract::edge_spill(self))
     }
 
+    /// Samples per side.
     pub fn side(&self) -> usize {
         self.n
     }
@@ -153,11 +153,22 @@ pub(crate) fn midpoint(a: u32, b: u32, n: usize) -> u32 {
 #[inline]
 pub(crate) fn splits(a: u32, b: u32, n: usize) -> bool {
     let n = n as u32;
+    // `a / n` or `b / n` as `* n` changes nothing below 2049²: a splittable hypotenuse has
+    // both ends on even rows and columns and n is odd, so |a·n − by| and |ay − b·n| have
+    // dy's parity, and are zero only if a = b. From 2049² on the product overflows u32,
+    // which overflow checks catch on the 2049² hierarchy the tests build.
     let (dx, dy) = ((a % n).abs_diff(b % n), (a / n).abs_diff(b / n));
+    // Called on hypotenuses only, where the first `&&` as `||` and `>` as `>=` change
+    // nothing: a hypotenuse is diagonal (dx = dy) or along an axis (one extent zero, the
+    // other at least 2), so dx and dy are both even or both odd, and its ends are two
+    // corners of a triangle, never the same sample.
     dx % 2 == 0 && dy % 2 == 0 && dx + dy > 0
 }
 
 fn add_parent(slot: &mut [u32; 2], m: u32) {
+    // Never taken (so `||` as `&&` changes nothing): a sample's parents are the right angles
+    // of the triangles whose hypotenuse it halves, one on either side, so never the same
+    // (`a_samples_parents_are_the_right_angles_of_the_triangles_it_halves`).
     if slot[0] == m || slot[1] == m {
         return;
     }

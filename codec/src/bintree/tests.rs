@@ -1,3 +1,4 @@
+use super::hierarchy::NONE;
 use super::*;
 use crate::fixtures::{n44w072, n44w072_crop};
 use crate::grid::Grid;
@@ -236,4 +237,112 @@ fn edge_spill_is_what_forcing_one_edge_reaches_on_the_others_mirrored() {
         let steps = (n - 1).ilog2() as usize;
         assert!(spill.len() <= 4 + 4 * 2 * steps, "n {n}: {}", spill.len());
     }
+}
+
+/// Every triangle of the hierarchy, on grids up to 2049² (k = 11, where n³ passes u32's
+/// range): a right isosceles half with its right angle at `c`, wound as the roots are, of
+/// half its parent's area; halved at `m`, the sample midway along a hypotenuse of even
+/// extents, on every level but the last, which holds the unit halves and has [`NONE`] there.
+/// 2k + 1 levels, each twice the one above.
+#[test]
+fn every_triangle_is_a_right_isosceles_half_split_at_its_hypotenuse_midpoint() {
+    for n in [3usize, 5, 65, 2049] {
+        let h = Hierarchy::new(n).unwrap();
+        let k = (n - 1).ilog2() as usize;
+        assert_eq!(h.levels(), 2 * k + 1, "n {n}");
+        assert_eq!(h.tris.len(), h.level_start[h.levels()], "n {n}");
+        let side = n as i64;
+        let xy = |s: u32| {
+            assert!((s as usize) < n * n, "n {n}: sample {s} outside the grid");
+            (i64::from(s) % side, i64::from(s) / side)
+        };
+        for l in 0..h.levels() {
+            let level = &h.tris[h.level_start[l]..h.level_start[l + 1]];
+            assert_eq!(level.len(), 2 << l, "n {n} level {l}");
+            let splittable = l + 1 < h.levels();
+            // Twice the area: (n − 1)² over the level's triangle count.
+            let twice_area = ((side - 1) * (side - 1)) >> l;
+            for (i, t) in level.iter().enumerate() {
+                let ((ax, ay), (bx, by), (cx, cy)) = (xy(t.a), xy(t.b), xy(t.c));
+                let (ca, cb) = ((ax - cx, ay - cy), (bx - cx, by - cy));
+                assert_eq!(
+                    ca.0 * cb.0 + ca.1 * cb.1,
+                    0,
+                    "n {n} level {l} triangle {i}: right angle at c"
+                );
+                assert_eq!(
+                    ca.0 * ca.0 + ca.1 * ca.1,
+                    cb.0 * cb.0 + cb.1 * cb.1,
+                    "n {n} level {l} triangle {i}: legs"
+                );
+                // The roots' winding (counter-clockwise with north, row 0, up) has c→a × c→b
+                // negative in row-major coordinates.
+                assert_eq!(
+                    ca.0 * cb.1 - ca.1 * cb.0,
+                    -twice_area,
+                    "n {n} level {l} triangle {i}: winding, area"
+                );
+                if splittable {
+                    assert!(
+                        (bx - ax) % 2 == 0 && (by - ay) % 2 == 0,
+                        "n {n} level {l} triangle {i}: odd extents"
+                    );
+                    let m = (ay + by) / 2 * side + (ax + bx) / 2;
+                    assert_eq!(i64::from(t.m), m, "n {n} level {l} triangle {i}: midpoint");
+                } else {
+                    assert_eq!(
+                        t.m, NONE,
+                        "n {n} level {l} triangle {i}: a unit half splits"
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// A sample's parents, what must be mesh vertices before it can be one (conformity), are the
+/// right angles of the triangles whose hypotenuse it halves: two inside the grid, one on
+/// either side of that hypotenuse and so different, one on the border, none at the corners
+/// (never a midpoint) and at the centre (the roots' midpoint). Filled slots come first.
+#[test]
+fn a_samples_parents_are_the_right_angles_of_the_triangles_it_halves() {
+    for n in [5usize, 65] {
+        let h = Hierarchy::new(n).unwrap();
+        let mut expected = vec![Vec::new(); n * n];
+        for t in &h.tris[h.level_start[1]..] {
+            if t.m != NONE {
+                expected[t.m as usize].push(t.c);
+            }
+        }
+        let centre = n / 2 * n + n / 2;
+        for (s, &[p, q]) in h.parents.iter().enumerate() {
+            assert!(p != NONE || q == NONE, "n {n} sample {s}: {p}, {q}");
+            let mut got: Vec<u32> = [p, q].into_iter().filter(|&p| p != NONE).collect();
+            got.sort_unstable();
+            expected[s].sort_unstable();
+            assert_eq!(got, expected[s], "n {n} sample {s}");
+            let (x, y) = (s % n, s / n);
+            let edges = [x == 0, y == 0, x == n - 1, y == n - 1];
+            let count = match edges.iter().filter(|&&e| e).count() {
+                _ if s == centre => 0,
+                0 => 2,
+                1 => 1,
+                _ => 0,
+            };
+            assert_eq!(got.len(), count, "n {n} sample {s}");
+        }
+    }
+}
+
+/// The side comes from a dataset's header: past 2¹² + 1 (a hierarchy of ~1 GB at 4097²) it is
+/// refused before anything is allocated, as are sides one off a power of two plus one.
+#[test]
+fn sides_past_4097_are_refused() {
+    let top = 1usize << (usize::BITS - 1);
+    for n in [(1 << 13) + 1, (1 << 16) + 1, (1 << 31) + 1, top + 1] {
+        for side in [n - 1, n, n + 1] {
+            assert!(Hierarchy::new(side).is_none(), "side {side}");
+        }
+    }
+    assert!(Hierarchy::new(usize::MAX).is_none());
 }
