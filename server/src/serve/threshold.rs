@@ -137,7 +137,7 @@ pub fn from_query(d: &Dataset, z: u8, q: &HashMap<String, String>) -> Result<Thr
 }
 
 /// The parameters of a camera; any one of them makes the query a view.
-const CAMERA: [&str; 4] = ["eye", "target", "fov", "aspect"];
+pub const CAMERA: [&str; 4] = ["eye", "target", "fov", "aspect"];
 
 /// At most one source of T in a query: `threshold`, `ratio` or a camera (any of
 /// [`CAMERA`]: `?threshold=4&fov=60` is two sources, not a threshold with a stray camera part
