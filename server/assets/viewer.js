@@ -64,7 +64,8 @@ renderer.setAnimationLoop(() => {
   renderer.render(scene, camera);
 });
 
-/// Replaces what is drawn; `frame` re-aims the camera (a new dataset or mesh, not a new LOD).
+/// Replaces what is drawn; `frame` re-aims the camera (a new dataset or mesh, not a new LOD):
+/// `true` at the whole object, or a box, where part of it is what matters.
 function show(object, frame) {
   if (shown) {
     scene.remove(shown);
@@ -73,7 +74,7 @@ function show(object, frame) {
   shown = object;
   scene.add(object);
   if (frame) {
-    const box = new THREE.Box3().setFromObject(object);
+    const box = frame === true ? new THREE.Box3().setFromObject(object) : frame;
     const size = box.getSize(new THREE.Vector3()).length();
     const centre = box.getCenter(new THREE.Vector3());
     controls.target.copy(centre);
@@ -184,9 +185,28 @@ function thresholdQuery() {
   return `threshold=${t.toPrecision(3)}`;
 }
 
-/// Horizontal metres per unit of the mesh coordinates, so relief has its true proportion.
+/// A bounds corner (longitude and latitude, or a local grid's column and row) in the tile
+/// meshes' x, y: degrees (geodetic), EPSG:3857 metres (mercator), column and minus the row.
+function meshXY(info, x, y) {
+  if (info.scheme === "mercator") {
+    const r = 6378137, rad = Math.PI / 180;
+    return [r * x * rad, r * Math.log(Math.tan(Math.PI / 4 + (y * rad) / 2))];
+  }
+  return info.scheme === "local" ? [x, -y] : [x, y];
+}
+
+/// Horizontal metres per unit of the mesh coordinates, so relief has its true proportion. A
+/// local grid has no horizontal scale: one sample as one metre drew a 512² terrain-RGB tile
+/// of Fuji as a needle, so its samples are stretched until the grid is at least four times
+/// as wide as its relief (a plausible shape, said in the status line).
 function horizontalScale(info, lat) {
   if (info.scheme === "geodetic") return [111320 * Math.cos((lat * Math.PI) / 180), 110540];
+  if (info.scheme === "local") {
+    const [w, s, e, n] = info.bounds;
+    const [lo, hi] = info.height_range || [0, 0];
+    const k = Math.max(1, (4 * (hi - lo)) / Math.max(Math.abs(e - w), Math.abs(n - s), 1));
+    return [k, k];
+  }
   return [1, 1];
 }
 
@@ -209,8 +229,11 @@ async function loadTerrain() {
     if (my !== ticket) return;
     const [w, s, e, n] = dataset.bounds;
     const [kx, ky] = horizontalScale(dataset, (s + n) / 2);
-    const cx = (w + e) / 2, cy = (s + n) / 2;
+    const [x0, y0] = meshXY(dataset, w, s), [x1, y1] = meshXY(dataset, e, n);
+    const cx = (x0 + x1) / 2, cy = (y0 + y1) / 2;
     const exag = Number($("exag").value);
+    const [lo, hi] = dataset.height_range || [0, 0];
+    const toScene = (x, y, h) => new THREE.Vector3(((x - cx) * kx) / 1000, (h * exag) / 1000, (-(y - cy) * ky) / 1000);
     const group = new THREE.Group();
     let triangles = 0, vertices = 0, bytes = 0, ezwBytes = 0, t = NaN;
     for (const a of answers) {
@@ -235,9 +258,21 @@ async function loadTerrain() {
       bps: (ezwBytes * 8) / (tiles.length * side * side),
       bpsLabel: "bits/sample (EZW)", tLabel: "T (m)",
     });
-    show(group, !shownKey || shownKey !== `${dataset.name}/${z}`);
+    if (!shownKey || shownKey !== `${dataset.name}/${z}`) {
+      // Aim at the data, not at the whole tiles: a small dataset's tiles are mostly fill.
+      const data = new THREE.Box3().setFromPoints([toScene(x0, y0, lo), toScene(x1, y1, hi)]);
+      const drawn = new THREE.Box3().setFromObject(group);
+      const both = drawn.clone().intersect(data);
+      // A margin, so the data's near edge is in view too.
+      const aim = both.isEmpty() ? drawn : both.expandByVector(both.getSize(new THREE.Vector3()).multiplyScalar(0.2));
+      show(group, aim);
+    } else {
+      show(group, false);
+    }
     shownKey = `${dataset.name}/${z}`;
-    say(`${dataset.name}: ${tiles.length} tile(s) at zoom ${z}`);
+    const scale = dataset.scheme === "local" && kx > 1
+      ? ` (a local grid has no horizontal scale: drawn ${kx.toPrecision(2)} m a sample)` : "";
+    say(`${dataset.name}: ${tiles.length} tile(s) at zoom ${z}${scale}`);
     status.loads += 1;
   } catch (e) {
     if (my === ticket) say(String(e.message || e), true);
