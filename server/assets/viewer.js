@@ -258,18 +258,17 @@ async function loadTerrain() {
       bps: (ezwBytes * 8) / (tiles.length * side * side),
       bpsLabel: "bits/sample (EZW)", tLabel: "T (m)",
     });
-    if (!shownKey || shownKey !== `${dataset.name}/${z}`) {
-      // Aim at the data, not at the whole tiles: a small dataset's tiles are mostly fill.
+    // A new dataset or zoom: aim at the data, not at the whole tiles (a small dataset's tiles
+    // are mostly fill), with a margin so the data's near edge is in view too.
+    const key = `${dataset.name}/${z}`;
+    let aim = false;
+    if (shownKey !== key) {
       const data = new THREE.Box3().setFromPoints([toScene(x0, y0, lo), toScene(x1, y1, hi)]);
-      const drawn = new THREE.Box3().setFromObject(group);
-      const both = drawn.clone().intersect(data);
-      // A margin, so the data's near edge is in view too.
-      const aim = both.isEmpty() ? drawn : both.expandByVector(both.getSize(new THREE.Vector3()).multiplyScalar(0.2));
-      show(group, aim);
-    } else {
-      show(group, false);
+      const both = new THREE.Box3().setFromObject(group).intersect(data);
+      aim = both.isEmpty() ? true : both.expandByVector(both.getSize(new THREE.Vector3()).multiplyScalar(0.2));
     }
-    shownKey = `${dataset.name}/${z}`;
+    show(group, aim);
+    shownKey = key;
     const scale = dataset.scheme === "local" && kx > 1
       ? ` (a local grid has no horizontal scale: drawn ${kx.toPrecision(2)} m a sample)` : "";
     say(`${dataset.name}: ${tiles.length} tile(s) at zoom ${z}${scale}`);

@@ -392,15 +392,13 @@ fn measure(
 /// What to tell the user about a point whose T the stream cannot reach: a lossy stream
 /// stops at a finest pass set by the height step, and below its error no threshold buys more.
 pub fn floor_warning(p: &Point) -> Option<String> {
-    p.below_floor.then(|| {
-        let t = short(p.param.unwrap_or(p.threshold), 12);
-        format!(
-            "warning: --threshold {t}: below what this {} stream can reach (its last pass decodes \
-             within {:.4}), so the mesh keeps every sample and errs by up to {:.4}, not {t}; \
-             --wavelet 53 decodes exactly, a smaller --step lowers the floor",
-            p.wavelet, p.max_abs_err, p.mesh_max_abs_err,
-        )
-    })
+    let t = short(p.param.filter(|_| p.below_floor)?, 12);
+    Some(format!(
+        "warning: --threshold {t}: below what this {} stream can reach (its last pass decodes \
+         within {:.4}), so the mesh keeps every sample and errs by up to {:.4}, not {t}; \
+         --wavelet 53 decodes exactly, a smaller --step lowers the floor",
+        p.wavelet, p.max_abs_err, p.mesh_max_abs_err,
+    ))
 }
 
 /// Writes `mesh` as `dir/MODE-PARAM.obj` (atomically, as every mesh file is written).

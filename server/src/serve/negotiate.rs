@@ -64,27 +64,14 @@ pub fn terrain_extensions(
         return Ok(ext);
     };
     let accept = accept.to_str().map_err(|_| not_acceptable())?;
-    // Per range: listed at all, and listed with q > 0.
+    // Per range: listed at all, and listed with q > 0 (a weight that is no number is not a
+    // refusal).
     let (mut exact, mut octet, mut application, mut any) = (None, None, None, None);
-    let listed = |slot: &mut Option<bool>, ok: bool| *slot = Some(slot.unwrap_or(false) || ok);
-    for range in accept.split(',') {
-        let mut parts = range.split(';');
-        let media = parts.next().unwrap_or("").trim().to_ascii_lowercase();
-        let params: Vec<(String, String)> = parts
-            .filter_map(|p| {
-                let (k, v) = p.split_once('=')?;
-                Some((
-                    k.trim().to_ascii_lowercase(),
-                    v.trim().trim_matches('"').to_string(),
-                ))
-            })
-            .collect();
-        let ok = !params
-            .iter()
-            .any(|(k, v)| k == "q" && v.parse::<f64>().is_ok_and(|q| q <= 0.0));
+    for (media, params) in list_items(accept) {
+        let ok = weight(&params).is_none_or(|q| q > 0.0);
         match media.as_str() {
             QUANTIZED_MESH => {
-                listed(&mut exact, ok);
+                mark(&mut exact, ok);
                 if ok {
                     for (k, v) in &params {
                         if k == "extensions" {
@@ -93,9 +80,9 @@ pub fn terrain_extensions(
                     }
                 }
             }
-            "application/octet-stream" => listed(&mut octet, ok),
-            "application/*" => listed(&mut application, ok),
-            "*/*" => listed(&mut any, ok),
+            "application/octet-stream" => mark(&mut octet, ok),
+            "application/*" => mark(&mut application, ok),
+            "*/*" => mark(&mut any, ok),
             _ => {}
         }
     }
@@ -122,28 +109,50 @@ fn not_acceptable() -> ApiError {
 /// Every `Accept-Encoding` line counts, as one list.
 pub fn accepts_gzip(headers: &HeaderMap) -> bool {
     let (mut named, mut any) = (None, None);
-    let listed = |slot: &mut Option<bool>, ok: bool| *slot = Some(slot.unwrap_or(false) || ok);
-    for item in headers
-        .get_all(ACCEPT_ENCODING)
-        .iter()
-        .filter_map(|v| v.to_str().ok())
-        .flat_map(|v| v.split(','))
-    {
-        let mut parts = item.split(';');
-        let coding = parts.next().unwrap_or("").trim().to_ascii_lowercase();
-        let q_ok = parts.all(|p| match p.trim().split_once('=') {
-            Some((k, q)) if k.trim().eq_ignore_ascii_case("q") => {
-                q.trim().parse::<f64>().is_ok_and(|q| q > 0.0)
-            }
-            _ => true,
-        });
+    let lines = headers.get_all(ACCEPT_ENCODING).iter();
+    for (coding, params) in lines.filter_map(|v| v.to_str().ok()).flat_map(list_items) {
+        // Here a weight that is no number does not allow the coding.
+        let ok = weight(&params).is_some_and(|q| q > 0.0);
         match coding.as_str() {
-            "gzip" | "x-gzip" => listed(&mut named, q_ok),
-            "*" => listed(&mut any, q_ok),
+            "gzip" | "x-gzip" => mark(&mut named, ok),
+            "*" => mark(&mut any, ok),
             _ => {}
         }
     }
     named.or(any).unwrap_or(false)
+}
+
+/// The items of a comma-separated header list (`Accept`, `Accept-Encoding`): each token,
+/// lowercased, with its parameters (keys lowercased, values unquoted).
+fn list_items(value: &str) -> impl Iterator<Item = (String, Vec<(String, String)>)> + '_ {
+    value.split(',').map(|item| {
+        let mut parts = item.split(';');
+        let token = parts.next().unwrap_or("").trim().to_ascii_lowercase();
+        let params = parts
+            .filter_map(|p| {
+                let (k, v) = p.split_once('=')?;
+                Some((
+                    k.trim().to_ascii_lowercase(),
+                    v.trim().trim_matches('"').to_string(),
+                ))
+            })
+            .collect();
+        (token, params)
+    })
+}
+
+/// An item's weight: 1 without `q`, `None` when `q` is no number.
+fn weight(params: &[(String, String)]) -> Option<f64> {
+    params
+        .iter()
+        .find(|(k, _)| k == "q")
+        .map_or(Some(1.0), |(_, v)| v.parse().ok())
+}
+
+/// Notes that a range (or coding) was listed, and whether with q > 0; listed twice, any
+/// positive entry counts.
+fn mark(slot: &mut Option<bool>, ok: bool) {
+    *slot = Some(slot.unwrap_or(false) || ok);
 }
 
 /// Whether `If-None-Match` lists `etag` (weak comparison, as RFC 9110 asks for GET) or `*`.
