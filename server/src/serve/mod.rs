@@ -6,7 +6,7 @@
 //! | [`threshold`], [`view_plane`] | T from `threshold`, `ratio`, a camera (eq. 4) or the zoom |
 //! | [`pipeline`], [`tile_cache`] | decode (cached by bytes), stitch, off the async threads |
 //! | [`render`] | quantized-mesh, PNG, ZTM1, OBJ/GLB/JSON bytes |
-//! | [`negotiate`] | Accept, Accept-Encoding, If-None-Match, Range |
+//! | [`negotiate`], [`revalidate`] | Accept, Accept-Encoding, If-None-Match, Range; ETags of descriptions and views |
 //! | [`routes`] | handlers; [`error`] the one JSON error edge; [`metrics`] Prometheus |
 //! | [`routes::site`] | the viewer page at `/`, its embedded assets, `/openapi.json` |
 //!
@@ -22,6 +22,7 @@ pub mod pipeline;
 pub mod public_url;
 pub mod render;
 pub mod render_slots;
+pub mod revalidate;
 pub mod routes;
 pub mod state;
 pub mod storage;

@@ -1872,3 +1872,100 @@ async fn a_view_wider_than_the_tile_cap_still_meshes_the_shallowest_zoom() {
         "footprint {footprint:?}"
     );
 }
+
+/// A view whose camera has not moved revalidates to a 304 without touching a tile, and
+/// anything that changes the mesh (the camera, the format) changes the tag.
+#[tokio::test]
+async fn an_unmoved_view_revalidates_without_meshing() {
+    let state = state_over(
+        hill_dataset("view-etag", "geodetic", &[ROOT]),
+        Config::default(),
+    );
+    let app = app(state.clone());
+    let uri = "/v1/datasets/hill/view?eye=0,0,3850000&target=0,0,0&fov=60";
+    let (s, h, body) = get(&app, uri).await;
+    assert_eq!(s, StatusCode::OK, "{}", String::from_utf8_lossy(&body));
+    assert_eq!(h[header::CACHE_CONTROL], "public, no-cache");
+    let tag = h[header::ETAG].to_str().unwrap().to_string();
+
+    let lookups =
+        || state.metrics.cache_hits.load(Relaxed) + state.metrics.cache_misses.load(Relaxed);
+    let before = lookups();
+    assert!(before > 0, "the first view read no tile");
+    // The same camera written differently is the same view.
+    let same = "/v1/datasets/hill/view?fov=60.0&target=0,0,0&eye=0,0,3.85e6";
+    let (s, h, body) = send(&app, Method::GET, same, &[("if-none-match", &tag)]).await;
+    assert_eq!(s, StatusCode::NOT_MODIFIED);
+    assert!(body.is_empty());
+    assert_eq!(h[header::ETAG], tag.as_str());
+    assert_eq!(lookups(), before, "a 304 looked tiles up");
+    assert_openapi_has_304("/v1/datasets/{name}/view");
+
+    for other in [
+        "/v1/datasets/hill/view?eye=0,0,3850000&target=0,0,0&fov=50",
+        "/v1/datasets/hill/view?eye=0,0,3850000&target=0,0,0&fov=60&format=obj",
+    ] {
+        let (s, h, _) = send(&app, Method::GET, other, &[("if-none-match", &tag)]).await;
+        assert_eq!(s, StatusCode::OK, "{other}");
+        assert_ne!(h[header::ETAG], tag.as_str(), "{other}");
+    }
+}
+
+/// The descriptions carry a tag of their bytes: a client polling them gets a 304 while
+/// nothing changed, and the manifests keep their minute of freshness beside it.
+#[tokio::test]
+async fn descriptions_revalidate_with_a_tag_of_their_bytes() {
+    let app = router_of("describe-etag", "mercator");
+    for (uri, cache) in [
+        ("/v1/datasets", "public, no-cache"),
+        ("/v1/datasets/hill", "public, no-cache"),
+        ("/v1/datasets/hill/layer.json", "public, max-age=60"),
+        ("/v1/datasets/hill/tiles.json", "public, max-age=60"),
+        ("/v1/meshes", "public, no-cache"),
+    ] {
+        assert_openapi_has_304(&uri.replace("hill", "{name}"));
+        // TileJSON's URLs need a host to start from.
+        let host = ("host", "tiles.example");
+        let (s, h, body) = send(&app, Method::GET, uri, &[host]).await;
+        assert_eq!(s, StatusCode::OK, "{uri}");
+        assert_eq!(h[header::CONTENT_TYPE], "application/json", "{uri}");
+        assert_eq!(h[header::CACHE_CONTROL], cache, "{uri}");
+        serde_json::from_slice::<serde_json::Value>(&body).unwrap();
+        let tag = h[header::ETAG].to_str().unwrap().to_string();
+        let (s, h, body) = send(&app, Method::GET, uri, &[host, ("if-none-match", &tag)]).await;
+        assert_eq!(s, StatusCode::NOT_MODIFIED, "{uri}");
+        assert!(body.is_empty(), "{uri}");
+        assert_eq!(h[header::CACHE_CONTROL], cache, "{uri}");
+        // Another dataset build is another body, so an old tag is a full answer.
+        let stale = tag.replace('j', "k");
+        let (s, _, _) = send(&app, Method::GET, uri, &[host, ("if-none-match", &stale)]).await;
+        assert_eq!(s, StatusCode::OK, "{uri}");
+    }
+    // TileJSON's URLs follow the request's host: a different host is a different tag.
+    let tag_for = |host: &'static str| {
+        let app = app.clone();
+        async move {
+            let (_, h, _) = send(
+                &app,
+                Method::GET,
+                "/v1/datasets/hill/tiles.json",
+                &[("host", host)],
+            )
+            .await;
+            h[header::ETAG].to_str().unwrap().to_string()
+        }
+    };
+    assert_ne!(tag_for("a.example").await, tag_for("b.example").await);
+}
+
+/// openapi.json lists the 304 of a route that sends an ETag, and the ETag in its 200.
+fn assert_openapi_has_304(template: &str) {
+    let doc: serde_json::Value =
+        serde_json::from_str(crate::serve::routes::site::OPENAPI_JSON).unwrap();
+    let r = &doc["paths"][template]["get"]["responses"];
+    assert!(r["304"].is_object(), "openapi.json: {template} has no 304");
+    assert!(
+        r["200"]["headers"]["ETag"].is_object(),
+        "openapi.json: {template}'s 200 names no ETag"
+    );
+}

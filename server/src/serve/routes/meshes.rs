@@ -31,23 +31,24 @@ use zerotile_codec::mesh::{qem, QemOptions, TriMesh};
 
 use crate::serve::error::{ApiError, ApiResult};
 use crate::serve::meshes::{MeshAnswer, MeshEntry, MAX_UPLOAD_BYTES};
-use crate::serve::negotiate;
+use crate::serve::revalidate::{self, REVALIDATE};
 use crate::serve::state::AppState;
 use crate::serve::threshold::{aspect, integer, number, vec3};
 
 /// The LOD methods, as path segments.
 pub const METHODS: [&str; 5] = ["original", "curvature", "silhouette", "qem", "octree"];
 
-pub async fn list(State(state): State<AppState>) -> Json<Value> {
+pub async fn list(State(state): State<AppState>, headers: HeaderMap) -> ApiResult<Response> {
     let meshes: Vec<Value> = state.meshes.list().iter().map(|e| summary(e)).collect();
-    Json(json!({ "meshes": meshes }))
+    revalidate::json(&headers, &json!({ "meshes": meshes }), REVALIDATE)
 }
 
 pub async fn describe(
     State(state): State<AppState>,
     path: Result<Path<String>, PathRejection>,
     query: Result<Query<HashMap<String, String>>, QueryRejection>,
-) -> ApiResult<Json<Value>> {
+    headers: HeaderMap,
+) -> ApiResult<Response> {
     let Path(name) = path?;
     let Query(q) = query?;
     let e = entry(&state, &name)?;
@@ -75,7 +76,7 @@ pub async fn describe(
         o.insert("methods".into(), methods);
         o.insert("formats".into(), json!(["obj", "ply", "glb", "json"]));
     }
-    Ok(Json(v))
+    revalidate::json(&headers, &v, REVALIDATE)
 }
 
 fn summary(e: &MeshEntry) -> Value {
@@ -392,7 +393,7 @@ fn compute(e: &MeshEntry, ask: &Ask) -> Result<Computed, ApiError> {
 /// the same URL and is served at once, which a freshness lifetime (the tiles' hour) would
 /// hide from every client holding a copy. The revalidation is cheap: the ETag comes from the
 /// ask, before any mesh work, and a 304 has no body.
-pub const LOD_CACHE_CONTROL: &str = "public, no-cache";
+pub const LOD_CACHE_CONTROL: &str = REVALIDATE;
 
 pub async fn lod(
     State(state): State<AppState>,
@@ -415,14 +416,8 @@ pub async fn lod(
     )
         .hash(&mut h);
     let key = h.finish();
-    // Weak, as the tiles' are: the compression layer re-encodes the body per client.
-    let etag = format!("W/\"m{key:016x}\"");
-    if negotiate::not_modified(&headers, &etag) {
-        let mut res = Response::new(Body::empty());
-        *res.status_mut() = StatusCode::NOT_MODIFIED;
-        res.headers_mut().insert(ETAG, value(&etag)?);
-        res.headers_mut()
-            .insert(CACHE_CONTROL, HeaderValue::from_static(LOD_CACHE_CONTROL));
+    let etag = revalidate::weak_tag('m', key);
+    if let Some(res) = revalidate::not_modified(&headers, &etag, LOD_CACHE_CONTROL) {
         return Ok(res);
     }
 

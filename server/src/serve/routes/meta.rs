@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use axum::extract::rejection::{PathRejection, QueryRejection};
 use axum::extract::{Path, Query, State};
-use axum::http::header::{CACHE_CONTROL, CONTENT_TYPE, VARY};
+use axum::http::header::{CONTENT_TYPE, VARY};
 use axum::http::{HeaderMap, HeaderValue, Uri};
 use axum::response::{IntoResponse, Response};
 use axum::Json;
@@ -20,6 +20,7 @@ use zerotile_codec::geo::{Bounds, Scheme};
 use crate::serve::dataset::Dataset;
 use crate::serve::error::{ApiError, ApiResult};
 use crate::serve::public_url;
+use crate::serve::revalidate::{self, REVALIDATE};
 use crate::serve::routes::tiles::{png_size, png_terrarium};
 use crate::serve::state::AppState;
 use crate::serve::threshold;
@@ -36,6 +37,10 @@ pub async fn metrics(State(state): State<AppState>) -> Response {
         .into_response()
 }
 
+/// layer.json and TileJSON may be reused for a minute without asking: clients fetch them
+/// once per map, and their tile URLs carry the dataset's version.
+pub const MANIFEST_CACHE_CONTROL: &str = "public, max-age=60";
+
 /// Looks a dataset up by the name in the path.
 pub fn dataset(state: &AppState, name: &str) -> ApiResult<Arc<Dataset>> {
     state
@@ -45,7 +50,7 @@ pub fn dataset(state: &AppState, name: &str) -> ApiResult<Arc<Dataset>> {
         .ok_or_else(|| ApiError::not_found("unknown_dataset", format!("no dataset named {name:?}")))
 }
 
-pub async fn list(State(state): State<AppState>) -> Json<Value> {
+pub async fn list(State(state): State<AppState>, headers: HeaderMap) -> ApiResult<Response> {
     let datasets: Vec<Value> = state.catalog.iter().map(|d| summary(d)).collect();
     let skipped: Vec<Value> = state
         .catalog
@@ -53,7 +58,11 @@ pub async fn list(State(state): State<AppState>) -> Json<Value> {
         .iter()
         .map(|(file, why)| json!({ "file": file, "error": why }))
         .collect();
-    Json(json!({ "datasets": datasets, "skipped": skipped }))
+    revalidate::json(
+        &headers,
+        &json!({ "datasets": datasets, "skipped": skipped }),
+        REVALIDATE,
+    )
 }
 
 fn summary(d: &Dataset) -> Value {
@@ -72,7 +81,8 @@ fn summary(d: &Dataset) -> Value {
 pub async fn describe(
     State(state): State<AppState>,
     path: Result<Path<String>, PathRejection>,
-) -> ApiResult<Json<Value>> {
+    headers: HeaderMap,
+) -> ApiResult<Response> {
     let Path(name) = path?;
     let d = dataset(&state, &name)?;
     let m = d.metadata();
@@ -116,12 +126,13 @@ pub async fn describe(
     if let (Some(a), Some(b)) = (v.as_object_mut(), extra.as_object()) {
         a.extend(b.clone());
     }
-    Ok(Json(v))
+    revalidate::json(&headers, &v, REVALIDATE)
 }
 
 pub async fn layer_json(
     State(state): State<AppState>,
     path: Result<Path<String>, PathRejection>,
+    headers: HeaderMap,
 ) -> ApiResult<Response> {
     let Path(name) = path?;
     let d = dataset(&state, &name)?;
@@ -136,7 +147,7 @@ pub async fn layer_json(
     }
     let layer = layer(&d).map_err(ApiError::internal)?;
     let value = layer.to_value().map_err(ApiError::internal)?;
-    Ok(([(CACHE_CONTROL, "public, max-age=60")], Json(value)).into_response())
+    revalidate::json(&headers, &value, MANIFEST_CACHE_CONTROL)
 }
 
 /// TileJSON for a mercator dataset's PNG tiles: a MapLibre `raster-dem` source with only
@@ -180,7 +191,7 @@ pub async fn tilejson(
     );
     let doc = raster_dem(&d, template, (m.min_zoom, m.max_zoom), terrarium, size);
     let value = doc.to_value().map_err(ApiError::internal)?;
-    let mut res = ([(CACHE_CONTROL, "public, max-age=60")], Json(value)).into_response();
+    let mut res = revalidate::json(&headers, &value, MANIFEST_CACHE_CONTROL)?;
     if let Some(v) = public_url::vary(&state.config) {
         res.headers_mut().append(VARY, HeaderValue::from_static(v));
     }

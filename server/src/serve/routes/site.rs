@@ -11,11 +11,11 @@ use std::sync::OnceLock;
 use axum::extract::rejection::PathRejection;
 use axum::extract::Path;
 use axum::http::header::{CACHE_CONTROL, CONTENT_TYPE, ETAG};
-use axum::http::{HeaderMap, StatusCode};
+use axum::http::HeaderMap;
 use axum::response::{IntoResponse, Response};
 
 use crate::serve::error::{ApiError, ApiResult};
-use crate::serve::negotiate;
+use crate::serve::revalidate;
 
 /// One embedded file: its name under `/assets/`, media type and bytes.
 struct Asset {
@@ -119,9 +119,9 @@ pub async fn asset(
                 format!("no asset {file:?} (GET / for the viewer)"),
             )
         })?;
-    let cache = [(CACHE_CONTROL, "no-cache"), (ETAG, etag.as_str())];
-    if negotiate::not_modified(&headers, etag) {
-        return Ok((StatusCode::NOT_MODIFIED, cache).into_response());
+    if let Some(res) = revalidate::not_modified(&headers, etag, "no-cache") {
+        return Ok(res);
     }
+    let cache = [(CACHE_CONTROL, "no-cache"), (ETAG, etag.as_str())];
     Ok((cache, [(CONTENT_TYPE, a.media)], a.bytes).into_response())
 }

@@ -7,12 +7,13 @@
 //! in the footprint kept, shared edge vertices welded; one mesh out.
 
 use std::collections::HashMap;
+use std::hash::{DefaultHasher, Hash, Hasher};
 
 use axum::body::Body;
 use axum::extract::rejection::{PathRejection, QueryRejection};
 use axum::extract::{Path, Query, State};
-use axum::http::header::CONTENT_TYPE;
-use axum::http::HeaderValue;
+use axum::http::header::{CACHE_CONTROL, CONTENT_TYPE, ETAG};
+use axum::http::{HeaderMap, HeaderValue};
 use axum::response::Response;
 use glam::DVec3;
 use rayon::prelude::*;
@@ -24,6 +25,7 @@ use zerotile_codec::mesh::{io, Format, TriMesh};
 use super::meta::dataset;
 use crate::serve::dataset::Dataset;
 use crate::serve::error::{ApiError, ApiResult};
+use crate::serve::revalidate::{self, REVALIDATE};
 use crate::serve::state::AppState;
 use crate::serve::threshold::{self, eq4, view_plane, ViewPlane};
 use crate::serve::{pipeline, render};
@@ -35,6 +37,7 @@ pub async fn view(
     State(state): State<AppState>,
     path: Result<Path<String>, PathRejection>,
     query: Result<Query<HashMap<String, String>>, QueryRejection>,
+    headers: HeaderMap,
 ) -> ApiResult<Response> {
     // Camera, threshold and format, checked before any work.
     let Path(name) = path?;
@@ -56,6 +59,12 @@ pub async fn view(
         }
     };
     let (zoom, tiles) = tiles_in_view(&d, &plane)?;
+    // The plane and T decide the mesh, so a camera that has not moved revalidates without
+    // meshing its tiles again.
+    let etag = revalidate::weak_tag('v', view_key(&d, &plane, t, format));
+    if let Some(res) = revalidate::not_modified(&headers, &etag, REVALIDATE) {
+        return Ok(res);
+    }
 
     // Mesh off the async threads.
     let ticket = state.admit_render()?;
@@ -114,6 +123,8 @@ pub async fn view(
     let mut res = Response::new(Body::from(bytes));
     let h = res.headers_mut();
     h.insert(CONTENT_TYPE, HeaderValue::from_static(media));
+    h.insert(ETAG, header(&etag)?);
+    h.insert(CACHE_CONTROL, HeaderValue::from_static(REVALIDATE));
     for (k, v) in [
         ("x-threshold", t),
         ("x-view-ratio", plane.ratio),
@@ -125,6 +136,22 @@ pub async fn view(
     h.insert("x-triangles", header(&triangles.to_string())?);
     h.insert("x-zoom", header(&zoom.to_string())?);
     Ok(res)
+}
+
+/// What a view's bytes depend on: the dataset's build, the plane (whose footprint picks the
+/// zoom and tiles), T and the format. Derived values, not the query's text, so `fov=60` and
+/// `fov=60.0` share a tag.
+fn view_key(d: &Dataset, plane: &ViewPlane, t: f64, format: Format) -> u64 {
+    let mut h = DefaultHasher::new();
+    d.version.hash(&mut h);
+    for v in plane.footprint.iter().flatten().chain(&plane.target) {
+        v.to_bits().hash(&mut h);
+    }
+    for v in [plane.ratio, plane.a_v, plane.a_t, t] {
+        v.to_bits().hash(&mut h);
+    }
+    format.name().hash(&mut h);
+    h.finish()
 }
 
 /// The JSON answer, serialised straight from the mesh (a `serde_json::Value` tree would box

@@ -1,0 +1,98 @@
+//! Entity tags for the answers that are not tiles: the JSON descriptions (tagged by a hash
+//! of their bytes) and views (tagged by what decides their mesh, before any work), so a
+//! client polling them gets a body-less 304 instead of the same body again.
+
+use std::hash::{DefaultHasher, Hash, Hasher};
+
+use axum::body::Body;
+use axum::http::header::{CACHE_CONTROL, CONTENT_TYPE, ETAG};
+use axum::http::{HeaderMap, HeaderValue, StatusCode};
+use axum::response::Response;
+use serde::Serialize;
+
+use crate::serve::error::{ApiError, ApiResult};
+use crate::serve::negotiate;
+
+/// What a description without a lifetime of its own carries: keep it, but ask each time.
+/// An upload changes `/v1/meshes` at once, and a restart on re-ingested data changes the
+/// dataset ones; the revalidation is a hash of a few hundred bytes.
+pub const REVALIDATE: &str = "public, no-cache";
+
+/// A weak tag (the compression layer re-encodes the body per client) from a hash.
+pub fn weak_tag(prefix: char, key: u64) -> String {
+    format!("W/\"{prefix}{key:016x}\"")
+}
+
+/// The 304 for `etag` when the request's `If-None-Match` lists it.
+pub fn not_modified(headers: &HeaderMap, etag: &str, cache_control: &str) -> Option<Response> {
+    if !negotiate::not_modified(headers, etag) {
+        return None;
+    }
+    let mut res = Response::new(Body::empty());
+    *res.status_mut() = StatusCode::NOT_MODIFIED;
+    // Both were checked by the caller's 200 path: an internal error here is unreachable,
+    // but a 304 without its tag would be worse than a 200, so fall back to that.
+    let h = res.headers_mut();
+    h.insert(ETAG, HeaderValue::from_str(etag).ok()?);
+    h.insert(CACHE_CONTROL, HeaderValue::from_str(cache_control).ok()?);
+    Some(res)
+}
+
+/// `value` as JSON with a tag of its bytes, or a 304 when the client holds those bytes.
+pub fn json(
+    headers: &HeaderMap,
+    value: &impl Serialize,
+    cache_control: &str,
+) -> ApiResult<Response> {
+    let bytes = serde_json::to_vec(value).map_err(ApiError::internal)?;
+    let mut h = DefaultHasher::new();
+    bytes.hash(&mut h);
+    let etag = weak_tag('j', h.finish());
+    if let Some(res) = not_modified(headers, &etag, cache_control) {
+        return Ok(res);
+    }
+    let mut res = Response::new(Body::from(bytes));
+    let h = res.headers_mut();
+    h.insert(CONTENT_TYPE, HeaderValue::from_static("application/json"));
+    h.insert(
+        ETAG,
+        HeaderValue::from_str(&etag).map_err(ApiError::internal)?,
+    );
+    h.insert(
+        CACHE_CONTROL,
+        HeaderValue::from_str(cache_control).map_err(ApiError::internal)?,
+    );
+    Ok(res)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use axum::http::header::IF_NONE_MATCH;
+    use serde_json::json;
+
+    fn tag_of(res: &Response) -> String {
+        res.headers()[ETAG].to_str().unwrap().to_string()
+    }
+
+    #[test]
+    fn the_same_json_revalidates_and_other_json_does_not() {
+        let v = json!({ "a": 1 });
+        let first = json(&HeaderMap::new(), &v, REVALIDATE).unwrap();
+        assert_eq!(first.status(), StatusCode::OK);
+        assert_eq!(first.headers()[CACHE_CONTROL], REVALIDATE);
+        let tag = tag_of(&first);
+        assert!(tag.starts_with("W/\"j"), "{tag}");
+
+        let mut h = HeaderMap::new();
+        h.insert(IF_NONE_MATCH, HeaderValue::from_str(&tag).unwrap());
+        let again = json(&h, &v, REVALIDATE).unwrap();
+        assert_eq!(again.status(), StatusCode::NOT_MODIFIED);
+        assert_eq!(tag_of(&again), tag);
+        assert_eq!(again.headers()[CACHE_CONTROL], REVALIDATE);
+
+        let changed = json(&h, &json!({ "a": 2 }), REVALIDATE).unwrap();
+        assert_eq!(changed.status(), StatusCode::OK);
+        assert_ne!(tag_of(&changed), tag);
+    }
+}
