@@ -9,6 +9,18 @@ use axum::http::StatusCode;
 use axum::response::{IntoResponse, Response};
 use axum::Json;
 
+/// Longest piece of a request quoted back in full; longer ones are cut, so an 8 KiB query
+/// value does not come back as an 8 KiB message (and log line).
+pub const ECHO_CHARS: usize = 64;
+
+/// `s` quoted for an error message, cut to [`ECHO_CHARS`] with its length said.
+pub fn echo(s: &str) -> String {
+    match s.char_indices().nth(ECHO_CHARS) {
+        None => format!("{s:?}"),
+        Some((cut, _)) => format!("{:?}… ({} bytes)", &s[..cut], s.len()),
+    }
+}
+
 /// A request that could not be answered.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ApiError {
@@ -271,5 +283,20 @@ mod tests {
             (status, v["error"].as_str()),
             (StatusCode::NOT_FOUND, Some("no_such_dataset"))
         );
+    }
+
+    #[test]
+    fn short_values_are_quoted_whole_and_long_ones_cut_on_a_char() {
+        assert_eq!(echo("png8"), "\"png8\"");
+        let fits = "a".repeat(ECHO_CHARS);
+        assert_eq!(echo(&fits), format!("{fits:?}"));
+        // Two-byte characters: the cut falls between them, never inside one.
+        let long = "é".repeat(ECHO_CHARS + 1);
+        let e = echo(&long);
+        assert!(
+            e.starts_with(&format!("\"{}\"…", "é".repeat(ECHO_CHARS))),
+            "{e}"
+        );
+        assert!(e.ends_with(&format!("({} bytes)", long.len())), "{e}");
     }
 }

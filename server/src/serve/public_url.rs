@@ -11,7 +11,7 @@
 
 use axum::http::{HeaderMap, Uri};
 
-use super::error::{ApiError, ApiResult};
+use super::error::{echo, ApiError, ApiResult};
 use super::Config;
 
 /// `Vary` for an answer whose URLs follow the request (none is needed with `--public-url`).
@@ -96,13 +96,15 @@ pub fn parse_base(url: &str) -> Result<String, String> {
     };
     if !valid_host(host) {
         return Err(format!(
-            "{host:?} is not a host name or address with an optional port"
+            "{} is not a host name or address with an optional port",
+            echo(host)
         ));
     }
     let path = path.trim_end_matches('/');
     if !valid_path(path) {
         return Err(format!(
-            "the path {path:?} may hold only letters, digits and / - . _ ~ (no query or fragment)"
+            "the path {} may hold only letters, digits and / - . _ ~ (no query or fragment)",
+            echo(path)
         ));
     }
     let scheme_len = url.len() - rest.len();

@@ -1969,3 +1969,41 @@ fn assert_openapi_has_304(template: &str) {
         "openapi.json: {template}'s 200 names no ETag"
     );
 }
+
+/// A long bad value is quoted cut, with its length, in every kind of message that echoes
+/// one: the answer stays small whatever the client sent.
+#[tokio::test]
+async fn a_long_bad_value_is_echoed_cut() {
+    let app = router("echo-cut");
+    let long = "9".repeat(4000);
+    let junk = "x".repeat(4000);
+    let (bad, missing) = (StatusCode::BAD_REQUEST, StatusCode::NOT_FOUND);
+    for (uri, status, code) in [
+        (
+            format!("/v1/datasets/hill/tiles/0/0/0.png?threshold={long}"),
+            bad,
+            "out_of_range",
+        ),
+        (
+            format!("/v1/datasets/hill/tiles/0/0/0.png?threshold={junk}"),
+            bad,
+            "bad_number",
+        ),
+        (
+            format!("/v1/datasets/hill/tiles/0/0/0.{junk}"),
+            missing,
+            "unknown_format",
+        ),
+        (format!("/v1/datasets/{junk}"), missing, "unknown_dataset"),
+        (
+            format!("/v1/datasets/hill/view?eye={junk}&target=0,0,0&fov=60"),
+            bad,
+            "bad_vector",
+        ),
+    ] {
+        let v = refused(&app, &uri, status, code).await;
+        let m = v["message"].as_str().unwrap();
+        assert!(m.len() < 300, "{code}: {} bytes", m.len());
+        assert!(m.contains("(4000 bytes)"), "{code}: {m}");
+    }
+}

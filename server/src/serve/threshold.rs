@@ -14,7 +14,7 @@ use zerotile_codec::ezw::DecodeLimit;
 use zerotile_codec::geo::Scheme;
 
 use super::dataset::Dataset;
-use super::error::ApiError;
+use super::error::{echo, ApiError, ECHO_CHARS};
 use super::view_plane::{clip_to_globe, footprint, polygon_area, Camera};
 
 /// Share of the budget spent on decoding, the same depth `zerotile eval terrain` reads to.
@@ -293,7 +293,10 @@ pub fn aspect(s: &str, lo: f64, hi: f64) -> Result<f64, ApiError> {
 /// A finite number in [lo, hi].
 pub fn number(name: &str, s: &str, lo: f64, hi: f64) -> Result<f64, ApiError> {
     let v: f64 = s.trim().parse().map_err(|_| {
-        ApiError::bad_request("bad_number", format!("{name} must be a number, got {s:?}"))
+        ApiError::bad_request(
+            "bad_number",
+            format!("{name} must be a number, got {}", echo(s)),
+        )
     })?;
     if !v.is_finite() || v < lo || v > hi {
         // A lower bound of the smallest positive f64 is "above 0" to a reader.
@@ -304,11 +307,24 @@ pub fn number(name: &str, s: &str, lo: f64, hi: f64) -> Result<f64, ApiError> {
         };
         return Err(ApiError::bad_request(
             "out_of_range",
-            format!("{name} must be in {low}, {}], got {s}", short(hi)),
+            format!(
+                "{name} must be in {low}, {}], got {}",
+                short(hi),
+                as_given(s)
+            ),
         ));
     }
     // −0 + 0 is +0: `-0` is the same request as `0`, under the same ETag and cache entry.
     Ok(v + 0.0)
+}
+
+/// A number that parsed, as the client wrote it: unquoted, unless it is long enough to cut.
+fn as_given(s: &str) -> String {
+    if s.chars().count() <= ECHO_CHARS {
+        s.to_owned()
+    } else {
+        echo(s)
+    }
 }
 
 /// [`number`] that must also be whole: a count or a size, where 1.5 would otherwise be
@@ -318,7 +334,10 @@ pub fn integer(name: &str, s: &str, lo: f64, hi: f64) -> Result<f64, ApiError> {
     if v.fract() != 0.0 {
         return Err(ApiError::bad_request(
             "out_of_range",
-            format!("{name} must be an integer in [{lo}, {hi}], got {s}"),
+            format!(
+                "{name} must be an integer in [{lo}, {hi}], got {}",
+                as_given(s)
+            ),
         ));
     }
     Ok(v)
@@ -340,7 +359,7 @@ pub fn vec3(name: &str, s: &str) -> Result<DVec3, ApiError> {
     if parts.len() != 3 {
         return Err(ApiError::bad_request(
             "bad_vector",
-            format!("{name} must be x,y,z, got {s:?}"),
+            format!("{name} must be x,y,z, got {}", echo(s)),
         ));
     }
     let mut v = [0.0; 3];

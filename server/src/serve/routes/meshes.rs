@@ -29,7 +29,7 @@ use zerotile_codec::mesh::octree::{Roi, View as OctreeView};
 use zerotile_codec::mesh::silhouette::View;
 use zerotile_codec::mesh::{qem, QemOptions, TriMesh};
 
-use crate::serve::error::{ApiError, ApiResult};
+use crate::serve::error::{echo, ApiError, ApiResult};
 use crate::serve::meshes::{MeshAnswer, MeshEntry, MAX_UPLOAD_BYTES};
 use crate::serve::revalidate::{self, REVALIDATE};
 use crate::serve::state::AppState;
@@ -58,8 +58,9 @@ pub async fn describe(
         return Err(ApiError::bad_request(
             "bad_query",
             format!(
-                "the mesh description takes no parameters, got {k:?}; the mesh itself is \
-                 /v1/meshes/{name}/original?format=obj|ply|glb|json"
+                "the mesh description takes no parameters, got {}; the mesh itself is \
+                 /v1/meshes/{name}/original?format=obj|ply|glb|json",
+                echo(k)
             ),
         ));
     }
@@ -95,7 +96,7 @@ fn entry(state: &AppState, name: &str) -> ApiResult<Arc<MeshEntry>> {
     state.meshes.get(name).ok_or_else(|| {
         ApiError::not_found(
             "mesh_not_found",
-            format!("no mesh {name:?}; GET /v1/meshes lists them"),
+            format!("no mesh {}; GET /v1/meshes lists them", echo(name)),
         )
     })
 }
@@ -155,7 +156,10 @@ fn parse_ask(method: &str, q: &HashMap<String, String>, mesh: &TriMesh) -> ApiRe
         {
             Some(k) => Err(ApiError::bad_request(
                 "bad_query",
-                format!("{method} does not take {k:?}; it takes {allowed:?} and format"),
+                format!(
+                    "{method} does not take {}; it takes {allowed:?} and format",
+                    echo(k)
+                ),
             )),
             None => Ok(()),
         }
@@ -237,7 +241,7 @@ fn parse_ask(method: &str, q: &HashMap<String, String>, mesh: &TriMesh) -> ApiRe
                     if parts.len() != 4 {
                         return Err(ApiError::bad_request(
                             "bad_vector",
-                            format!("roi must be x0,y0,x1,y1 in [-1, 1], got {r:?}"),
+                            format!("roi must be x0,y0,x1,y1 in [-1, 1], got {}", echo(r)),
                         ));
                     }
                     let mut rect = [0.0; 4];
@@ -268,7 +272,7 @@ fn parse_ask(method: &str, q: &HashMap<String, String>, mesh: &TriMesh) -> ApiRe
         }
         other => Err(ApiError::not_found(
             "unknown_method",
-            format!("no LOD method {other:?}; use one of {METHODS:?}"),
+            format!("no LOD method {}; use one of {METHODS:?}", echo(other)),
         )),
     }
 }
@@ -282,7 +286,7 @@ fn parse_format(q: &HashMap<String, String>) -> ApiResult<(Format, &'static str)
         "json" => Ok((Format::Json, "application/json")),
         other => Err(ApiError::bad_request(
             "bad_format",
-            format!("format must be obj, ply, glb or json, got {other:?}"),
+            format!("format must be obj, ply, glb or json, got {}", echo(other)),
         )),
     }
 }
@@ -602,7 +606,10 @@ fn upload_target(
     if let Some(k) = query?.0.keys().next() {
         return Err(ApiError::bad_request(
             "bad_query",
-            format!("an upload takes no parameters, got {k:?}; its Content-Type names the format"),
+            format!(
+                "an upload takes no parameters, got {}; its Content-Type names the format",
+                echo(k)
+            ),
         ));
     }
     crate::ingest::check_name_of("mesh", &name)

@@ -18,7 +18,7 @@ use zerotile_codec::formats::tilejson::{DemEncoding, RasterDem, MAX_MERCATOR_LAT
 use zerotile_codec::geo::{Bounds, Scheme};
 
 use crate::serve::dataset::Dataset;
-use crate::serve::error::{ApiError, ApiResult};
+use crate::serve::error::{echo, ApiError, ApiResult};
 use crate::serve::public_url;
 use crate::serve::revalidate::{self, REVALIDATE};
 use crate::serve::routes::tiles::{png_size, png_terrarium};
@@ -43,11 +43,12 @@ pub const MANIFEST_CACHE_CONTROL: &str = "public, max-age=60";
 
 /// Looks a dataset up by the name in the path.
 pub fn dataset(state: &AppState, name: &str) -> ApiResult<Arc<Dataset>> {
-    state
-        .catalog
-        .get(name)
-        .cloned()
-        .ok_or_else(|| ApiError::not_found("unknown_dataset", format!("no dataset named {name:?}")))
+    state.catalog.get(name).cloned().ok_or_else(|| {
+        ApiError::not_found(
+            "unknown_dataset",
+            format!("no dataset named {}", echo(name)),
+        )
+    })
 }
 
 pub async fn list(State(state): State<AppState>, headers: HeaderMap) -> ApiResult<Response> {

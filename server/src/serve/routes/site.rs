@@ -14,7 +14,7 @@ use axum::http::header::{CACHE_CONTROL, CONTENT_TYPE, ETAG};
 use axum::http::HeaderMap;
 use axum::response::{IntoResponse, Response};
 
-use crate::serve::error::{ApiError, ApiResult};
+use crate::serve::error::{echo, ApiError, ApiResult};
 use crate::serve::revalidate;
 
 /// One embedded file: its name under `/assets/`, media type and bytes.
@@ -116,7 +116,7 @@ pub async fn asset(
         .ok_or_else(|| {
             ApiError::not_found(
                 "not_found",
-                format!("no asset {file:?} (GET / for the viewer)"),
+                format!("no asset {} (GET / for the viewer)", echo(&file)),
             )
         })?;
     if let Some(res) = revalidate::not_modified(&headers, etag, "no-cache") {

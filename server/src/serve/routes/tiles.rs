@@ -30,7 +30,7 @@ use zerotile_codec::raster::Encoding;
 
 use super::meta::dataset;
 use crate::serve::dataset::Dataset;
-use crate::serve::error::{ApiError, ApiResult};
+use crate::serve::error::{echo, ApiError, ApiResult};
 use crate::serve::negotiate::{self, Extensions, RangeAsk, QUANTIZED_MESH};
 use crate::serve::pipeline;
 use crate::serve::render;
@@ -317,13 +317,16 @@ fn parse_address(d: &Dataset, z: &str, x: &str, y_ext: &str) -> ApiResult<(TileI
     let format = TileFormat::from_extension(ext).ok_or_else(|| {
         ApiError::not_found(
             "unknown_format",
-            format!("unknown tile format {ext:?}: use terrain, png, json, bin, obj, glb or ezw"),
+            format!(
+                "unknown tile format {}: use terrain, png, json, bin, obj, glb or ezw",
+                echo(ext)
+            ),
         )
     })?;
     let bad = |what: &str, s: &str, max: u32| {
         ApiError::bad_request(
             "bad_tile_address",
-            format!("{what} must be an integer from 0 to {max}, got {s:?}"),
+            format!("{what} must be an integer from 0 to {max}, got {}", echo(s)),
         )
     };
     // Plain decimal only: `+3` or `03` would name tile 3 under a second URL, a second cache
@@ -527,7 +530,8 @@ pub(crate) fn png_terrarium(q: &HashMap<String, String>) -> ApiResult<bool> {
             "bad_encoding",
             format!(
                 "encoding must be terrain-rgb (the default; also called mapbox) or terrarium, \
-                 got {other:?}"
+                 got {}",
+                echo(other)
             ),
         )),
     }

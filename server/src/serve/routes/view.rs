@@ -24,7 +24,7 @@ use zerotile_codec::mesh::{io, Format, TriMesh};
 
 use super::meta::dataset;
 use crate::serve::dataset::Dataset;
-use crate::serve::error::{ApiError, ApiResult};
+use crate::serve::error::{echo, ApiError, ApiResult};
 use crate::serve::revalidate::{self, REVALIDATE};
 use crate::serve::state::AppState;
 use crate::serve::threshold::{self, eq4, view_plane, ViewPlane};
@@ -54,7 +54,7 @@ pub async fn view(
         Some(other) => {
             return Err(ApiError::bad_request(
                 "bad_format",
-                format!("format must be json, glb or obj, got {other:?}"),
+                format!("format must be json, glb or obj, got {}", echo(other)),
             ))
         }
     };
