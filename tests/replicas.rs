@@ -197,8 +197,24 @@ fn two_replicas_behind_nginx_agree_cache_and_survive_a_kill() {
     }
     assert!(paths.len() >= 40, "{} tiles", paths.len());
 
-    // Stateless: both replicas answer the same bytes and ETags.
-    for p in paths.iter().step_by(7) {
+    // Stateless: both replicas answer the same bytes and ETags, for tiles and for the
+    // descriptions and a view (tagged by their bytes and by their view plane).
+    let [w, s, e, n] = [0, 1, 2, 3].map(|i| {
+        a.get("/v1/datasets/demo-ridges", &[]).json()["bounds"][i]
+            .as_f64()
+            .unwrap()
+    });
+    let (lon, lat) = ((w + e) / 2.0, (s + n) / 2.0);
+    let view =
+        format!("/v1/datasets/demo-ridges/view?eye={lon},{lat},20000&target={lon},{lat},0&fov=60");
+    let described = [
+        "/v1/datasets".to_string(),
+        "/v1/datasets/demo-ridges".to_string(),
+        "/v1/datasets/demo-ridges/layer.json".to_string(),
+        "/v1/meshes".to_string(),
+        view,
+    ];
+    for p in paths.iter().step_by(7).chain(&described) {
         let (sa, ea, ba) = get(&agent, &format!("{}{p}", a.base()), None);
         let (sb, eb, bb) = get(&agent, &format!("{}{p}", b.base()), None);
         assert_eq!((sa, sb), (200, 200), "{p}");
