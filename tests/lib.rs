@@ -191,3 +191,45 @@ pub fn run_ok(cmd: &mut std::process::Command) -> std::process::Output {
     );
     out
 }
+
+/// `[[lon, lat, metres], ...]` read from N44W072's SRTM samples (1201² big-endian i16, rows
+/// from 45° N down, columns from 72° W), bilinear between them: Mount Washington and a 10×10
+/// grid over the tile.
+pub fn srtm_heights(hgt: &Path) -> String {
+    let bytes = std::fs::read(hgt).expect("the SRTM tile in ../shared/data");
+    let n = 1201usize;
+    assert_eq!(bytes.len(), n * n * 2, "{}", hgt.display());
+    let at = |r: usize, c: usize| {
+        let i = 2 * (r.min(n - 1) * n + c.min(n - 1));
+        f64::from(i16::from_be_bytes([bytes[i], bytes[i + 1]]))
+    };
+    let height = |lon: f64, lat: f64| {
+        let (r, c) = ((45.0 - lat) * 1200.0, (lon + 72.0) * 1200.0);
+        let (r0, c0) = (r.floor(), c.floor());
+        let (fr, fc) = (r - r0, c - c0);
+        #[allow(
+            clippy::cast_possible_truncation,
+            clippy::cast_sign_loss,
+            reason = "the points lie inside the tile"
+        )]
+        let (r0, c0) = (r0 as usize, c0 as usize);
+        at(r0, c0) * (1.0 - fr) * (1.0 - fc)
+            + at(r0, c0 + 1) * (1.0 - fr) * fc
+            + at(r0 + 1, c0) * fr * (1.0 - fc)
+            + at(r0 + 1, c0 + 1) * fr * fc
+    };
+    let mut points = vec![(-71.3033, 44.2705)];
+    for i in 0..10 {
+        for j in 0..10 {
+            points.push((
+                -72.0 + 0.05 + 0.1 * f64::from(i),
+                44.0 + 0.05 + 0.1 * f64::from(j),
+            ));
+        }
+    }
+    let rows: Vec<_> = points
+        .iter()
+        .map(|&(lon, lat)| serde_json::json!([lon, lat, height(lon, lat)]))
+        .collect();
+    serde_json::Value::from(rows).to_string()
+}
