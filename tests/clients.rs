@@ -23,7 +23,8 @@ use std::time::Instant;
 
 use zerotile_tests::server::Server;
 use zerotile_tests::{
-    client_data, e2e_out, node_missing, repo_root, run_in, shared_data, srtm_heights, tools_ready,
+    client_data, e2e_out, ingest_n44_geodetic, node_missing, repo_root, run_in, shared_data,
+    srtm_heights, tools_ready,
 };
 
 /// What is missing for the browser tests, if anything.
@@ -52,18 +53,7 @@ fn cesium_maplibre_and_the_viewer_render_in_headless_chromium() {
     let hgt = shared_data().join("dem/N44W072.hgt");
     // The same SRTM tile on Cesium's geodetic grid, exported as a static tree: CesiumJS must
     // load it and sample the source's heights from it.
-    run_in(
-        &[
-            "ingest",
-            hgt.to_str().unwrap(),
-            "--name",
-            "n44g",
-            "--scheme",
-            "geodetic",
-            "--quiet",
-        ],
-        &data,
-    );
+    ingest_n44_geodetic(&data);
     // `export DATASET ARGS… --out` a fresh folder beside the data, named by `suffix`.
     let export = |suffix: &str, dataset: &str, args: &[&str]| {
         let out = data.with_file_name(format!("zerotile-clients-{}-{suffix}", std::process::id()));

@@ -78,6 +78,18 @@ pub fn client_data(tag: &str) -> PathBuf {
     data
 }
 
+/// N44W072 on Cesium's geodetic grid as `n44g` in `data` (zooms to 10), beside
+/// [`client_data`]'s mercator `n44m`.
+pub fn ingest_n44_geodetic(data: &Path) {
+    let hgt = shared_data().join("dem/N44W072.hgt");
+    run_ok(&mut ingest_command(
+        &hgt,
+        "n44g",
+        data,
+        &["--scheme", "geodetic"],
+    ));
+}
+
 /// A fresh, empty folder for one test: `TMP/zerotile-TAG-PID`.
 pub fn fresh_dir(tag: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("zerotile-{tag}-{}", std::process::id()));

@@ -16,7 +16,8 @@ use std::process::Command;
 
 use zerotile_tests::server::Server;
 use zerotile_tests::{
-    client_data, node_missing, repo_root, run_in, shared_data, srtm_heights, tools_ready,
+    client_data, ingest_n44_geodetic, node_missing, repo_root, shared_data, srtm_heights,
+    tools_ready,
 };
 
 #[test]
@@ -27,18 +28,7 @@ fn deck_gl_loaders_read_quantized_mesh_and_terrain_rgb_tiles() {
     // The mercator N44W072 of the browser tests, and the same tile on the geodetic grid.
     let data = client_data("loaders");
     let hgt = shared_data().join("dem/N44W072.hgt");
-    run_in(
-        &[
-            "ingest",
-            hgt.to_str().unwrap(),
-            "--name",
-            "n44g",
-            "--scheme",
-            "geodetic",
-            "--quiet",
-        ],
-        &data,
-    );
+    ingest_n44_geodetic(&data);
     let server = Server::start(&data);
     // Zoom 10 is both datasets' deepest: the geodetic lattice is finer than the source there,
     // the mercator one a little coarser.
