@@ -96,7 +96,10 @@ pub fn check_name_of(kind: &str, name: &str) -> Result<()> {
             .chars()
             .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_');
     if !ok {
-        bail!("{kind} name {name:?}: use 1–64 characters from A–Z, a–z, 0–9, '-' and '_'");
+        bail!(
+            "{kind} name {}: use 1–64 characters from A–Z, a–z, 0–9, '-' and '_'",
+            crate::serve::error::echo(name)
+        );
     }
     Ok(())
 }

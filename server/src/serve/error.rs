@@ -9,15 +9,18 @@ use axum::http::StatusCode;
 use axum::response::{IntoResponse, Response};
 use axum::Json;
 
-/// Longest piece of a request quoted back in full; longer ones are cut, so an 8 KiB query
-/// value does not come back as an 8 KiB message (and log line).
+/// Longest piece of a request quoted back in full, in characters as quoted (escapes
+/// included); longer ones are cut, so an 8 KiB query value does not come back as an 8 KiB
+/// message (and log line).
 pub const ECHO_CHARS: usize = 64;
 
-/// `s` quoted for an error message, cut to [`ECHO_CHARS`] with its length said.
+/// `s` quoted for an error message, cut to [`ECHO_CHARS`] with its length said. Cut after
+/// escaping: 64 control characters would otherwise come back as 384.
 pub fn echo(s: &str) -> String {
-    match s.char_indices().nth(ECHO_CHARS) {
-        None => format!("{s:?}"),
-        Some((cut, _)) => format!("{:?}… ({} bytes)", &s[..cut], s.len()),
+    let quoted: String = s.chars().flat_map(char::escape_debug).collect();
+    match quoted.char_indices().nth(ECHO_CHARS) {
+        None => format!("\"{quoted}\""),
+        Some((cut, _)) => format!("\"{}\"… ({} bytes)", &quoted[..cut], s.len()),
     }
 }
 
@@ -288,6 +291,7 @@ mod tests {
     #[test]
     fn short_values_are_quoted_whole_and_long_ones_cut_on_a_char() {
         assert_eq!(echo("png8"), "\"png8\"");
+        assert_eq!(echo("a\"b\n"), "\"a\\\"b\\n\"");
         let fits = "a".repeat(ECHO_CHARS);
         assert_eq!(echo(&fits), format!("{fits:?}"));
         // Two-byte characters: the cut falls between them, never inside one.
@@ -298,5 +302,12 @@ mod tests {
             "{e}"
         );
         assert!(e.ends_with(&format!("({} bytes)", long.len())), "{e}");
+        // Control characters are cut as escaped, not let grow sixfold.
+        let controls = "\u{1}".repeat(4 * ECHO_CHARS);
+        assert!(
+            echo(&controls).len() < ECHO_CHARS + 30,
+            "{}",
+            echo(&controls)
+        );
     }
 }

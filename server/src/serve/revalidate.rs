@@ -5,7 +5,7 @@
 use std::hash::{DefaultHasher, Hash, Hasher};
 
 use axum::body::Body;
-use axum::http::header::{CACHE_CONTROL, CONTENT_TYPE, ETAG};
+use axum::http::header::{CACHE_CONTROL, CONTENT_TYPE, ETAG, VARY};
 use axum::http::{HeaderMap, HeaderValue, StatusCode};
 use axum::response::Response;
 use serde::Serialize;
@@ -17,6 +17,10 @@ use crate::serve::negotiate;
 /// An upload changes `/v1/meshes` at once, and a restart on re-ingested data changes the
 /// dataset ones; the revalidation is a hash of a few hundred bytes.
 pub const REVALIDATE: &str = "public, no-cache";
+
+/// Part of every tag of a rendered answer (tiles, views): an upgrade may mesh the same
+/// request differently, so a client's copy from the old server must not revalidate.
+pub const RENDERER: &str = concat!("zerotile ", env!("CARGO_PKG_VERSION"));
 
 /// A weak tag (the compression layer re-encodes the body per client) from a hash.
 pub fn weak_tag(prefix: char, key: u64) -> String {
@@ -35,6 +39,9 @@ pub fn not_modified(headers: &HeaderMap, etag: &str, cache_control: &str) -> Opt
     let h = res.headers_mut();
     h.insert(ETAG, HeaderValue::from_str(etag).ok()?);
     h.insert(CACHE_CONTROL, HeaderValue::from_str(cache_control).ok()?);
+    // A 304 repeats its 200's Vary (RFC 9110 §15.4.5). The compression layer adds it to the
+    // 200 but leaves an empty body alone, so say it here.
+    h.insert(VARY, HeaderValue::from_static("accept-encoding"));
     Some(res)
 }
 
@@ -90,6 +97,7 @@ mod tests {
         assert_eq!(again.status(), StatusCode::NOT_MODIFIED);
         assert_eq!(tag_of(&again), tag);
         assert_eq!(again.headers()[CACHE_CONTROL], REVALIDATE);
+        assert_eq!(again.headers()[VARY], "accept-encoding");
 
         let changed = json(&h, &json!({ "a": 2 }), REVALIDATE).unwrap();
         assert_eq!(changed.status(), StatusCode::OK);

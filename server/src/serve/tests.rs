@@ -1915,17 +1915,43 @@ async fn an_unmoved_view_revalidates_without_meshing() {
 /// nothing changed, and the manifests keep their minute of freshness beside it.
 #[tokio::test]
 async fn descriptions_revalidate_with_a_tag_of_their_bytes() {
-    let app = router_of("describe-etag", "mercator");
+    let data = crate::fixtures::scratch("describe-etag");
+    std::fs::create_dir_all(data.join("meshes")).unwrap();
+    std::fs::write(
+        data.join("meshes/a.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    )
+    .unwrap();
+    let state = state_over(
+        hill_dataset("describe-etag", "mercator", &[ROOT]),
+        Config::default(),
+    )
+    .with_meshes(crate::serve::meshes::MeshCatalog::open(&data, 1 << 20));
+    let app = app(state);
+    // Vary as a set of lower-case names.
+    let vary = |h: &axum::http::HeaderMap| -> std::collections::BTreeSet<String> {
+        h.get_all(header::VARY)
+            .iter()
+            .flat_map(|v| v.to_str().unwrap().split(','))
+            .map(|v| v.trim().to_ascii_lowercase())
+            .collect()
+    };
     for (uri, cache) in [
         ("/v1/datasets", "public, no-cache"),
         ("/v1/datasets/hill", "public, no-cache"),
         ("/v1/datasets/hill/layer.json", "public, max-age=60"),
         ("/v1/datasets/hill/tiles.json", "public, max-age=60"),
         ("/v1/meshes", "public, no-cache"),
+        ("/v1/meshes/a", "public, no-cache"),
     ] {
-        assert_openapi_has_304(&uri.replace("hill", "{name}"));
+        let template = match uri {
+            "/v1/meshes/a" => "/v1/meshes/{name}".to_string(),
+            _ => uri.replace("hill", "{name}"),
+        };
+        assert_openapi_has_304(&template);
         // TileJSON's URLs need a host to start from.
         let host = ("host", "tiles.example");
+        let gzip = ("accept-encoding", "gzip");
         let (s, h, body) = send(&app, Method::GET, uri, &[host]).await;
         assert_eq!(s, StatusCode::OK, "{uri}");
         assert_eq!(h[header::CONTENT_TYPE], "application/json", "{uri}");
@@ -1936,11 +1962,23 @@ async fn descriptions_revalidate_with_a_tag_of_their_bytes() {
         assert_eq!(s, StatusCode::NOT_MODIFIED, "{uri}");
         assert!(body.is_empty(), "{uri}");
         assert_eq!(h[header::CACHE_CONTROL], cache, "{uri}");
-        // Another dataset build is another body, so an old tag is a full answer.
-        let stale = tag.replace('j', "k");
-        let (s, _, _) = send(&app, Method::GET, uri, &[host, ("if-none-match", &stale)]).await;
+        // The 304 repeats the Vary of the 200 a gzip client gets.
+        let (_, zipped, _) = send(&app, Method::GET, uri, &[host, gzip]).await;
+        let (_, unchanged, _) = send(
+            &app,
+            Method::GET,
+            uri,
+            &[host, gzip, ("if-none-match", &tag)],
+        )
+        .await;
+        assert!(vary(&zipped).contains("accept-encoding"), "{uri}");
+        assert_eq!(vary(&unchanged), vary(&zipped), "{uri}");
+        // A tag of other bytes (a client's copy from before a change) gets the whole answer.
+        let other = tag.replace('j', "k");
+        let (s, _, _) = send(&app, Method::GET, uri, &[host, ("if-none-match", &other)]).await;
         assert_eq!(s, StatusCode::OK, "{uri}");
     }
+    let _ = std::fs::remove_dir_all(&data);
     // TileJSON's URLs follow the request's host: a different host is a different tag.
     let tag_for = |host: &'static str| {
         let app = app.clone();
@@ -1974,36 +2012,93 @@ fn assert_openapi_has_304(template: &str) {
 /// one: the answer stays small whatever the client sent.
 #[tokio::test]
 async fn a_long_bad_value_is_echoed_cut() {
-    let app = router("echo-cut");
+    let data = crate::fixtures::scratch("echo-cut");
+    std::fs::create_dir_all(data.join("meshes")).unwrap();
+    let app = router_with_meshes("echo-cut", &data);
     let long = "9".repeat(4000);
     let junk = "x".repeat(4000);
+    let controls = "%01".repeat(4000);
     let (bad, missing) = (StatusCode::BAD_REQUEST, StatusCode::NOT_FOUND);
-    for (uri, status, code) in [
+    let media = StatusCode::UNSUPPORTED_MEDIA_TYPE;
+    let get = Method::GET;
+    let body_type = format!("text/{junk}");
+    for (method, uri, headers, status, code) in [
         (
+            get.clone(),
             format!("/v1/datasets/hill/tiles/0/0/0.png?threshold={long}"),
+            vec![],
             bad,
             "out_of_range",
         ),
         (
+            get.clone(),
             format!("/v1/datasets/hill/tiles/0/0/0.png?threshold={junk}"),
+            vec![],
             bad,
             "bad_number",
         ),
         (
+            get.clone(),
+            format!("/v1/datasets/hill/tiles/0/0/0.png?threshold={controls}"),
+            vec![],
+            bad,
+            "bad_number",
+        ),
+        (
+            get.clone(),
             format!("/v1/datasets/hill/tiles/0/0/0.{junk}"),
+            vec![],
             missing,
             "unknown_format",
         ),
-        (format!("/v1/datasets/{junk}"), missing, "unknown_dataset"),
         (
+            get.clone(),
+            format!("/v1/datasets/hill/tiles/0/0/%30{junk}.png"),
+            vec![],
+            bad,
+            "bad_tile_address",
+        ),
+        (
+            get.clone(),
+            format!("/v1/datasets/{junk}"),
+            vec![],
+            missing,
+            "unknown_dataset",
+        ),
+        (
+            get.clone(),
             format!("/v1/datasets/hill/view?eye={junk}&target=0,0,0&fov=60"),
+            vec![],
             bad,
             "bad_vector",
         ),
+        (
+            Method::POST,
+            format!("/v1/meshes/{junk}"),
+            vec![],
+            bad,
+            "bad_name",
+        ),
+        (
+            Method::POST,
+            "/v1/meshes/m".to_string(),
+            vec![("content-type", body_type.as_str())],
+            media,
+            "unsupported_media_type",
+        ),
     ] {
-        let v = refused(&app, &uri, status, code).await;
+        let (s, _, body) = send(&app, method, &uri, &headers).await;
+        assert_eq!(
+            s,
+            status,
+            "{code}: {}",
+            String::from_utf8_lossy(&body[..body.len().min(200)])
+        );
+        assert_eq!(error_code(&body), code);
+        let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
         let m = v["message"].as_str().unwrap();
         assert!(m.len() < 300, "{code}: {} bytes", m.len());
-        assert!(m.contains("(4000 bytes)"), "{code}: {m}");
+        assert!(m.contains(" bytes)"), "{code}: {m}");
     }
+    let _ = std::fs::remove_dir_all(&data);
 }

@@ -318,9 +318,13 @@ pub fn number(name: &str, s: &str, lo: f64, hi: f64) -> Result<f64, ApiError> {
     Ok(v + 0.0)
 }
 
-/// A number that parsed, as the client wrote it: unquoted, unless it is long enough to cut.
+/// A number that parsed, as the client wrote it: unquoted, unless it is long or holds
+/// anything but the number's own characters (spaces and newlines around it parse too).
 fn as_given(s: &str) -> String {
-    if s.chars().count() <= ECHO_CHARS {
+    let plain = s
+        .chars()
+        .all(|c| c.is_ascii_alphanumeric() || "+-.".contains(c));
+    if plain && s.len() <= ECHO_CHARS {
         s.to_owned()
     } else {
         echo(s)

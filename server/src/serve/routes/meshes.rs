@@ -644,8 +644,9 @@ fn upload_target(
                 StatusCode::UNSUPPORTED_MEDIA_TYPE,
                 "unsupported_media_type",
                 format!(
-                    "{other} is not a mesh{hint}; send model/obj, application/ply, model/stl, \
-                     application/json or application/octet-stream (sniffed)"
+                    "{} is not a mesh{hint}; send model/obj, application/ply, model/stl, \
+                     application/json or application/octet-stream (sniffed)",
+                    echo(other)
                 ),
             ));
         }

@@ -34,6 +34,7 @@ use crate::serve::error::{echo, ApiError, ApiResult};
 use crate::serve::negotiate::{self, Extensions, RangeAsk, QUANTIZED_MESH};
 use crate::serve::pipeline;
 use crate::serve::render;
+use crate::serve::revalidate;
 use crate::serve::state::AppState;
 use crate::serve::threshold::{self, Depth};
 use crate::serve::tile_cache::Encoded;
@@ -144,7 +145,7 @@ pub async fn tile(
             "bad_tile_address",
             format!(
                 "a tile address is plain z/x/y.ext, not percent-encoded: got {}",
-                uri.path()
+                echo(uri.path())
             ),
         ));
     }
@@ -406,6 +407,7 @@ fn etag_hash(d: &Dataset, id: TileId, t: f64, format: TileFormat, variant: Varia
         Depth::for_threshold(t).hash(&mut h);
     } else {
         t.to_bits().hash(&mut h);
+        revalidate::RENDERER.hash(&mut h);
     }
     format.hash(&mut h);
     variant.hash(&mut h);

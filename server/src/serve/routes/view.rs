@@ -138,11 +138,12 @@ pub async fn view(
     Ok(res)
 }
 
-/// What a view's bytes depend on: the dataset's build, the plane (whose footprint picks the
-/// zoom and tiles), T and the format. Derived values, not the query's text, so `fov=60` and
-/// `fov=60.0` share a tag.
+/// What a view's bytes depend on: the server (its mesher, its tile cap), the dataset's build,
+/// the plane (whose footprint picks the zoom and tiles), T and the format. Derived values,
+/// not the query's text, so `fov=60` and `fov=60.0` share a tag.
 fn view_key(d: &Dataset, plane: &ViewPlane, t: f64, format: Format) -> u64 {
     let mut h = DefaultHasher::new();
+    (revalidate::RENDERER, MAX_VIEW_TILES).hash(&mut h);
     d.version.hash(&mut h);
     for v in plane.footprint.iter().flatten().chain(&plane.target) {
         v.to_bits().hash(&mut h);
