@@ -240,6 +240,25 @@ fn two_replicas_behind_nginx_agree_cache_and_survive_a_kill() {
     assert_eq!(s304, 304, "ETag honoured through the cache");
     assert!(body.is_empty());
 
+    // What nginx does not store (descriptions, views, mesh LODs: `no-cache`) passes through
+    // with the client's If-None-Match, so the replica's 304 reaches it (a caching location
+    // would strip the header and send the whole body every time).
+    let meshes = a.get("/v1/meshes", &[]).json();
+    let mesh = meshes["meshes"][0]["name"].as_str().unwrap().to_string();
+    let lod = format!("/v1/meshes/{mesh}/qem?ratio=0.5");
+    for p in described
+        .iter()
+        .filter(|p| !p.ends_with("layer.json"))
+        .chain([&lod])
+    {
+        let url = format!("{}{p}", nginx.base);
+        let (s, tag, _) = get(&agent, &url, None);
+        assert_eq!(s, 200, "{p}");
+        let (s, _, body) = get(&agent, &url, tag.as_deref());
+        assert_eq!(s, 304, "{p}: If-None-Match through nginx");
+        assert!(body.is_empty(), "{p}");
+    }
+
     // tiles.json through nginx lists tiles at nginx, where the client asked (the shipped
     // config passes the client's Host on), and those tiles answer there.
     let tilejson = format!("{}/v1/datasets/n44m/tiles.json", nginx.base);
