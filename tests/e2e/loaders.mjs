@@ -124,10 +124,16 @@ if (args.geodetic) {
       let [lo, hi] = [Infinity, -Infinity];
       for (let i = 2; i < own.positions.length; i += 3) [lo, hi] = [Math.min(lo, own.positions[i]), Math.max(hi, own.positions[i])];
       const step = [size / 32767, size / 32767, Math.max(hi - lo, 1e-9) / 32767];
-      let off = 0;
-      for (let i = 0; i < Math.min(n, own.positions.length); i++) off = Math.max(off, Math.abs(mesh.positions[i] - own.positions[i]) / step[i % 3]);
-      // Half a step, and a little more: POSITION is a Float32Array.
-      check(off <= 0.75, `quantized-mesh ${path}: a vertex is ${off.toFixed(2)} quantisation steps from the server's mesh`);
+      // POSITION is a Float32Array: compare with the server's value as a float32, allowing
+      // half a step and one float32 spacing at that value (3.8e-6° at 72° W, most of a
+      // zoom-10 step).
+      const ulp = (v) => (v === 0 ? 0 : 2 ** (Math.floor(Math.log2(Math.abs(v))) - 23));
+      let worst = 0;
+      for (let i = 0; i < Math.min(n, own.positions.length); i++) {
+        const off = Math.abs(mesh.positions[i] - Math.fround(own.positions[i]));
+        worst = Math.max(worst, off / (step[i % 3] / 2 + ulp(own.positions[i])));
+      }
+      check(worst <= 1, `quantized-mesh ${path}: a vertex is ${worst.toFixed(2)}× its allowance from the server's mesh`);
       compared += 1;
       return { mesh };
     },
@@ -143,11 +149,15 @@ if (args.mercator) {
   const R = 6378137;
   const world = 2 * Math.PI * R;
   const size = world / 2 ** zoom;
-  const png = 512; // the server's default PNG side (docs/api.md)
+  // The PNG side the dataset's TileJSON announces (the server's default, 512).
+  const png = (await (await fetchOk(`/v1/datasets/${args.mercator}/tiles.json`)).json()).tileSize;
+  const px = size / png;
   const project = (lon, lat) => [(lon * Math.PI * R) / 180, R * Math.log(Math.tan(Math.PI / 4 + (lat * Math.PI) / 360))];
+  // The tile whose mesh holds the point: meshes sit half a pixel east and south of their
+  // tiles' boxes (below), so a point by a box's west or north edge is in its neighbour's.
   const tileOf = (lon, lat) => {
     const [mx, my] = project(lon, lat);
-    return [zoom, Math.floor((mx + world / 2) / size), Math.floor((world / 2 - my) / size)];
+    return [zoom, Math.floor((mx - px / 2 + world / 2) / size), Math.floor((world / 2 - my - px / 2) / size)];
   };
   const decoders = {
     "terrain-rgb": { rScaler: 6553.6, gScaler: 25.6, bScaler: 0.1, offset: -10000 },
@@ -164,7 +174,6 @@ if (args.mercator) {
         // PNG's pixel centres lie half a pixel in (docs/api.md; MapLibre reads them so):
         // bounds moved half a pixel east and south register the two. With the tile's own box,
         // as deck.gl's TerrainLayer passes it, the heights land half a pixel north-west.
-        const px = size / png;
         const [west, north] = [x * size - world / 2 + px / 2, world / 2 - y * size - px / 2];
         const bounds = [west, north - size, west + size, north];
         const t = await parse(bytes, TerrainLoader, { terrain: { elevationDecoder, bounds, meshMaxError: 0.25 }, worker: false });
