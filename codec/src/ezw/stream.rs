@@ -111,6 +111,7 @@ impl Header {
             let b = u64::BITS - (len as u64).leading_zeros();
             bits.signed(i64::from(b) - i64::from(last[s % 3]));
             last[s % 3] = b;
+            // `>=` writes b − 1 = 0 bits for b = 1: the same.
             if b > 1 {
                 bits.put(len as u64, b - 1);
             }
@@ -144,6 +145,7 @@ impl Header {
         let wavelet = Wavelet::from_id(wid)
             .ok_or_else(|| DecodeError::Unsupported(format!("wavelet id {wid}")))?;
         let flags = r.u8()?;
+        // The flags are distinct bits: `|` and `^` make the same mask.
         if flags & !(FLAG_RESIDUAL | FLAG_OFFSET_F64) != 0 {
             return Err(DecodeError::Unsupported(format!("header flags {flags:#x}")));
         }
@@ -208,6 +210,8 @@ impl Header {
                 .filter(|&b| b <= MAX_LENGTH_BITS)
                 .ok_or_else(|| DecodeError::Malformed(format!("segment {s} length")))?;
             last[s % 3] = b;
+            // Deleting arm 1 changes nothing (the last arm gives 1 for b = 1, reading no bits),
+            // nor does its `|` as `^` (get(b − 1) < 2^(b − 1)).
             let len = match b {
                 0 => 0,
                 1 => 1,
@@ -461,6 +465,7 @@ impl BitReader<'_> {
     fn get(&mut self, n: u32) -> Result<u64, DecodeError> {
         let mut v = 0;
         for _ in 0..n {
+            // The shifted bit is 0: `|` and `^` are the same.
             v = v << 1 | self.bit()?;
         }
         Ok(v)
@@ -504,6 +509,134 @@ mod tests {
             segments: vec![3, 0, 200, 1000, 70000, 1, 12, 13, 0],
             pass_errors: vec![40, 37, 41, 38, 36, 12, 20, 5, bound::ZERO],
             residual: Some((1.0, 77)),
+        }
+    }
+
+    fn read_back(h: &Header) -> Result<Header, DecodeError> {
+        let mut out = Vec::new();
+        h.write(&mut out);
+        Header::read(&out, 1 << 20).map(|(h, _)| h)
+    }
+
+    /// Plane k's threshold is 2^(k + qexp) steps in height units: plane −qexp's is one step.
+    #[test]
+    fn plane_thresholds_are_in_height_units() {
+        let h = sample();
+        assert_eq!((h.step, h.qexp), (0.1, -4));
+        assert_eq!(h.plane_threshold(4), 0.1);
+        assert_eq!(h.plane_threshold(20), 65536.0 * 0.1);
+        assert_eq!(h.plane_threshold(0), 0.1 / 16.0);
+    }
+
+    #[test]
+    fn empty_grids_are_refused() {
+        for (rows, cols) in [(0, 300), (257, 0), (0, 0)] {
+            let h = Header {
+                rows,
+                cols,
+                ..sample()
+            };
+            assert!(
+                matches!(read_back(&h), Err(DecodeError::Limit(_))),
+                "{rows}×{cols}"
+            );
+        }
+    }
+
+    /// Step codes past the decimal table (23..0x40) and the powers of two (0x80..0xFF) are
+    /// refused; the last entries of both read as what they stand for.
+    #[test]
+    fn step_codes_outside_the_tables_are_refused() {
+        let mut out = Vec::new();
+        sample().write(&mut out);
+        // Magic, wavelet, flags, rows and cols (two varint bytes each), levels.
+        let at = 4 + 1 + 1 + 2 + 2 + 1;
+        assert_eq!(out[at], step_code(0.1));
+        for (code, step) in [(22, Some(1e-22)), (23, None), (0x3F, None)]
+            .into_iter()
+            .chain([(0x40, Some(2f64.powi(-32))), (0x7F, Some(2f64.powi(31)))])
+            .chain([(0x80, None), (0xFE, None)])
+        {
+            out[at] = code;
+            match (Header::read(&out, 1 << 20), step) {
+                (Ok((h, _)), Some(step)) => assert_eq!(h.step, step, "code {code:#x}"),
+                (Err(DecodeError::Malformed(_)), None) => {}
+                (other, _) => panic!("code {code:#x}: {other:?}"),
+            }
+        }
+    }
+
+    /// The powers of two from 2^-32 to 2^31 take one byte, the rest an f64; all read back.
+    #[test]
+    fn power_of_two_steps_take_one_byte_in_range() {
+        let len = |step: f64| {
+            let h = Header { step, ..sample() };
+            assert_eq!(read_back(&h).unwrap().step, step);
+            let mut out = Vec::new();
+            h.write(&mut out);
+            out.len()
+        };
+        let one = len(1.0);
+        for e in -40..=40 {
+            let step = 2f64.powi(e);
+            let extra = if (-32..32).contains(&e) { 0 } else { 8 };
+            assert_eq!(len(step), one + extra, "2^{e}");
+            assert_eq!(len(step * 3.0), one + 8, "3 · 2^{e}");
+        }
+    }
+
+    /// Integer offsets below 2^53 are a zigzag varint; others an f64, and the flag says so.
+    #[test]
+    fn integer_offsets_take_a_varint() {
+        let big = 2f64.powi(53);
+        for (offset, as_f64) in [
+            (-12.0, false),
+            (3e15, false),
+            (big - 1.0, false),
+            (1.0 - big, false),
+            (big, true),
+            (-big, true),
+            (0.5, true),
+            (-1e300, true),
+        ] {
+            let h = Header { offset, ..sample() };
+            let mut out = Vec::new();
+            h.write(&mut out);
+            assert_eq!(out[5] & FLAG_OFFSET_F64 != 0, as_f64, "{offset}");
+            assert_eq!(read_back(&h).unwrap().offset, offset);
+        }
+    }
+
+    /// Numbers the decoder would divide by or scale with must be finite, and the step and the
+    /// residual bound positive.
+    #[test]
+    fn non_finite_and_non_positive_numbers_are_refused() {
+        let bad = [0.0, -0.0, -1.0, f64::NAN, f64::INFINITY, f64::NEG_INFINITY];
+        for x in bad {
+            let refused = |h: Header| matches!(read_back(&h), Err(DecodeError::Malformed(_)));
+            assert!(
+                refused(Header {
+                    step: x,
+                    ..sample()
+                }),
+                "step {x}"
+            );
+            assert!(
+                refused(Header {
+                    residual: Some((x, 77)),
+                    ..sample()
+                }),
+                "residual bound {x}"
+            );
+            if !x.is_finite() {
+                assert!(
+                    refused(Header {
+                        offset: x,
+                        ..sample()
+                    }),
+                    "offset {x}"
+                );
+            }
         }
     }
 
@@ -610,6 +743,8 @@ mod tests {
         h.pass_errors.pop();
         assert!(read(&h).is_ok(), "63 segments for 21 planes");
         let mut h = sample();
+        h.top_plane = Some(62);
+        assert!(read(&h).is_ok(), "top plane 62");
         h.top_plane = Some(63);
         assert!(
             matches!(read(&h), Err(DecodeError::Malformed(_))),
