@@ -121,6 +121,7 @@ fn context(q: &[i64], cols: usize, idx: usize) -> (usize, usize, usize) {
     let count = usize::from(left != 0) + usize::from(up != 0) + usize::from(ul != 0 || ur != 0);
     let big = usize::from(left.abs() > 1 || up.abs() > 1);
     let nz = (count * 2 + big).min(8);
+    // Each `< 0` sees a non-zero bin: `<= 0` is the same.
     let sign = if left != 0 {
         1 + usize::from(left < 0)
     } else if up != 0 {
@@ -150,7 +151,8 @@ fn encode_residual(
     for (idx, (&u, &d)) in units.data().iter().zip(decoded.data()).enumerate() {
         let base = if integer { d.round() } else { d };
         let mut k = ((u - base) / bin).round();
-        // Guard the float rounding edge so the bound is exact.
+        // On a bin edge `round` can take the far bin by an ulp: step back toward u. (On some
+        // edges both bins miss the bound by an ulp of u; no bin does better.)
         if (u - (base + k * bin)).abs() > bound {
             k += (u - (base + k * bin)).signum();
         }
@@ -163,6 +165,9 @@ fn encode_residual(
     let mut m = Model::new();
     let mut enc = Encoder::new();
     for idx in 0..q.len() {
+        // How often this looks (`%` as `/` or `+`, `==` as `!=`, `1 +` as `1 *`) only changes
+        // how soon a hopeless candidate stops: `out` ends at least 1 + committed bytes long,
+        // so the check after the loop refuses whatever this one would.
         if idx % CHECK_EVERY == 0 && budget.is_some_and(|b| 1 + enc.committed() >= b) {
             return None;
         }
@@ -183,16 +188,20 @@ fn encode_residual(
             n += 1;
         }
         if n == UNARY {
-            // Exp-Golomb escape: bit count in unary, then the bits.
+            // Exp-Golomb escape: bit count in unary, then the bits. The decoder stops at
+            // MAX_ESCAPE_BITS without a flag to end the count, so none is written there
+            // (E ≥ range × 2^-40 keeps real residuals near 2^38 bins at most).
             let rest = mag - UNARY as u64;
             let bits = 64 - (rest + 1).leading_zeros();
-            for b in 0..bits.min(MAX_ESCAPE_BITS) {
+            debug_assert!(bits <= MAX_ESCAPE_BITS, "{mag} bins past the escape");
+            for b in 0..bits.min(MAX_ESCAPE_BITS - 1) {
                 enc.encode(&mut m.escape[b as usize], b + 1 < bits);
             }
             for b in (0..bits.saturating_sub(1)).rev() {
                 enc.encode_bypass((rest + 1) >> b & 1 == 1);
             }
         }
+        // v is not 0 here: `<=` would do as well.
         enc.encode(&mut m.sign[sc], v < 0);
     }
     let mut out = vec![mode];
@@ -238,11 +247,14 @@ pub fn apply(units: &mut Grid<f64>, bytes: &[u8], bound: f64) -> Result<(), Deco
         }
         if mag as usize == UNARY {
             let mut bits = 1;
+            // `bits + 1` or `bits / 1` for `bits - 1` shifts every flag to another fresh
+            // slot of the same history (the array has room): the same decisions.
             while bits < MAX_ESCAPE_BITS && dec.decode(&mut m.escape[(bits - 1) as usize]) {
                 bits += 1;
             }
             let mut rest = 1u64;
             for _ in 0..bits - 1 {
+                // The shifted bit is 0: `|` and `^` are the same.
                 rest = rest << 1 | u64::from(dec.decode_bypass());
             }
             mag += rest - 1;
@@ -326,5 +338,209 @@ mod tests {
         for (b, u) in back.data().iter().zip(units.data()) {
             assert!((b - u).abs() <= e, "{b} for {u}");
         }
+    }
+
+    /// Heights and decoded values on a 0.1 grid with E = 0.1: an odd number of tenths apart
+    /// is a bin edge, where `round` can take the far bin by an ulp, and the guard steps back
+    /// toward the height. Within E up to an ulp: on some edges both bins miss E by one.
+    #[test]
+    fn residuals_on_a_bin_edge_step_back_within_the_bound() {
+        let (n, e) = (61, 0.1);
+        let tenth = |i: usize| i as f64 / 10.0 - 3.0;
+        let units = Grid::new(n, n, (0..n * n).map(|k| tenth(k % n)).collect()).unwrap();
+        let decoded = Grid::new(n, n, (0..n * n).map(|k| tenth(k / n)).collect()).unwrap();
+        let far_bin = units
+            .data()
+            .iter()
+            .zip(decoded.data())
+            .filter(|&(&u, &d)| (u - (d + ((u - d) / (2.0 * e)).round() * 2.0 * e)).abs() > e)
+            .count();
+        assert!(
+            far_bin > 100,
+            "{far_bin} samples where rounding takes the far bin"
+        );
+        let bytes = encode_residual(&units, &decoded, e, false, None).unwrap();
+        let mut back = decoded.clone();
+        apply(&mut back, &bytes, e).unwrap();
+        for (b, u) in back.data().iter().zip(units.data()) {
+            assert!((b - u).abs() <= e + 1e-15, "{b} for {u}");
+        }
+    }
+
+    /// The escape holds magnitudes up to 2^40 bins: 40 escape bits, the last without the
+    /// flag that would end a longer count (the decoder reads at most 39 flags).
+    #[test]
+    fn magnitudes_up_to_the_escape_cap_round_trip() {
+        let e = 0.5;
+        let bins = [
+            15.0,
+            16.0,
+            2f64.powi(39) - 1.0,
+            2f64.powi(39) + 20.0,
+            -(2f64.powi(40) - 7.0),
+            2f64.powi(40),
+            3.0,
+        ];
+        let units = Grid::new(1, bins.len(), bins.to_vec()).unwrap();
+        let decoded = units.map(|_| 0.0);
+        let bytes = encode_residual(&units, &decoded, e, false, None).unwrap();
+        let mut back = decoded.clone();
+        apply(&mut back, &bytes, e).unwrap();
+        assert_eq!(back, units);
+    }
+
+    /// A bin's context is its left, up, up-left and up-right neighbours inside the grid and
+    /// nothing across a row's ends: checked against the same rule written on (row, column)
+    /// pairs, on sparse random bins of every shape up to 5 × 6. A wrong context still
+    /// round-trips (both sides share it) and only costs bytes, so nothing else notices.
+    #[test]
+    fn context_reads_the_four_coded_neighbours_inside_the_grid() {
+        let mut s = 0x9E37_79B9_7F4A_7C15u64;
+        for rows in 1..=5 {
+            for cols in 1..=6 {
+                let q: Vec<i64> = (0..rows * cols)
+                    .map(|_| {
+                        s ^= s << 13;
+                        s ^= s >> 7;
+                        s ^= s << 17;
+                        [0, 0, 0, 1, -1, 2, -2, 3, -3][(s % 9) as usize]
+                    })
+                    .collect();
+                let at = |r: isize, c: isize| {
+                    let inside = (0..rows as isize).contains(&r) && (0..cols as isize).contains(&c);
+                    if inside {
+                        q[r as usize * cols + c as usize]
+                    } else {
+                        0
+                    }
+                };
+                for idx in 0..q.len() {
+                    let (r, c) = ((idx / cols) as isize, (idx % cols) as isize);
+                    let (left, up) = (at(r, c - 1), at(r - 1, c));
+                    let diagonal = at(r - 1, c - 1) != 0 || at(r - 1, c + 1) != 0;
+                    let count =
+                        usize::from(left != 0) + usize::from(up != 0) + usize::from(diagonal);
+                    let big = usize::from(left.abs() > 1 || up.abs() > 1);
+                    let sign = match (left, up) {
+                        (0, 0) => 0,
+                        (0, v) | (v, _) => 1 + usize::from(v < 0),
+                    };
+                    assert_eq!(
+                        context(&q, cols, idx),
+                        (2 * count + big, big, sign),
+                        "{rows}x{cols} at ({r}, {c}) of {q:?}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// Integer heights with E ≥ 1 take the JPEG-LS bins (the mode byte says so, the bound is
+    /// floored, the decoded heights are integers); real heights, or E < 1, take 2E-wide bins
+    /// and keep E. Either way every sample ends within the bound the cut reports.
+    #[test]
+    fn the_cut_takes_integer_bins_only_for_integer_heights() {
+        let (rows, cols) = (13, 9);
+        let integer = surface(rows, cols).map(|h| h.round());
+        let real = surface(rows, cols);
+        let rough = |cut: usize| surface(rows, cols).map(|h| h * 0.5 + cut as f64);
+        for (units, e, mode, bound) in [
+            (&integer, 2.5, MODE_INTEGER, 2.0),
+            (&integer, 0.5, MODE_REAL, 0.5),
+            (&real, 2.5, MODE_REAL, 2.5),
+        ] {
+            let cut = choose_cut(rough, &[], units, e);
+            assert_eq!(
+                (cut.segments, cut.bytes[0], cut.bound),
+                (0, mode, bound),
+                "E = {e}"
+            );
+            let mut back = rough(0);
+            apply(&mut back, &cut.bytes, cut.bound).unwrap();
+            for (b, u) in back.data().iter().zip(units.data()) {
+                assert!((b - u).abs() <= bound, "E = {e}: {b} for {u}");
+                assert!(mode == MODE_REAL || b.fract() == 0.0, "E = {e}: {b}");
+            }
+        }
+    }
+
+    /// The cut is the cheapest total (prefix + residual) of those tried; three cuts in a row
+    /// that cannot beat it end the search; of two equal totals the finer cut, which keeps
+    /// more of the progressive prefix, stays.
+    #[test]
+    fn the_cut_is_the_cheapest_total_and_the_search_stops_past_it() {
+        let (rows, cols, e) = (24, 24, 0.25);
+        let units = surface(rows, cols);
+        let noise = |k: usize, amp: f64| ((k * 7919 % 31) as f64 - 15.0) / 15.0 * amp;
+        // The prefix error halves per plane: totals fall, then rise past the best cut.
+        let near = |cut: usize| {
+            let amp = 64.0 / f64::powi(2.0, (cut / 3) as i32);
+            let mut g = units.clone();
+            for (k, u) in g.data_mut().iter_mut().enumerate() {
+                *u += noise(k, amp);
+            }
+            g
+        };
+        let segments = [3, 2, 40, 5, 5, 80, 10, 10, 160, 20, 20, 320, 40, 40, 640];
+        let total = |cut: usize| {
+            let res = encode_residual(&units, &near(cut), e, false, None).unwrap();
+            segments[..cut].iter().sum::<usize>() + res.len()
+        };
+        let best = (0..=segments.len())
+            .filter(|s| s % 3 != 1)
+            .map(total)
+            .min()
+            .unwrap();
+        let tried = std::cell::RefCell::new(Vec::new());
+        let cut = choose_cut(
+            |c| {
+                tried.borrow_mut().push(c);
+                near(c)
+            },
+            &segments,
+            &units,
+            e,
+        );
+        assert_eq!(
+            total(cut.segments),
+            best,
+            "cut {} of {:?}",
+            cut.segments,
+            tried
+        );
+        assert_eq!(
+            segments[..cut.segments].iter().sum::<usize>() + cut.bytes.len(),
+            best
+        );
+
+        // Only the finest cut is exact, and every coarser one costs more than it saves.
+        tried.borrow_mut().clear();
+        let exact_at_end = |c: usize| if c == 12 { units.clone() } else { near(0) };
+        let cut = choose_cut(
+            |c| {
+                tried.borrow_mut().push(c);
+                exact_at_end(c)
+            },
+            &[1; 12],
+            &units,
+            e,
+        );
+        assert_eq!((cut.segments, cut.bytes.len()), (12, 1));
+        assert_eq!(
+            *tried.borrow(),
+            [12, 11, 9, 8],
+            "three worse cuts end the search"
+        );
+
+        // Ties keep the finer cut: empty refinement and cleanup passes make cuts 3 and 2 total
+        // 11 bytes, and a 3-byte-shorter first pass makes cut 0 total as much as cut 3.
+        let exact_past_0 = |c: usize| if c == 0 { near(0) } else { units.clone() };
+        let cut = choose_cut(exact_past_0, &[10, 0, 0], &units, e);
+        assert_eq!((cut.segments, cut.bytes.len()), (3, 1), "cut 2 is as short");
+        let at_0 = encode_residual(&units, &near(0), e, false, None)
+            .unwrap()
+            .len();
+        let cut = choose_cut(exact_past_0, &[at_0 - 1, 0, 0], &units, e);
+        assert_eq!((cut.segments, cut.bytes.len()), (3, 1), "cut 0 is as short");
     }
 }
