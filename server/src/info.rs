@@ -423,10 +423,13 @@ mod tests {
     use zerotile_codec::wavelet::Wavelet;
     use zerotile_codec::Grid;
 
-    /// Writes a container to a fresh folder and returns `info`'s report on it.
+    /// Writes a container to a fresh folder and returns `info`'s report on it. The folder is
+    /// numbered per call: tests running at once share a tag (`announce`'s), and one removing
+    /// the folder under another failed it with "no such dataset file".
     fn report_on(tag: &str, file: Vec<u8>, verify: bool) -> Report {
-        let dir = std::env::temp_dir().join(format!("zerotile-info-{tag}-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+        let n = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let dir = crate::fixtures::scratch(&format!("info-{tag}-{n}"));
         let path = dir.join("t.ztd");
         std::fs::write(&path, file).unwrap();
         let report = run(&Info {
