@@ -355,6 +355,21 @@ mod tests {
         assert_eq!(r("bytes=9-0", 100), RangeAsk::Full);
     }
 
+    /// One byte (first and last position equal) is a range; an empty body has no bytes to
+    /// give, not even the last n of them.
+    #[test]
+    fn single_byte_ranges_and_empty_bodies() {
+        let r = |v: &'static str, len| range(&with(RANGE, v), len);
+        assert_eq!(r("bytes=5-5", 100), RangeAsk::Part { start: 5, end: 5 });
+        assert_eq!(r("bytes=99-99", 100), RangeAsk::Part { start: 99, end: 99 });
+        assert_eq!(r("bytes=0-0", 1), RangeAsk::Part { start: 0, end: 0 });
+        assert_eq!(r("bytes=-5", 1), RangeAsk::Part { start: 0, end: 0 });
+        for v in ["bytes=-5", "bytes=-0", "bytes=0-", "bytes=0-0"] {
+            assert_eq!(r(v, 0), RangeAsk::Unsatisfiable, "{v}");
+        }
+        assert_eq!(r("bytes=-0", 100), RangeAsk::Unsatisfiable);
+    }
+
     #[test]
     fn etags_compare_weakly() {
         let h = with(IF_NONE_MATCH, "\"x\", W/\"abc\"");
