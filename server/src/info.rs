@@ -423,13 +423,9 @@ mod tests {
     use zerotile_codec::wavelet::Wavelet;
     use zerotile_codec::Grid;
 
-    /// Writes a container to a fresh folder and returns `info`'s report on it. The folder is
-    /// numbered per call: tests running at once share a tag (`announce`'s), and one removing
-    /// the folder under another failed it with "no such dataset file".
+    /// Writes a container to a fresh folder and returns `info`'s report on it.
     fn report_on(tag: &str, file: Vec<u8>, verify: bool) -> Report {
-        static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-        let n = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        let dir = crate::fixtures::scratch(&format!("info-{tag}-{n}"));
+        let dir = crate::fixtures::scratch(&format!("info-{tag}"));
         let path = dir.join("t.ztd");
         std::fs::write(&path, file).unwrap();
         let report = run(&Info {

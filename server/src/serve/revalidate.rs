@@ -13,9 +13,10 @@ use serde::Serialize;
 use crate::serve::error::{ApiError, ApiResult};
 use crate::serve::negotiate;
 
-/// What a description without a lifetime of its own carries: keep it, but ask each time.
-/// An upload changes `/v1/meshes` at once, and a restart on re-ingested data changes the
-/// dataset ones; the revalidation is a hash of a few hundred bytes.
+/// What a description, view or mesh LOD carries: keep it, but ask each time. An upload
+/// changes `/v1/meshes` and a mesh's LODs at once (a freshness lifetime, the tiles' hour,
+/// would hide that from every client holding a copy), and a restart on re-ingested data
+/// changes the dataset ones; the revalidation is cheap, its tag computed before any work.
 pub const REVALIDATE: &str = "public, no-cache";
 
 /// Part of every tag of a rendered answer (tiles, views): an upgrade may mesh the same
@@ -27,22 +28,36 @@ pub fn weak_tag(prefix: char, key: u64) -> String {
     format!("W/\"{prefix}{key:016x}\"")
 }
 
+/// The validator headers a tagged answer carries, on its 200 and its 304 alike.
+pub fn validators(h: &mut HeaderMap, etag: &str, cache_control: &str) -> ApiResult<()> {
+    h.insert(
+        ETAG,
+        HeaderValue::from_str(etag).map_err(ApiError::internal)?,
+    );
+    h.insert(
+        CACHE_CONTROL,
+        HeaderValue::from_str(cache_control).map_err(ApiError::internal)?,
+    );
+    Ok(())
+}
+
 /// The 304 for `etag` when the request's `If-None-Match` lists it.
-pub fn not_modified(headers: &HeaderMap, etag: &str, cache_control: &str) -> Option<Response> {
+pub fn not_modified(
+    headers: &HeaderMap,
+    etag: &str,
+    cache_control: &str,
+) -> ApiResult<Option<Response>> {
     if !negotiate::not_modified(headers, etag) {
-        return None;
+        return Ok(None);
     }
     let mut res = Response::new(Body::empty());
     *res.status_mut() = StatusCode::NOT_MODIFIED;
-    // Both were checked by the caller's 200 path: an internal error here is unreachable,
-    // but a 304 without its tag would be worse than a 200, so fall back to that.
-    let h = res.headers_mut();
-    h.insert(ETAG, HeaderValue::from_str(etag).ok()?);
-    h.insert(CACHE_CONTROL, HeaderValue::from_str(cache_control).ok()?);
+    validators(res.headers_mut(), etag, cache_control)?;
     // A 304 repeats its 200's Vary (RFC 9110 §15.4.5). The compression layer adds it to the
     // 200 but leaves an empty body alone, so say it here.
-    h.insert(VARY, HeaderValue::from_static("accept-encoding"));
-    Some(res)
+    res.headers_mut()
+        .insert(VARY, HeaderValue::from_static("accept-encoding"));
+    Ok(Some(res))
 }
 
 /// `value` as JSON with a tag of its bytes, or a 304 when the client holds those bytes.
@@ -55,20 +70,13 @@ pub fn json(
     let mut h = DefaultHasher::new();
     bytes.hash(&mut h);
     let etag = weak_tag('j', h.finish());
-    if let Some(res) = not_modified(headers, &etag, cache_control) {
+    if let Some(res) = not_modified(headers, &etag, cache_control)? {
         return Ok(res);
     }
     let mut res = Response::new(Body::from(bytes));
-    let h = res.headers_mut();
-    h.insert(CONTENT_TYPE, HeaderValue::from_static("application/json"));
-    h.insert(
-        ETAG,
-        HeaderValue::from_str(&etag).map_err(ApiError::internal)?,
-    );
-    h.insert(
-        CACHE_CONTROL,
-        HeaderValue::from_str(cache_control).map_err(ApiError::internal)?,
-    );
+    res.headers_mut()
+        .insert(CONTENT_TYPE, HeaderValue::from_static("application/json"));
+    validators(res.headers_mut(), &etag, cache_control)?;
     Ok(res)
 }
 

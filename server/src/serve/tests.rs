@@ -883,6 +883,18 @@ async fn a_wrong_method_is_told_to_see_allow_not_a_fixed_list() {
     }
 }
 
+/// A fresh data folder holding one object mesh, `meshes/a.obj`: a single triangle.
+fn one_triangle_data(tag: &str) -> std::path::PathBuf {
+    let data = crate::fixtures::scratch(tag);
+    std::fs::create_dir_all(data.join("meshes")).unwrap();
+    std::fs::write(
+        data.join("meshes/a.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    )
+    .unwrap();
+    data
+}
+
 /// The router over the object meshes of `data/meshes` (and the one-tile `hill`).
 fn router_with_meshes(tag: &str, data: &std::path::Path) -> Router {
     let state = state_over(hill_dataset(tag, "local", &[ROOT]), Config::default())
@@ -895,10 +907,8 @@ fn router_with_meshes(tag: &str, data: &std::path::Path) -> Router {
 /// loads from 1 at every start, so the replacement came back under its predecessor's.)
 #[tokio::test]
 async fn a_mesh_replaced_across_a_restart_gets_new_etags() {
-    let data = crate::fixtures::scratch("lod-restart");
+    let data = one_triangle_data("lod-restart");
     let meshes = data.join("meshes");
-    std::fs::create_dir_all(&meshes).unwrap();
-    std::fs::write(meshes.join("a.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
     let uri = "/v1/meshes/a/original?format=obj";
     let (s, h, _) = get(&router_with_meshes("mesh-restart-1", &data), uri).await;
     assert_eq!(s, StatusCode::OK);
@@ -936,13 +946,7 @@ async fn a_mesh_replaced_across_a_restart_gets_new_etags() {
 /// browser holding the old answer asks again and gets the new mesh.
 #[tokio::test]
 async fn mesh_lods_are_revalidated_since_an_upload_replaces_them() {
-    let data = crate::fixtures::scratch("lod-cache-control");
-    std::fs::create_dir_all(data.join("meshes")).unwrap();
-    std::fs::write(
-        data.join("meshes/a.obj"),
-        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
-    )
-    .unwrap();
+    let data = one_triangle_data("lod-cache-control");
     let app = router_with_meshes("mesh-no-cache", &data);
     for uri in [
         "/v1/meshes/a/original",
@@ -1915,13 +1919,7 @@ async fn an_unmoved_view_revalidates_without_meshing() {
 /// nothing changed, and the manifests keep their minute of freshness beside it.
 #[tokio::test]
 async fn descriptions_revalidate_with_a_tag_of_their_bytes() {
-    let data = crate::fixtures::scratch("describe-etag");
-    std::fs::create_dir_all(data.join("meshes")).unwrap();
-    std::fs::write(
-        data.join("meshes/a.obj"),
-        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
-    )
-    .unwrap();
+    let data = one_triangle_data("describe-etag");
     let state = state_over(
         hill_dataset("describe-etag", "mercator", &[ROOT]),
         Config::default(),
@@ -2012,8 +2010,7 @@ fn assert_openapi_has_304(template: &str) {
 /// one: the answer stays small whatever the client sent.
 #[tokio::test]
 async fn a_long_bad_value_is_echoed_cut() {
-    let data = crate::fixtures::scratch("echo-cut");
-    std::fs::create_dir_all(data.join("meshes")).unwrap();
+    let data = one_triangle_data("echo-cut");
     let app = router_with_meshes("echo-cut", &data);
     let long = "9".repeat(4000);
     let junk = "x".repeat(4000);

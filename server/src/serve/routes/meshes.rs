@@ -16,7 +16,7 @@ use std::sync::Arc;
 use axum::body::{Body, Bytes};
 use axum::extract::rejection::{PathRejection, QueryRejection};
 use axum::extract::{Path, Query, State};
-use axum::http::header::{CACHE_CONTROL, CONTENT_LENGTH, CONTENT_TYPE, ETAG};
+use axum::http::header::{CONTENT_LENGTH, CONTENT_TYPE};
 use axum::http::{HeaderMap, HeaderValue, StatusCode};
 use axum::response::Response;
 use axum::Json;
@@ -393,12 +393,6 @@ fn compute(e: &MeshEntry, ask: &Ask) -> Result<Computed, ApiError> {
     }
 }
 
-/// Mesh LODs may be kept but are revalidated on every use: an upload replaces the mesh at
-/// the same URL and is served at once, which a freshness lifetime (the tiles' hour) would
-/// hide from every client holding a copy. The revalidation is cheap: the ETag comes from the
-/// ask, before any mesh work, and a 304 has no body.
-pub const LOD_CACHE_CONTROL: &str = REVALIDATE;
-
 pub async fn lod(
     State(state): State<AppState>,
     path: Result<Path<(String, String)>, PathRejection>,
@@ -421,7 +415,9 @@ pub async fn lod(
         .hash(&mut h);
     let key = h.finish();
     let etag = revalidate::weak_tag('m', key);
-    if let Some(res) = revalidate::not_modified(&headers, &etag, LOD_CACHE_CONTROL) {
+    // Revalidated on every use (an upload replaces the mesh at this URL); the tag comes from
+    // the ask, before any mesh work.
+    if let Some(res) = revalidate::not_modified(&headers, &etag, REVALIDATE)? {
         return Ok(res);
     }
 
@@ -454,8 +450,7 @@ pub async fn lod(
     let mut res = Response::new(Body::from(answer.bytes.clone()));
     let h = res.headers_mut();
     h.insert(CONTENT_TYPE, HeaderValue::from_static(content_type));
-    h.insert(ETAG, value(&etag)?);
-    h.insert(CACHE_CONTROL, HeaderValue::from_static(LOD_CACHE_CONTROL));
+    revalidate::validators(h, &etag, REVALIDATE)?;
     h.insert("x-vertices", value(&answer.vertices.to_string())?);
     h.insert("x-faces", value(&answer.faces.to_string())?);
     h.insert("x-error", value(&answer.error.to_string())?);

@@ -10,7 +10,7 @@ use std::sync::OnceLock;
 
 use axum::extract::rejection::PathRejection;
 use axum::extract::Path;
-use axum::http::header::{CACHE_CONTROL, CONTENT_TYPE, ETAG};
+use axum::http::header::{CACHE_CONTROL, CONTENT_TYPE};
 use axum::http::HeaderMap;
 use axum::response::{IntoResponse, Response};
 
@@ -119,9 +119,10 @@ pub async fn asset(
                 format!("no asset {} (GET / for the viewer)", echo(&file)),
             )
         })?;
-    if let Some(res) = revalidate::not_modified(&headers, etag, "no-cache") {
+    if let Some(res) = revalidate::not_modified(&headers, etag, "no-cache")? {
         return Ok(res);
     }
-    let cache = [(CACHE_CONTROL, "no-cache"), (ETAG, etag.as_str())];
-    Ok((cache, [(CONTENT_TYPE, a.media)], a.bytes).into_response())
+    let mut res = ([(CONTENT_TYPE, a.media)], a.bytes).into_response();
+    revalidate::validators(res.headers_mut(), etag, "no-cache")?;
+    Ok(res)
 }

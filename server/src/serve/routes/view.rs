@@ -12,7 +12,7 @@ use std::hash::{DefaultHasher, Hash, Hasher};
 use axum::body::Body;
 use axum::extract::rejection::{PathRejection, QueryRejection};
 use axum::extract::{Path, Query, State};
-use axum::http::header::{CACHE_CONTROL, CONTENT_TYPE, ETAG};
+use axum::http::header::CONTENT_TYPE;
 use axum::http::{HeaderMap, HeaderValue};
 use axum::response::Response;
 use glam::DVec3;
@@ -62,7 +62,7 @@ pub async fn view(
     // The plane and T decide the mesh, so a camera that has not moved revalidates without
     // meshing its tiles again.
     let etag = revalidate::weak_tag('v', view_key(&d, &plane, t, format));
-    if let Some(res) = revalidate::not_modified(&headers, &etag, REVALIDATE) {
+    if let Some(res) = revalidate::not_modified(&headers, &etag, REVALIDATE)? {
         return Ok(res);
     }
 
@@ -123,8 +123,7 @@ pub async fn view(
     let mut res = Response::new(Body::from(bytes));
     let h = res.headers_mut();
     h.insert(CONTENT_TYPE, HeaderValue::from_static(media));
-    h.insert(ETAG, header(&etag)?);
-    h.insert(CACHE_CONTROL, HeaderValue::from_static(REVALIDATE));
+    revalidate::validators(h, &etag, REVALIDATE)?;
     for (k, v) in [
         ("x-threshold", t),
         ("x-view-ratio", plane.ratio),
