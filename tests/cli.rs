@@ -339,8 +339,7 @@ fn lossless_psnr_is_infinite() {
 /// `eval terrain --out DIR` writes each point's mesh, and it is the mesh the point measured.
 #[test]
 fn eval_terrain_writes_the_meshes_it_measured() {
-    let dir = std::env::temp_dir().join(format!("zerotile-cli-meshes-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    let dir = fresh_dir("cli-meshes").join("out");
     let out = run_ok(
         Command::new(zerotile_bin())
             .args(["eval", "terrain"])

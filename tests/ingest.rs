@@ -11,10 +11,9 @@ use zerotile_codec::container::{Container, Limits, TileId, TileRecord};
 use zerotile_codec::ezw::{self, DecodeLimit};
 use zerotile_tests::{assert_success, ingest_command, shared_data, zerotile_bin};
 
+/// A data folder not made yet: ingest makes it.
 fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("zerotile-e2e-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    dir
+    zerotile_tests::fresh_dir(&format!("e2e-{name}")).join("data")
 }
 
 fn ingest(input: &Path, name: &str, data: &Path, extra: &[&str]) -> std::process::Output {

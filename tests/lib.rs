@@ -90,12 +90,13 @@ pub fn ingest_n44_geodetic(data: &Path) {
     ));
 }
 
-/// A fresh, empty folder for one test: `TMP/zerotile-TAG-PID`.
+#[path = "../codec/src/scratch.rs"]
+mod scratch_dirs;
+
+/// A fresh, empty folder for one test, its own on every call; see the codec's `scratch.rs`
+/// for where it lives and when it goes.
 pub fn fresh_dir(tag: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("zerotile-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("a temporary folder");
-    dir
+    scratch_dirs::scratch(tag)
 }
 
 /// `zerotile ARGS --data DATA`, which must succeed.

@@ -11,8 +11,7 @@ use zerotile_tests::server::Server;
 use zerotile_tests::shared_data;
 
 fn data_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("zerotile-meshes-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    let dir = zerotile_tests::fresh_dir(&format!("meshes-{name}"));
     std::fs::create_dir_all(dir.join("meshes")).unwrap();
     for m in ["fandisk.obj", "uv-sphere-5002.obj"] {
         std::fs::copy(

@@ -50,8 +50,7 @@ impl Server {
     fn spawn(mut cmd: Command) -> Self {
         static STARTED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
         let n = STARTED.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        let log =
-            std::env::temp_dir().join(format!("zerotile-serve-{}-{n}.log", std::process::id()));
+        let log = crate::fresh_dir(&format!("serve-log-{n}")).join("server.log");
         let mut child = cmd
             .stdout(Stdio::piped())
             .stderr(std::fs::File::create(&log).unwrap())

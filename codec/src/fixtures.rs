@@ -29,12 +29,7 @@ pub fn n44w072_crop(row: usize, col: usize, size: usize) -> Grid<f64> {
         .expect("crop inside the tile")
 }
 
-/// A fresh, empty scratch directory under the system temp dir for the test `name` (unique per
-/// process and test, so tests running in parallel never share files).
+/// A fresh, empty scratch folder for the test `name` (see [`crate::scratch`]).
 pub fn scratch_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("zerotile-test-{}-{name}", std::process::id()));
-    // A leftover from an earlier run of the same process id is stale: start empty.
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("create a scratch dir under the temp dir");
-    dir
+    crate::scratch::scratch(name)
 }

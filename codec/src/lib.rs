@@ -18,6 +18,8 @@ pub mod grid;
 pub mod mesh;
 pub mod pyramid;
 pub mod raster;
+#[cfg(test)]
+mod scratch;
 pub mod tile;
 pub mod wavelet;
 pub mod zerotree;

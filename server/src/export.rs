@@ -355,8 +355,7 @@ mod tests {
     /// A symbolic link as --out is refused for what it is (the swap would replace the link).
     #[test]
     fn an_out_that_is_a_symbolic_link_is_refused_as_one() {
-        let dir = std::env::temp_dir().join(format!("zerotile-check-out-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
+        let dir = crate::fixtures::scratch("check-out");
         std::fs::create_dir_all(dir.join("real")).unwrap();
         std::os::unix::fs::symlink(dir.join("real"), dir.join("link")).unwrap();
         let err = check_out(&dir.join("link")).unwrap_err().to_string();

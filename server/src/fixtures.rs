@@ -3,7 +3,6 @@
 #![cfg(test)]
 
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 use zerotile_codec::container::{Availability, Metadata, ViewParams};
 use zerotile_codec::wavelet::Wavelet;
@@ -15,18 +14,11 @@ pub fn shared_data(rel: &str) -> PathBuf {
         .join(rel)
 }
 
-/// A fresh, empty folder under the temp dir for the test `name`, its own on every call: the
-/// process id keeps parallel runs apart, a call count the tests of one run (two tests
-/// sharing a helper's name removed each other's folder). A leftover of an earlier run with
-/// the same id is removed.
-pub fn scratch(name: &str) -> PathBuf {
-    static CALLS: AtomicUsize = AtomicUsize::new(0);
-    let n = CALLS.fetch_add(1, Ordering::Relaxed);
-    let dir = std::env::temp_dir().join(format!("zerotile-{name}-{}-{n}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+#[path = "../../codec/src/scratch.rs"]
+mod scratch_dirs;
+/// A fresh, empty folder for the test `name`, its own on every call; see the codec's
+/// `scratch.rs` for where it lives and when it goes.
+pub use scratch_dirs::scratch;
 
 /// The metadata of a one-tile local 257² dataset named `t` (1-unit steps, heights 0–512)
 /// whose streams total `stream_bytes`.

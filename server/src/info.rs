@@ -689,8 +689,7 @@ mod tests {
     /// A folder, or a name with no file behind it, is refused with what to give instead.
     #[test]
     fn a_folder_or_a_missing_name_is_refused_with_what_to_give() {
-        let dir = std::env::temp_dir().join(format!("zerotile-info-dir-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = crate::fixtures::scratch("info-dir");
         let job = |dataset: String| Info {
             dataset,
             data: dir.clone(),

@@ -81,7 +81,7 @@ mod tests {
 
     #[test]
     fn a_file_for_the_data_folder_is_refused_by_name() {
-        let file = std::env::temp_dir().join(format!("zerotile-demo-file-{}", std::process::id()));
+        let file = crate::fixtures::scratch("demo-file").join("data");
         std::fs::write(&file, b"mine").unwrap();
         let err = format!("{:#}", ensure(&file, false, false).unwrap_err());
         assert!(err.contains("is a file, not a folder"), "{err}");
@@ -91,8 +91,7 @@ mod tests {
 
     #[test]
     fn builds_once_then_leaves_the_folder_alone() {
-        let dir = std::env::temp_dir().join(format!("zerotile-demo-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
+        let dir = crate::fixtures::scratch("demo").join("data");
         let first = ensure(&dir, false, false).unwrap();
         assert_eq!(
             first,
@@ -122,8 +121,7 @@ mod tests {
     /// added beside it.
     #[test]
     fn a_folder_of_json_meshes_gets_no_default_meshes() {
-        let dir = std::env::temp_dir().join(format!("zerotile-demo-json-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
+        let dir = crate::fixtures::scratch("demo-json");
         std::fs::create_dir_all(dir.join(MESH_DIR)).unwrap();
         let tri = br#"{"positions": [0,0,0, 1,0,0, 0,1,0], "indices": [0,1,2]}"#;
         std::fs::write(dir.join(MESH_DIR).join("mine.json"), tri).unwrap();

@@ -545,11 +545,9 @@ mod tests {
         }
     }
 
+    /// A data folder not made yet: ingest makes it.
     fn scratch(tag: &str) -> PathBuf {
-        let dir =
-            std::env::temp_dir().join(format!("zerotile-ingest-{}-{tag}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        dir
+        crate::fixtures::scratch(&format!("ingest-{tag}")).join("data")
     }
 
     /// A fill or precision that is not a finite number would poison every tile: refused up front.

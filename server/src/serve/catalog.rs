@@ -104,9 +104,7 @@ mod tests {
     /// datasets are ignored, and neither stops the folder from opening.
     #[test]
     fn a_bad_file_is_skipped_and_other_files_ignored() {
-        let dir = std::env::temp_dir().join(format!("zerotile-catalog-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = crate::fixtures::scratch("catalog");
         std::fs::write(dir.join(format!("broken.{EXTENSION}")), b"not a dataset").unwrap();
         std::fs::write(dir.join("README.txt"), b"notes").unwrap();
         let catalog = Catalog::open_dir(&dir).unwrap();

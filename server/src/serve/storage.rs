@@ -176,7 +176,7 @@ mod tests {
     /// A record is one byte range: exactly `len` bytes from `offset`, from a file or an object.
     #[test]
     fn reads_return_exactly_the_range_asked_for() {
-        let path = std::env::temp_dir().join(format!("zerotile-read-at-{}", std::process::id()));
+        let path = crate::fixtures::scratch("read-at").join("records");
         std::fs::write(&path, bytes()).unwrap();
         let file = Source::File(File::open(&path).unwrap());
         let object = Source::Object {
