@@ -406,15 +406,19 @@ pub fn tile_bar(verb: &str, show: bool, len: u64) -> ProgressBar {
 }
 
 /// Writes `bytes` to a temporary file in `target`'s folder, syncs it and renames it over
-/// `target`: readers see the old file or the new one, never a partial one.
+/// `target`: readers see the old file or the new one, never a partial one. Each call has a
+/// temporary file of its own (the process id and a call count name it), so two writes of
+/// one target at once each rename a whole file: the last rename wins.
 pub fn write_atomically(target: &Path, bytes: &[u8]) -> Result<()> {
+    static WRITES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let n = WRITES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let dir = target
         .parent()
         .filter(|d| !d.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     let tmp = dir.join(format!(
-        ".{}.tmp-{}",
+        ".{}.tmp-{}-{n}",
         target
             .file_name()
             .map_or_else(String::new, |f| f.to_string_lossy().into_owned()),
@@ -716,5 +720,31 @@ mod tests {
             .jobs
             .iter()
             .all(|&(k, x, y, id)| { plan.levels[k].zoom == id.z && (x, y) == (id.x, id.y) }));
+    }
+
+    /// Writes of one file from several threads at once each succeed and leave one of them
+    /// whole, with no temporary file behind (they shared one temporary file before).
+    #[test]
+    fn writes_of_one_file_at_once_each_rename_a_whole_file() {
+        let dir = crate::fixtures::scratch("atomic-race");
+        let target = dir.join("m.obj");
+        let bodies: Vec<Vec<u8>> = (0..4u8).map(|k| vec![b'a' + k; 300_000]).collect();
+        for round in 0..8 {
+            let start = std::sync::Barrier::new(bodies.len());
+            std::thread::scope(|s| {
+                for body in &bodies {
+                    let (target, start) = (&target, &start);
+                    s.spawn(move || {
+                        start.wait();
+                        if let Err(e) = write_atomically(target, body) {
+                            panic!("round {round}: {e:#}");
+                        }
+                    });
+                }
+            });
+            let got = std::fs::read(&target).unwrap();
+            assert!(bodies.contains(&got), "round {round}: a torn file");
+            assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1, "round {round}");
+        }
     }
 }

@@ -7,7 +7,7 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::sync::{Arc, OnceLock, RwLock};
+use std::sync::{Arc, Mutex, OnceLock, RwLock};
 
 use anyhow::{Context, Result};
 use quick_cache::sync::Cache;
@@ -113,6 +113,11 @@ impl Weighter<u64, Arc<MeshAnswer>> for AnswerBytes {
 pub struct MeshCatalog {
     dir: PathBuf,
     entries: RwLock<BTreeMap<String, Arc<MeshEntry>>>,
+    /// Held from an upload's write to its insert, so the file on disk and the mesh served
+    /// are the same upload's when two arrive for one name (and an upload under another
+    /// extension cannot remove the file the other just wrote). Uploads are rare; the
+    /// parsing and repair, their cost, happen before it is taken.
+    store: Mutex<()>,
     pub answers: Cache<u64, Arc<MeshAnswer>, AnswerBytes>,
 }
 
@@ -140,6 +145,7 @@ impl MeshCatalog {
         Self {
             dir,
             entries: RwLock::new(entries),
+            store: Mutex::new(()),
             answers: Cache::with_weighter(items, answer_bytes.max(1), AnswerBytes),
         }
     }
@@ -160,7 +166,11 @@ impl MeshCatalog {
                 ) else {
                     continue;
                 };
-                if crate::ingest::check_name(stem).is_err() || entries.contains_key(stem) {
+                if let Err(e) = crate::ingest::check_name(stem) {
+                    tracing::warn!("skipping mesh {}: {e:#}", path.display());
+                    continue;
+                }
+                if entries.contains_key(stem) {
                     continue;
                 }
                 match load(&path) {
@@ -193,18 +203,25 @@ impl MeshCatalog {
         name: &str,
         bytes: &[u8],
         format: Option<Format>,
-    ) -> Result<Arc<MeshEntry>> {
+    ) -> Result<Arc<MeshEntry>, UploadError> {
         if self.dir.as_os_str().is_empty() {
-            anyhow::bail!("this server has no mesh folder to store uploads in");
+            return Err(UploadError::NoFolder);
         }
-        let mesh = repaired(&io::read_bytes(bytes, format, &limits())?)?;
+        let read = io::read_bytes(bytes, format, &limits()).map_err(anyhow::Error::from);
+        let mesh = read
+            .and_then(|m| repaired(&m))
+            .map_err(UploadError::Invalid)?;
         let format = format
             .or_else(|| Format::sniff(bytes))
             .unwrap_or(Format::Obj);
         // Stored as sent (a readable format: read_bytes refused anything else), under the
         // extension `open` reads it back by.
         let path = self.dir.join(format!("{name}.{}", format.extension()));
-        crate::ingest::write_atomically(&path, bytes)?;
+        let _store = self
+            .store
+            .lock()
+            .map_err(|_| UploadError::Store(anyhow::anyhow!("mesh store lock poisoned")))?;
+        crate::ingest::write_atomically(&path, bytes).map_err(UploadError::Store)?;
         // An older upload under another extension would shadow this one at the next start.
         for other in Format::READABLE.iter().filter(|&&f| f != format) {
             let _ = std::fs::remove_file(self.dir.join(format!("{name}.{}", other.extension())));
@@ -213,10 +230,24 @@ impl MeshCatalog {
         let mut map = self
             .entries
             .write()
-            .map_err(|_| anyhow::anyhow!("mesh catalog lock poisoned"))?;
+            .map_err(|_| UploadError::Store(anyhow::anyhow!("mesh catalog lock poisoned")))?;
         map.insert(name.to_string(), entry.clone());
         Ok(entry)
     }
+}
+
+/// Why an upload was not stored: the client's mesh, or this server.
+#[derive(Debug, thiserror::Error)]
+pub enum UploadError {
+    /// The body is not a mesh this server serves (unreadable, too large, no surface).
+    #[error("{0:#}")]
+    Invalid(anyhow::Error),
+    /// The server reads its data from an object store and has no folder to keep meshes in.
+    #[error("this server has no mesh folder to store uploads in")]
+    NoFolder,
+    /// The mesh was fine; writing it was not.
+    #[error("storing the mesh: {0:#}")]
+    Store(anyhow::Error),
 }
 
 /// [`MeshEntry::content`]: every coordinate's bits and every index.
@@ -378,5 +409,65 @@ mod tests {
             );
         }
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// An n × n grid of quads at height `z`: as OBJ, or as the JSON `?format=json` answers.
+    fn grid(n: usize, z: f64, json: bool) -> Vec<u8> {
+        let points = (0..=n).flat_map(|r| (0..=n).map(move |c| (c as f64, r as f64)));
+        let quads = (0..n).flat_map(|r| (0..n).map(move |c| r * (n + 1) + c));
+        let faces = quads.flat_map(|k| [[k, k + 1, k + n + 2], [k, k + n + 2, k + n + 1]]);
+        if json {
+            let positions: Vec<f64> = points.flat_map(|(x, y)| [x, y, z]).collect();
+            let indices: Vec<usize> = faces.flatten().collect();
+            serde_json::to_vec(&serde_json::json!({"positions": positions, "indices": indices}))
+                .unwrap()
+        } else {
+            let mut text: String = points.map(|(x, y)| format!("v {x} {y} {z}\n")).collect();
+            for [a, b, c] in faces {
+                text += &format!("f {} {} {}\n", a + 1, b + 1, c + 1);
+            }
+            text.into_bytes()
+        }
+    }
+
+    /// Uploads to one name at once, in two formats: each succeeds, and when they are done the
+    /// one file of the name on disk is the mesh served, whole, with no temporary file left.
+    /// All writes shared one temporary file per process before, so most failed (ENOENT, a
+    /// 422) and the file on disk could be another upload's than the one served, or torn.
+    #[test]
+    fn uploads_to_one_name_at_once_leave_the_served_mesh_on_disk() {
+        let dir = scratch("race");
+        let cat = MeshCatalog::open(&dir, 1 << 20);
+        let bodies = [
+            (grid(60, 1.0, false), Format::Obj),
+            (grid(50, 2.0, true), Format::Json),
+            (grid(70, 3.0, false), Format::Obj),
+        ];
+        for round in 0..4 {
+            let start = std::sync::Barrier::new(6);
+            std::thread::scope(|s| {
+                for t in 0..6 {
+                    let (body, format) = &bodies[(t + round) % bodies.len()];
+                    let (cat, start) = (&cat, &start);
+                    s.spawn(move || {
+                        start.wait();
+                        if let Err(e) = cat.upload("a", body, Some(*format)) {
+                            panic!("round {round}, upload {t}: {e}");
+                        }
+                    });
+                }
+            });
+            let files: Vec<String> = std::fs::read_dir(dir.join(MESH_DIR))
+                .unwrap()
+                .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+                .collect();
+            assert_eq!(files.len(), 1, "round {round}: {files:?}");
+            let on_disk = MeshCatalog::open(&dir, 1 << 20);
+            assert_eq!(
+                on_disk.get("a").map(|e| e.content),
+                cat.get("a").map(|e| e.content),
+                "round {round}: the file {files:?} is not the mesh served"
+            );
+        }
     }
 }

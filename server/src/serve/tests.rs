@@ -992,6 +992,50 @@ async fn a_form_labelled_upload_is_told_to_set_its_content_type() {
     assert!(!v["message"].as_str().unwrap().contains("curl"), "{v}");
 }
 
+/// `POST URI` with an OBJ body.
+async fn post_obj(app: &Router, uri: &str, obj: &str) -> (StatusCode, Vec<u8>) {
+    let req = Request::builder()
+        .method(Method::POST)
+        .uri(uri)
+        .header(header::CONTENT_TYPE, "model/obj")
+        .body(Body::from(obj.to_string()))
+        .unwrap();
+    let res = app.clone().oneshot(req).await.unwrap();
+    let status = res.status();
+    (
+        status,
+        to_bytes(res.into_body(), 1 << 20).await.unwrap().to_vec(),
+    )
+}
+
+/// An upload the server cannot keep is not the client's fault: a server without a mesh
+/// folder (its data in an object store) says so with a 403, a failed write is a 500 whose
+/// detail (a path on the server) is logged, not sent. Both were 422 `invalid_mesh` with the
+/// server's message, though the mesh was fine.
+#[tokio::test]
+async fn an_upload_the_server_cannot_keep_is_not_an_invalid_mesh() {
+    const TRI: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    let (s, body) = post_obj(&router("upload-no-folder"), "/v1/meshes/b", TRI).await;
+    assert_eq!(s, StatusCode::FORBIDDEN);
+    assert_eq!(error_code(&body), "read_only");
+
+    let data = one_triangle_data("upload-store");
+    // A folder where the file goes: the rename over it fails.
+    std::fs::create_dir_all(data.join("meshes/b.obj/inside")).unwrap();
+    let app = router_with_meshes("upload-store", &data);
+    let (s, body) = post_obj(&app, "/v1/meshes/b", TRI).await;
+    assert_eq!(s, StatusCode::INTERNAL_SERVER_ERROR);
+    assert_eq!(error_code(&body), "internal");
+    let text = String::from_utf8_lossy(&body);
+    assert!(!text.contains(data.to_str().unwrap()), "{text}");
+    // The mesh itself was fine: under a name the server can write it is a 201.
+    let (s, _) = post_obj(&app, "/v1/meshes/c", TRI).await;
+    assert_eq!(s, StatusCode::CREATED);
+    let (s, body) = post_obj(&app, "/v1/meshes/c", "v 0 0 0\n").await;
+    assert_eq!(s, StatusCode::UNPROCESSABLE_ENTITY);
+    assert_eq!(error_code(&body), "invalid_mesh");
+}
+
 #[tokio::test]
 async fn a_bad_mesh_name_is_called_a_mesh_name() {
     let app = router("mesh-name");

@@ -30,7 +30,7 @@ use zerotile_codec::mesh::silhouette::View;
 use zerotile_codec::mesh::{qem, QemOptions, TriMesh};
 
 use crate::serve::error::{echo, ApiError, ApiResult};
-use crate::serve::meshes::{MeshAnswer, MeshEntry, MAX_UPLOAD_BYTES};
+use crate::serve::meshes::{MeshAnswer, MeshEntry, UploadError, MAX_UPLOAD_BYTES};
 use crate::serve::revalidate::{self, REVALIDATE};
 use crate::serve::state::AppState;
 use crate::serve::threshold::{aspect, integer, number, vec3};
@@ -580,14 +580,27 @@ pub async fn upload(
     let entry = tokio::task::spawn_blocking(move || job_state.meshes.upload(&name, &body, format))
         .await
         .map_err(ApiError::internal)?
-        .map_err(|e| {
-            ApiError::new(
-                StatusCode::UNPROCESSABLE_ENTITY,
-                "invalid_mesh",
-                format!("{e:#}"),
-            )
-        })?;
+        .map_err(upload_error)?;
     Ok((StatusCode::CREATED, Json(summary(&entry))))
+}
+
+/// The client's mesh is a 422 with what was wrong with it; a server that cannot store it is
+/// not the client's fault (500, the detail logged, since it names the server's paths).
+fn upload_error(e: UploadError) -> ApiError {
+    match e {
+        UploadError::Invalid(_) => ApiError::new(
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "invalid_mesh",
+            e.to_string(),
+        ),
+        UploadError::NoFolder => ApiError::new(
+            StatusCode::FORBIDDEN,
+            "read_only",
+            "this server serves its data from an object store and keeps no uploads; \
+             upload to a server of a data folder",
+        ),
+        UploadError::Store(_) => ApiError::internal(e),
+    }
 }
 
 /// The name and format of an upload, checked before its body is read.
