@@ -95,28 +95,36 @@ pub fn decoded(
     // Concurrent misses on one key wait for a single decode.
     state.cache.get_or_insert_with(&key, || {
         cancel.check()?;
-        let rec = d.read_tile(id)?;
-        let dec = ezw::decode_heights(&rec.stream, depth.limit(), ezw::DEFAULT_MAX_SAMPLES)
-            .with_context(|| format!("decoding tile {id} of {}", d.name))?;
+        let tile = decode(d, id, depth)?;
         state.metrics.tiles_decoded.fetch_add(1, Relaxed);
-        let side = d.hierarchy.side();
-        if dec.heights.rows() != side || dec.heights.cols() != side {
-            anyhow::bail!(
-                "tile {id} of {} decodes to {}×{}, the dataset says {side}²",
-                d.name,
-                dec.heights.rows(),
-                dec.heights.cols()
-            );
-        }
-        let errors = TileErrors::exact_above(&d.hierarchy, &dec.heights, depth.mesh_floor());
-        let mut prefix = rec.stream;
-        prefix.truncate(dec.bytes_used);
-        Ok(Arc::new(DecodedTile {
-            heights: dec.heights,
-            errors,
-            corners: rec.corners,
-            prefix,
-        }))
+        Ok(Arc::new(tile))
+    })
+}
+
+/// `id` read and decoded to `depth`, with its error tree: what the cache keeps.
+pub fn decode(d: &Dataset, id: TileId, depth: Depth) -> Result<DecodedTile> {
+    let rec = d.read_tile(id)?;
+    let dec = ezw::decode_heights(&rec.stream, depth.limit(), ezw::DEFAULT_MAX_SAMPLES)
+        .with_context(|| format!("decoding tile {id} of {}", d.name))?;
+    let side = d.hierarchy.side();
+    if dec.heights.rows() != side || dec.heights.cols() != side {
+        anyhow::bail!(
+            "tile {id} of {} decodes to {}×{}, the dataset says {side}²",
+            d.name,
+            dec.heights.rows(),
+            dec.heights.cols()
+        );
+    }
+    let errors = TileErrors::exact_above(&d.hierarchy, &dec.heights, depth.mesh_floor());
+    // The prefix alone is kept: a coarse depth reads a fraction of the record.
+    let mut prefix = rec.stream;
+    prefix.truncate(dec.bytes_used);
+    prefix.shrink_to_fit();
+    Ok(DecodedTile {
+        heights: dec.heights,
+        errors,
+        corners: rec.corners,
+        prefix,
     })
 }
 
@@ -318,4 +326,75 @@ pub fn stitched(
     cancel.check()?;
     out.mesh = stitched_mesh(&d.hierarchy, &out.neighbourhood(), mesh_tolerance(t))?;
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::serve::tile_cache::{ByBytes, Key};
+    use quick_cache::Weighter;
+    use zerotile_codec::container::Writer;
+    use zerotile_codec::ezw::EncodeParams;
+    use zerotile_codec::wavelet::Wavelet;
+    use zerotile_codec::Grid;
+
+    const ROOT: TileId = TileId { z: 0, x: 0, y: 0 };
+
+    /// A one-tile local dataset of real terrain: a 257² window of the SRTM tile N44W072
+    /// (3″, 1201², big-endian i16) over the Presidential Range, 1 m steps.
+    fn srtm_dataset() -> Dataset {
+        let raw = std::fs::read(crate::fixtures::shared_data("dem/N44W072.hgt")).unwrap();
+        let at = |r: usize, c: usize| {
+            let i = 2 * ((750 + r) * 1201 + 700 + c);
+            f64::from(i16::from_be_bytes([raw[i], raw[i + 1]]))
+        };
+        let g = Grid::new(
+            257,
+            257,
+            (0..257 * 257).map(|k| at(k / 257, k % 257)).collect(),
+        )
+        .unwrap();
+        let enc = ezw::encode(&g, &EncodeParams::new(Wavelet::Cdf97, 1.0)).unwrap();
+        let corners = [at(0, 0), at(0, 256), at(256, 0), at(256, 256)];
+        let mut w = Writer::new();
+        w.add(ROOT, corners, &enc.bytes);
+        let m = crate::fixtures::local_257(enc.bytes.len() as u64);
+        let path = crate::fixtures::scratch("decoded-weight").join("t.ztd");
+        std::fs::write(&path, w.finish(&m).unwrap()).unwrap();
+        Dataset::open(&path).unwrap()
+    }
+
+    /// The decoded-tile cache weighs what a decode really keeps, counted independently:
+    /// the bytes allocated on this thread by the decode and not freed (heights, error tree,
+    /// stream prefix, the `Arc`). A coarse depth reads a fraction of the record, whose
+    /// whole allocation the prefix kept (and the weight did not count) before it was shrunk.
+    #[test]
+    fn a_decoded_tile_weighs_what_it_holds() {
+        let d = srtm_dataset();
+        // Whatever the reader sets up once is not the tile's.
+        decode(&d, ROOT, Depth::All).unwrap();
+        for t in [0.0, 8.0, 64.0, 512.0] {
+            let depth = Depth::for_threshold(t);
+            let mut kept = None;
+            let info = allocation_counter::measure(|| {
+                kept = Some(Arc::new(decode(&d, ROOT, depth).unwrap()));
+            });
+            let kept = kept.unwrap();
+            let key = Key {
+                dataset: d.version,
+                tile: ROOT,
+                depth,
+            };
+            let weight = ByBytes.weight(&key, &kept) as f64;
+            let held = info.bytes_current as f64;
+            assert_eq!(kept.prefix.capacity(), kept.prefix.len(), "T {t}");
+            assert!(held > 257.0 * 257.0 * 12.0, "T {t}: {held} bytes held");
+            assert!(
+                (weight - held).abs() <= 0.02 * held,
+                "T {t}: weight {weight}, held {held} (prefix {} of {})",
+                kept.prefix.len(),
+                kept.prefix.capacity()
+            );
+        }
+    }
 }

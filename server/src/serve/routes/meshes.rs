@@ -431,7 +431,7 @@ pub async fn lod(
                     let c = compute(&job, &ask)?;
                     let bytes = io::write_bytes(&c.mesh, format).map_err(ApiError::internal)?;
                     Ok(MeshAnswer {
-                        bytes: bytes.into(),
+                        bytes: crate::serve::tile_cache::exact_bytes(bytes),
                         vertices: c.mesh.vertex_count(),
                         faces: c.mesh.face_count(),
                         error: c.error,

@@ -508,10 +508,7 @@ pub(crate) fn render_tile(
     } else {
         bytes
     };
-    Ok(Encoded {
-        bytes: bytes.into(),
-        triangles,
-    })
+    Ok(Encoded::new(bytes, triangles))
 }
 
 fn gzip_bytes(raw: &[u8]) -> std::io::Result<Vec<u8>> {
