@@ -246,6 +246,17 @@ fn export_refuses_to_replace_what_is_not_an_export() {
         std::fs::read_to_string(dir.join("plain")).unwrap(),
         "also mine"
     );
+    // A dataset that is not there, or a file that is not one, is named with what to give.
+    let hgt = shared_data().join("dem/N44W072.hgt");
+    for (dataset, says) in [
+        ("nope", "nope.ztd: no such dataset file"),
+        (hgt.to_str().unwrap(), "N44W072.hgt: not a zerotile dataset"),
+    ] {
+        let r = zerotile(&["export", dataset, "--out", "fresh", "--quiet"], &dir);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(1), "{dataset}: {err}");
+        assert!(err.contains(says), "{dataset}: {err}");
+    }
 
     // An empty folder is replaced, and so is an earlier export, which says it is one.
     std::fs::create_dir_all(dir.join("empty")).unwrap();

@@ -139,8 +139,8 @@ pub fn run(job: &Export) -> Result<Exported> {
         _ => Variant::Mesh { gzip: false },
     };
 
-    let path = crate::ingest::dataset_path(&job.dataset, &job.data)?;
-    let d = Dataset::open(&path)?;
+    let path = crate::ingest::existing_dataset_path(&job.dataset, &job.data)?;
+    let d = Dataset::open(&path).with_context(|| path.display().to_string())?;
     let m = d.metadata().clone();
     let world = !matches!(d.tiling.scheme(), Scheme::Local { .. });
     if format == TileFormat::Terrain && !world {

@@ -115,20 +115,7 @@ pub fn run(job: &Info) -> Result<Report> {
             );
         }
     }
-    let path = crate::ingest::dataset_path(&job.dataset, &job.data)?;
-    if path.is_dir() {
-        bail!(
-            "{}: a folder; give a .ztd file, or a dataset name with --data FOLDER",
-            path.display()
-        );
-    }
-    if !path.is_file() {
-        bail!(
-            "{}: no such dataset file (give a .ztd path, or a name in --data {})",
-            path.display(),
-            job.data.display()
-        );
-    }
+    let path = crate::ingest::existing_dataset_path(&job.dataset, &job.data)?;
     let d = Dataset::open(&path).with_context(|| format!("{}", path.display()))?;
     let m = d.metadata().clone();
     let side = m.tile_side as u64;

@@ -342,6 +342,10 @@ fn ranges_past_the_top_bit_plane_are_refused_when_encoding() {
     for w in [Wavelet::Cdf97, Wavelet::LeGall53] {
         assert!(name(encode(&sentinel, &EncodeParams::new(w, 1.0))).starts_with("height range"));
     }
+    // The range is quoted short: as 3.4e38, not in 39 digits (1e300 was 301).
+    let e = encode(&sentinel, &EncodeParams::new(Wavelet::Cdf97, 1.0)).unwrap_err();
+    assert!(e.to_string().contains("got 3.402823"), "{e}");
+    assert!(e.to_string().ends_with("e38"), "{e}");
     let fine = Grid::new(2, 2, vec![0.0, 1.0, 2.0, 3.0]).unwrap();
     assert_eq!(
         name(encode(&fine, &EncodeParams::new(Wavelet::Cdf97, 1e-300))),

@@ -28,13 +28,13 @@ const MAX_SAMPLES: u64 = 10_000_000;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Method {
-    /// Curvature-error vertex decimation (../shared/DESIGN.md §3.1).
+    /// Curvature-error vertex decimation, Kim, Lim & Kim 2000 (codec/src/mesh/curvature/curvature.md).
     Curvature,
-    /// Octree LOD (../shared/DESIGN.md §3.2).
+    /// Octree LOD with region-of-interest refinement, Jung, Cho & Whangbo 2009 (codec/src/mesh/octree/octree.md).
     Octree,
-    /// Garland–Heckbert quadric edge collapse (../shared/DESIGN.md §3.4).
+    /// Garland–Heckbert quadric edge collapse, the baseline (codec/src/mesh/qem/qem.md).
     Qem,
-    /// Silhouette-preserving view-sphere LOD (../shared/DESIGN.md §3.3).
+    /// Silhouette-preserving view-sphere LOD (codec/src/mesh/silhouette/silhouette.md).
     Silhouette,
 }
 
@@ -192,6 +192,13 @@ fn param(args: &MeshArgs) -> Result<Param> {
 
 /// `zerotile subdivide`: the input, repaired as `eval mesh` reads it, Loop-subdivided.
 pub fn subdivide(args: &crate::cli::SubdivideArgs) -> Result<()> {
+    // Before the work, which takes minutes for the large meshes this is for.
+    if io::Format::from_path(&args.output).is_none() {
+        bail!(
+            "{}: unknown output extension (use .obj, .ply, .glb or .json)",
+            args.output.display()
+        );
+    }
     let mut mesh = load(&args.input, false)?;
     let limit = MeshLimits::default();
     // Checked before the first step, so a run that would pass the limit is refused

@@ -356,6 +356,17 @@ fn subdivide_refuses_beyond_the_face_limit_and_writes_four_times_the_faces_a_ste
     .expect_err("above the face limit");
     assert!(format!("{err:#}").contains("more than the"), "{err:#}");
     assert!(!big.exists());
+    // An output it cannot write is refused before the input is even read.
+    let err = subdivide(&SubdivideArgs {
+        input: dir.join("absent.obj"),
+        output: dir.join("fine.xyz"),
+        times: 1,
+    })
+    .expect_err("no such format");
+    assert!(
+        format!("{err:#}").contains("fine.xyz: unknown output extension"),
+        "{err:#}"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -82,6 +82,26 @@ pub fn dataset_path(dataset: &str, data: &Path) -> Result<PathBuf> {
     named
 }
 
+/// [`dataset_path`] for a dataset that must exist (info, export): a folder or a missing
+/// file is refused with what to give instead, not an OS error.
+pub fn existing_dataset_path(dataset: &str, data: &Path) -> Result<PathBuf> {
+    let path = dataset_path(dataset, data)?;
+    if path.is_dir() {
+        bail!(
+            "{}: a folder; give a .ztd file, or a dataset name with --data FOLDER",
+            path.display()
+        );
+    }
+    if !path.is_file() {
+        bail!(
+            "{}: no such dataset file (give a .ztd path, or a name in --data {})",
+            path.display(),
+            data.display()
+        );
+    }
+    Ok(path)
+}
+
 /// Dataset names become file names: keep them to a safe alphabet.
 pub fn check_name(name: &str) -> Result<()> {
     check_name_of("dataset", name)

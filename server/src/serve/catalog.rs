@@ -29,7 +29,12 @@ impl Catalog {
             std::fs::read_dir(dir).with_context(|| format!("data folder {}", dir.display()))?;
         let mut paths: Vec<_> = entries
             .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| p.extension().is_some_and(|e| e == EXTENSION))
+            // Any case, as mesh files are read: a `.ZTD` copied from elsewhere was neither
+            // opened nor listed as skipped.
+            .filter(|p| {
+                p.extension()
+                    .is_some_and(|e| e.eq_ignore_ascii_case(EXTENSION))
+            })
             .collect();
         paths.sort();
         let mut catalog = Self::default();
@@ -106,10 +111,12 @@ mod tests {
     fn a_bad_file_is_skipped_and_other_files_ignored() {
         let dir = crate::fixtures::scratch("catalog");
         std::fs::write(dir.join(format!("broken.{EXTENSION}")), b"not a dataset").unwrap();
+        let upper = format!("UPPER.{}", EXTENSION.to_ascii_uppercase());
+        std::fs::write(dir.join(&upper), b"not one either").unwrap();
         std::fs::write(dir.join("README.txt"), b"notes").unwrap();
         let catalog = Catalog::open_dir(&dir).unwrap();
         let skipped: Vec<&str> = catalog.skipped.iter().map(|(f, _)| f.as_str()).collect();
-        assert_eq!(skipped, [format!("broken.{EXTENSION}")]);
+        assert_eq!(skipped, [upper, format!("broken.{EXTENSION}")]);
         assert!(!catalog.skipped[0].1.is_empty());
         assert!(catalog.is_empty());
         assert_eq!(catalog.len(), 0);

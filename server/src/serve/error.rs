@@ -120,17 +120,40 @@ impl From<QueryRejection> for ApiError {
 pub type ApiResult<T> = Result<T, ApiError>;
 
 /// Unknown routes: JSON 404, like every other error. A trailing slash is the common slip
-/// (`/v1/datasets/`), so the message names the path without it; a redirect would cost a
-/// CORS round trip and hide the slip from whoever wrote the URL.
+/// (`/v1/datasets/`), so the message names the path without it when that is a route; a
+/// redirect would cost a CORS round trip and hide the slip from whoever wrote the URL.
 pub async fn not_found(uri: axum::http::Uri) -> ApiError {
     let path = uri.path();
     let message = match path.strip_suffix('/') {
-        Some(bare) if !bare.is_empty() => {
+        Some(bare) if is_route(bare) => {
             format!("no such route; routes have no trailing slash: try {bare}; see docs/api.md")
         }
         _ => "no such route; see docs/api.md".to_string(),
     };
     ApiError::not_found("not_found", message)
+}
+
+/// Whether `path` has the shape of a route: the OpenAPI document's paths, which a test holds
+/// to the router's, with a `{param}` standing for any one segment (`/v1/` once got "try /v1",
+/// itself a 404).
+fn is_route(path: &str) -> bool {
+    static TEMPLATES: std::sync::OnceLock<Vec<String>> = std::sync::OnceLock::new();
+    let templates = TEMPLATES.get_or_init(|| {
+        serde_json::from_str::<serde_json::Value>(super::routes::site::OPENAPI_JSON)
+            .ok()
+            .and_then(|doc| Some(doc.get("paths")?.as_object()?.keys().cloned().collect()))
+            .unwrap_or_default()
+    });
+    templates.iter().any(|t| {
+        let (mut want, mut got) = (t.split('/'), path.split('/'));
+        loop {
+            match (want.next(), got.next()) {
+                (None, None) => return true,
+                (Some(w), Some(g)) if w == g || (w.starts_with('{') && !g.is_empty()) => {}
+                _ => return false,
+            }
+        }
+    })
 }
 
 /// Known routes with the wrong method. Routes answer different methods and axum adds their

@@ -270,8 +270,28 @@ async fn a_trailing_slash_is_named_in_the_404() {
         assert!(message.contains(&format!("try {bare};")), "{message}");
         assert_eq!(get(&app, bare).await.0, StatusCode::OK, "{bare}");
     }
-    let v = refused(&app, "/nope", StatusCode::NOT_FOUND, "not_found").await;
-    assert!(!v["message"].as_str().unwrap().contains("try"), "{v}");
+    // Without its slash it is still no route: no hint to a second 404.
+    for uri in ["/nope", "/v1/", "/nope/", "/v1/datasets/hill/tiles/"] {
+        let v = refused(&app, uri, StatusCode::NOT_FOUND, "not_found").await;
+        assert!(
+            !v["message"].as_str().unwrap().contains("try"),
+            "{uri}: {v}"
+        );
+    }
+    let v = refused(
+        &app,
+        "/v1/meshes/a/qem/",
+        StatusCode::NOT_FOUND,
+        "not_found",
+    )
+    .await;
+    assert!(
+        v["message"]
+            .as_str()
+            .unwrap()
+            .contains("try /v1/meshes/a/qem;"),
+        "{v}"
+    );
 }
 
 #[tokio::test]

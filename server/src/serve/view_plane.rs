@@ -15,7 +15,7 @@ use glam::{DVec2, DVec3};
 /// Why a camera cannot give a view plane.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ViewError {
-    #[error("eye and target must differ")]
+    #[error("eye and target must be apart (they coincide, or lie too close for a direction between them)")]
     Degenerate,
     #[error("the eye must be above the target (eye z > target z) to see the terrain plane")]
     BelowPlane,
