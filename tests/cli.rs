@@ -32,6 +32,29 @@ fn serve_refuses_what_it_cannot_honour() {
     }
 }
 
+/// A port in use is refused before any dataset is opened: the message names the address,
+/// and no dataset was opened first (it was, every one, before the bind).
+#[test]
+fn serve_refuses_a_port_in_use_before_opening_datasets() {
+    let data = fresh_dir("cli-serve-busy");
+    run_ok(
+        Command::new(zerotile_bin())
+            .args(["demo-data", "--quiet", "--data"])
+            .arg(&data),
+    );
+    let taken = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = taken.local_addr().unwrap().to_string();
+    let out = Command::new(zerotile_bin())
+        .args(["serve", "--addr", &addr, "--data"])
+        .arg(&data)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains(&format!("binding {addr}")), "{err}");
+    assert!(!err.contains("opened"), "{err}");
+}
+
 /// `subdivide` makes 4× the faces a step and writes a mesh `eval mesh` reads back; a step
 /// count out of range and a missing input are refused with a message.
 #[test]

@@ -161,10 +161,18 @@ pub struct ServeOptions {
     pub config: Config,
 }
 
-/// Opens the datasets, binds, prints the URL and serves until SIGTERM or Ctrl-C, then lets
+/// Binds, opens the datasets, prints the URL and serves until SIGTERM or Ctrl-C, then lets
 /// in-flight requests finish.
 pub fn run(opts: ServeOptions) -> Result<()> {
     init_tracing();
+    // Bound first: a port in use is refused at once, not after every dataset has been
+    // opened (from an object store, that can take a while). Connections made meanwhile wait
+    // in the backlog.
+    let listener =
+        std::net::TcpListener::bind(opts.addr).with_context(|| format!("binding {}", opts.addr))?;
+    listener
+        .set_nonblocking(true)
+        .context("making the listener non-blocking")?;
     let data = opts.data.to_string_lossy().into_owned();
     let (catalog, meshes) = if storage::is_url(&data) {
         // Object meshes are served from local folders only.
@@ -191,9 +199,8 @@ pub fn run(opts: ServeOptions) -> Result<()> {
         .build()
         .context("starting the async runtime")?;
     rt.block_on(async move {
-        let listener = tokio::net::TcpListener::bind(opts.addr)
-            .await
-            .with_context(|| format!("binding {}", opts.addr))?;
+        let listener = tokio::net::TcpListener::from_std(listener)
+            .with_context(|| format!("listening on {}", opts.addr))?;
         let local = listener.local_addr()?;
         println!(
             "zerotile: serving {n} dataset(s) from {} on http://{local}/",
