@@ -46,26 +46,26 @@ pub fn origin(config: &Config, headers: &HeaderMap, uri: &Uri) -> ApiResult<Stri
         return Err(bad("X-Forwarded-Proto", "must be http or https"));
     }
     let forwarded_host = forwarded("x-forwarded-host")?;
-    // The header the host came from, for the error that names it.
-    let source = if forwarded_host.is_some() {
-        "X-Forwarded-Host"
-    } else {
-        "Host"
-    };
-    let host = match forwarded_host {
-        Some(h) => h,
-        None => match headers.get("host") {
-            Some(v) => v
-                .to_str()
-                .map_err(|_| bad("Host", "is not ASCII"))?
-                .to_string(),
-            None => uri.authority().map(|a| a.to_string()).ok_or_else(|| {
-                ApiError::bad_request(
+    // Where the host comes from, for the error that names it. An absolute-form request
+    // target (`GET http://h/… HTTP/1.1`) or HTTP/2's :authority names it ahead of `Host`,
+    // which an origin server must then ignore (RFC 9112 §3.2.2).
+    let (host, source) = match (forwarded_host, uri.authority()) {
+        (Some(h), _) => (h, "X-Forwarded-Host"),
+        (None, Some(a)) => (a.to_string(), "request target"),
+        (None, None) => match headers.get("host") {
+            Some(v) => (
+                v.to_str()
+                    .map_err(|_| bad("Host", "is not ASCII"))?
+                    .to_string(),
+                "Host",
+            ),
+            None => {
+                return Err(ApiError::bad_request(
                     "missing_host",
                     "a Host header is needed to write the absolute tile URLs TileJSON holds \
                      (or start the server with --public-url)",
-                )
-            })?,
+                ))
+            }
         },
     };
     if !valid_host(&host) {
@@ -200,6 +200,10 @@ mod tests {
             origin(&c, &headers(&[]), &h2).unwrap(),
             "http://tiles.example:81"
         );
+        // An absolute-form target names the host ahead of `Host`, which is then ignored
+        // (RFC 9112 §3.2.2): the URLs followed the header before.
+        let h = headers(&[("host", "other.example")]);
+        assert_eq!(origin(&c, &h, &h2).unwrap(), "http://tiles.example:81");
     }
 
     #[test]
