@@ -106,7 +106,10 @@ impl Complexity {
         if m == 0 {
             return 0.0;
         }
-        let (_, cc) = self.cells(m);
+        let (cr, cc) = self.cells(m);
+        if i >= cr || j >= cc {
+            return f32::INFINITY; // a column past the grid would read the next row's cell
+        }
         self.levels
             .get(m)
             .and_then(|l| l.get(i * cc + j))
@@ -119,6 +122,8 @@ impl Complexity {
     /// every 1 × 1 cell (the full grid).
     pub fn leaves(&self, threshold: f64) -> SplitMap {
         let mut leaves = Vec::new();
+        // Equivalent as `||`: a grid of one row or column has no cells (`cells` is 0 on
+        // that axis), so nothing is pushed; the guard says why `rows - 1` cannot underflow.
         if self.rows >= 2 && self.cols >= 2 {
             let (cr, cc) = self.cells(self.top);
             let mut stack: Vec<(usize, usize, usize)> = Vec::with_capacity(4 * self.top + 4);
@@ -129,8 +134,11 @@ impl Complexity {
                 }
             }
             while let Some((m, i, j)) = stack.pop() {
+                // Wholly outside. Either `<<` as `>>` is equivalent: such a cell is past
+                // `cells(m)`, so `cell_max` is +∞ and it splits down to level 0, where the
+                // two shifts agree and drop it; the test spares that descent.
                 if (i << m) >= self.rows - 1 || (j << m) >= self.cols - 1 {
-                    continue; // wholly outside
+                    continue;
                 }
                 if m == 0 || f64::from(self.cell_max(m, i, j)) < threshold {
                     leaves.push(Leaf {
@@ -237,6 +245,8 @@ mod tests {
         assert_eq!(map.cell_max(7, 1, 0), 0.0);
         assert_eq!(map.cell_max(7, 1, 1), 0.0);
         let leaves = map.leaves(1.0);
+        // A cell is a leaf only below T: a maximum equal to T splits it.
+        assert_eq!(map.leaves(5.0), leaves);
         let sizes: Vec<u8> = leaves.leaves().iter().map(|l| l.level).collect();
         assert_eq!(sizes.iter().filter(|&&l| l == 7).count(), 2);
         assert_eq!(sizes.iter().filter(|&&l| l == 6).count(), 8);
@@ -258,6 +268,58 @@ mod tests {
                 assert_eq!(flat.leaves().len(), 1);
             }
         }
+    }
+
+    /// Each sample's magnitude is read from the coefficient that describes it, found here
+    /// from the sample's side instead of the band's: level m = 1 + the trailing zeros of the
+    /// coarser coordinate, HL if the row is a multiple of 2^m, LH if the column is, else HH,
+    /// at (row >> m, col >> m) in that band. Distinct signed values make every slot count.
+    #[test]
+    fn magnitudes_land_on_the_samples_they_describe() {
+        for (rows, cols) in [(33, 33), (20, 37)] {
+            let layout = layout_with(rows, cols);
+            let coefficients = Grid::new(
+                rows,
+                cols,
+                (0..rows * cols).map(|k| -1.0 - k as f64).collect(),
+            )
+            .unwrap();
+            let got = sample_magnitudes(&layout, &coefficients);
+            let tz = |v: usize| {
+                if v == 0 {
+                    usize::MAX
+                } else {
+                    v.trailing_zeros() as usize
+                }
+            };
+            for r in 0..rows {
+                for c in 0..cols {
+                    let m = 1 + tz(r).min(tz(c)).min(layout.levels());
+                    let want = if m > layout.levels() {
+                        0.0 // LL
+                    } else {
+                        let o = if tz(r) >= m {
+                            Orientation::HL
+                        } else if tz(c) >= m {
+                            Orientation::LH
+                        } else {
+                            Orientation::HH
+                        };
+                        let b = layout.band(m, o);
+                        coefficients.get(b.row0 + (r >> m), b.col0 + (c >> m)).abs() as f32
+                    };
+                    assert_eq!(got[r * cols + c], want, "{rows}×{cols} ({r}, {c})");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_map_and_its_leaves_keep_the_grid_shape() {
+        let map = Complexity::new(&layout_with(9, 20), &Grid::zeros(9, 20));
+        assert_eq!((map.rows(), map.cols()), (9, 20));
+        let leaves = map.leaves(1.0);
+        assert_eq!((leaves.rows(), leaves.cols()), (9, 20));
     }
 
     #[test]
@@ -282,8 +344,9 @@ mod tests {
             for m in 1..=layout.levels() {
                 let (cr, cc) = map.cells(m);
                 let size = 1usize << m;
-                for i in 0..cr {
-                    for j in 0..cc {
+                // One cell past each edge too: wholly outside, +∞.
+                for i in 0..=cr {
+                    for j in 0..=cc {
                         let (r0, c0) = (i * size, j * size);
                         let got = map.cell_max(m, i, j);
                         if r0 + size >= r || c0 + size >= c {

@@ -47,6 +47,7 @@ pub fn mesh_error(mesh: &TerrainMesh, reference: &Grid<f64>) -> MeshError {
                     edge(xy[2], xy[0], q),
                     edge(xy[0], xy[1], q),
                 );
+                // `area >= 0` is equivalent: zero areas were skipped above.
                 let inside = if area > 0 {
                     w0 >= 0 && w1 >= 0 && w2 >= 0
                 } else {

@@ -235,3 +235,265 @@ fn mesh_error_of_a_hand_worked_mesh() {
     assert!((e.max_abs - 6.0).abs() < 1e-12, "{e:?}");
     assert!((e.rmse - 2.0).abs() < 1e-12, "{e:?}");
 }
+
+/// Border samples of a mesh that are vertices, as flags (north/south by column, west/east by
+/// row).
+fn border_of(m: &TerrainMesh) -> BorderVertices {
+    let has = |x: usize, y: usize| {
+        m.positions
+            .iter()
+            .any(|p| p[0] == x as f64 && p[1] == y as f64)
+    };
+    let (last_r, last_c) = (m.rows - 1, m.cols - 1);
+    BorderVertices {
+        north: (0..m.cols).map(|c| has(c, 0)).collect(),
+        south: (0..m.cols).map(|c| has(c, last_r)).collect(),
+        west: (0..m.rows).map(|r| has(0, r)).collect(),
+        east: (0..m.rows).map(|r| has(last_c, r)).collect(),
+    }
+}
+
+/// Extra border vertices add exactly themselves: the mesh's border is the leaves' corners and
+/// the extra flags, nothing more, and flags past the grid's edges are ignored.
+#[test]
+fn extra_border_vertices_add_exactly_themselves() {
+    let g = n44w072_crop(300, 500, 65);
+    let d = decode_at(&g, Wavelet::Cdf97, 1.0);
+    let split = Complexity::new(&d.layout, &d.coefficients).leaves(16.0);
+    let mut extra = BorderVertices::empty(65, 65);
+    for k in [5, 6, 21, 40, 63] {
+        extra.north[k] = true;
+        extra.south[k - 2] = true;
+        extra.west[k - 1] = true;
+        extra.east[k] = true;
+    }
+    let m = triangulate(&split, &d.heights, Some(&extra));
+    assert_watertight(&m, "extra");
+    assert_eq!(border_of(&m), split.border_vertices().union(&extra));
+    // Flags past the grid's edges change nothing.
+    let mut long = extra.clone();
+    for side in [
+        &mut long.north,
+        &mut long.south,
+        &mut long.west,
+        &mut long.east,
+    ] {
+        side.extend([true; 4]);
+    }
+    assert_eq!(triangulate(&split, &d.heights, Some(&long)), m);
+}
+
+/// No leaves (a grid of one row or column) is no mesh, extra border vertices or not.
+#[test]
+fn no_leaves_no_vertices() {
+    let mut extra = BorderVertices::empty(3, 3);
+    extra.north[1] = true;
+    let m = triangulate(
+        &SplitMap::new(3, 3, vec![]),
+        &Grid::zeros(3, 3),
+        Some(&extra),
+    );
+    assert_eq!(
+        (m.rows, m.cols, m.vertex_count(), m.triangle_count()),
+        (3, 3, 0, 0)
+    );
+}
+
+#[test]
+fn union_sets_the_flags_of_either_and_keeps_its_own_lengths() {
+    let mut a = BorderVertices::empty(3, 4);
+    let mut b = BorderVertices::empty(5, 2);
+    a.north[3] = true;
+    a.west[0] = true;
+    b.north[1] = true;
+    b.west[0] = true;
+    b.east[4] = true; // past a's 3 rows: dropped
+    b.south[0] = true;
+    let u = a.union(&b);
+    assert_eq!(u.north, [false, true, false, true]);
+    assert_eq!(u.south, [true, false, false, false]);
+    assert_eq!(u.west, [true, false, false]);
+    assert_eq!(u.east, [false, false, false]);
+    assert_eq!(b.union(&a).east, [false, false, false, false, true]);
+}
+
+/// A 5 × 5 grid of small integers (every sample distinct from its neighbours).
+fn grid5() -> Grid<f64> {
+    Grid::new(5, 5, (0..25).map(|k| ((k * 7) % 11) as f64).collect()).unwrap()
+}
+
+/// The fan's triangle counts, from the module doc: a polygon of V vertices gives V − 2
+/// triangles from an apex (a vertex alone on its side, or a corner between two bare sides),
+/// V from the centre sample when every busy side has several vertices.
+#[test]
+fn fans_have_the_table_counts() {
+    let g = grid5();
+    let whole = SplitMap::new(
+        5,
+        5,
+        vec![Leaf {
+            row: 0,
+            col: 0,
+            level: 2,
+        }],
+    );
+    let mut extra = BorderVertices::empty(5, 5);
+    // One vertex on the north side: V = 5, apex on it.
+    extra.north[1] = true;
+    let m = triangulate(&whole, &g, Some(&extra));
+    assert_watertight(&m, "one on north");
+    assert_eq!((m.vertex_count(), m.triangle_count()), (5, 3));
+    // Two on the north side: the apex is a bottom corner (both its sides bare), V = 6.
+    extra.north[3] = true;
+    let m = triangulate(&whole, &g, Some(&extra));
+    assert_watertight(&m, "two on north");
+    assert_eq!((m.vertex_count(), m.triangle_count()), (6, 4));
+    // Two on the west side as well: the top corners touch a busy side, the bottom ones
+    // are bare on both, V = 8.
+    extra.west[1] = true;
+    extra.west[2] = true;
+    let m = triangulate(&whole, &g, Some(&extra));
+    assert_watertight(&m, "north and west");
+    assert_eq!((m.vertex_count(), m.triangle_count()), (8, 6));
+    // Two on the west and two on the east side: every corner touches a busy side, so the
+    // fan is from the centre sample, a vertex of its own: V = 8 and 8 triangles.
+    let mut extra = BorderVertices::empty(5, 5);
+    extra.west[1] = true;
+    extra.west[2] = true;
+    extra.east[1] = true;
+    extra.east[3] = true;
+    let m = triangulate(&whole, &g, Some(&extra));
+    assert_watertight(&m, "west and east");
+    assert_eq!((m.vertex_count(), m.triangle_count()), (9, 8));
+    assert!(m.positions.iter().any(|p| (p[0], p[1]) == (2.0, 2.0)));
+    // Inside the grid: three level-1 leaves and four 1 × 1 cells in the bottom-left
+    // quarter. The top-left leaf has one vertex on its south side and the bottom-right one
+    // on its west side: 3 + 3 + 2 + 4 × 2 triangles.
+    let mut leaves = vec![
+        Leaf {
+            row: 0,
+            col: 0,
+            level: 1,
+        },
+        Leaf {
+            row: 0,
+            col: 2,
+            level: 1,
+        },
+    ];
+    for (row, col) in [(2, 0), (2, 1), (3, 0), (3, 1)] {
+        leaves.push(Leaf { row, col, level: 0 });
+    }
+    leaves.push(Leaf {
+        row: 2,
+        col: 2,
+        level: 1,
+    });
+    let m = triangulate(&SplitMap::new(5, 5, leaves), &g, None);
+    assert_watertight(&m, "mixed levels");
+    assert_eq!((m.vertex_count(), m.triangle_count()), (14, 16));
+}
+
+/// Where the two bare-leaf rules disagree: a 3 × 3 leaf follows its centre sample even
+/// against the smaller corner step, a 1 × 1 cell the smaller step even against the
+/// midpoint nearer its top-left corner.
+#[test]
+fn the_diagonal_rule_depends_on_the_leaf_size() {
+    // tl 0, br 10 (midpoint 5), bl = tr = 0 (step 0); centre 5.
+    let (_, m) = one_leaf(&[0.0, 0.0, 0.0, 0.0, 5.0, 0.0, 0.0, 0.0, 10.0]);
+    assert!(has_edge(&m, (0.0, 0.0), (2.0, 2.0)));
+    // tl 0, tr 5, bl 5, br 3: steps 3 and 0, midpoints 1.5 and 5.
+    let (_, m) = one_leaf(&[0.0, 5.0, 5.0, 3.0]);
+    assert!(has_edge(&m, (1.0, 0.0), (0.0, 1.0)));
+    // tl −3, tr 2, bl 0, br 3: steps 6 and 2 (the sums would say 0 and 2).
+    let (_, m) = one_leaf(&[-3.0, 2.0, 0.0, 3.0]);
+    assert!(has_edge(&m, (1.0, 0.0), (0.0, 1.0)));
+}
+
+/// The centre rule's arithmetic, on cases found by search to tell it from every one-operator
+/// change: tl = tr = bl = −3, br = 2, centre −2 misses the midpoints by 1.5 and 1, so the
+/// anti-diagonal; a flat −3 is a tie, which goes to the main diagonal.
+#[test]
+fn the_centre_rule_measures_the_midpoints_against_the_centre() {
+    let (_, m) = one_leaf(&[-3.0, 0.0, -3.0, 0.0, -2.0, 0.0, -3.0, 0.0, 2.0]);
+    assert!(has_edge(&m, (2.0, 0.0), (0.0, 2.0)));
+    let (_, m) = one_leaf(&[-3.0, 0.0, -3.0, 0.0, -3.0, 0.0, -3.0, 0.0, -3.0]);
+    assert!(has_edge(&m, (0.0, 0.0), (2.0, 2.0)));
+}
+
+#[test]
+fn height_range_is_the_extreme_vertex_heights() {
+    let mut m = TerrainMesh::default();
+    assert_eq!(m.height_range(), None);
+    m.positions = vec![
+        [0.0, 0.0, 3.5],
+        [1.0, 0.0, -2.25],
+        [0.0, 1.0, 7.0],
+        [1.0, 1.0, 0.0],
+    ];
+    assert_eq!(m.height_range(), Some((-2.25, 7.0)));
+    m.positions.truncate(1);
+    assert_eq!(m.height_range(), Some((3.5, 3.5)));
+}
+
+/// The measure does not depend on a triangle's winding, nor on triangles staying inside the
+/// grid, and a mesh that covers nothing has no error, not NaN.
+#[test]
+fn mesh_error_takes_either_winding_and_clips_to_the_grid() {
+    // 3 × 3, flat 0 but for the east-north corner, 6: the triangle (0,0) (2,0) (2,2) in
+    // (x, y) carries it, the triangle (0,0) (0,2) (2,2) is flat.
+    let mut g = Grid::<f64>::zeros(3, 3);
+    *g.get_mut(0, 2) = 6.0;
+    *g.get_mut(0, 1) = 3.0;
+    *g.get_mut(1, 2) = 3.0;
+    let corners = vec![
+        [0.0, 0.0, 0.0],
+        [2.0, 0.0, 6.0],
+        [0.0, 2.0, 0.0],
+        [2.0, 2.0, 0.0],
+    ];
+    // Opposite windings in (x, y), each listed first once.
+    for triangles in [vec![[0, 2, 3], [0, 1, 3]], vec![[0, 1, 3], [0, 2, 3]]] {
+        let m = TerrainMesh {
+            rows: 3,
+            cols: 3,
+            positions: corners.clone(),
+            triangles,
+        };
+        let e = mesh_error(&m, &g);
+        assert_eq!((e.max_abs, e.rmse, e.uncovered), (0.0, 0.0, 0), "{m:?}");
+        // Alone, the flat triangle covers its own six samples (x ≤ y), all exact.
+        let flat = TerrainMesh {
+            triangles: vec![[0, 2, 3]],
+            ..m.clone()
+        };
+        let e = mesh_error(&flat, &g);
+        assert_eq!((e.max_abs, e.uncovered), (0.0, 3), "{flat:?}");
+    }
+    // One triangle far past the grid, on the plane z = x + 2y, covers every sample once.
+    let plane = Grid::new(3, 3, (0..9).map(|k| (k % 3 + 2 * (k / 3)) as f64).collect()).unwrap();
+    let big = TerrainMesh {
+        rows: 3,
+        cols: 3,
+        positions: vec![[-4.0, -4.0, -12.0], [10.0, -4.0, 2.0], [-4.0, 10.0, 16.0]],
+        triangles: vec![[0, 1, 2]],
+    };
+    let e = mesh_error(&big, &plane);
+    assert_eq!((e.max_abs, e.rmse, e.uncovered), (0.0, 0.0, 0));
+    // A grid of another shape, if only on one axis, is not measured.
+    for other in [Grid::<f64>::zeros(3, 4), Grid::zeros(4, 3)] {
+        let e = mesh_error(&big, &other);
+        assert!(
+            e.max_abs.is_nan() && e.rmse.is_nan() && e.uncovered == 12,
+            "{e:?}"
+        );
+    }
+    // No triangle: nothing covered, no error.
+    let empty = TerrainMesh {
+        rows: 3,
+        cols: 3,
+        ..TerrainMesh::default()
+    };
+    let e = mesh_error(&empty, &plane);
+    assert_eq!((e.max_abs, e.rmse, e.uncovered), (0.0, 0.0, 9));
+}

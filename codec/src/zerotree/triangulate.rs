@@ -37,6 +37,7 @@ pub fn triangulate(
         ..TerrainMesh::default()
     };
     debug_assert_eq!((heights.rows(), heights.cols()), (rows, cols));
+    // The shape test's first `||` as `&&` only matters past the assertion, in release.
     if heights.rows() != rows || heights.cols() != cols || split.leaves().is_empty() {
         return mesh;
     }
@@ -69,7 +70,8 @@ pub fn triangulate(
         }
     }
 
-    // Triangles: one small polygon per leaf.
+    // Triangles: one small polygon per leaf (the reserve is a capacity hint: its `*` as `+`
+    // or `/` changes no output).
     b.mesh.triangles.reserve(2 * split.leaves().len());
     let mut polygon = Vec::with_capacity(16);
     for l in split.leaves() {
@@ -128,6 +130,8 @@ impl Builder<'_> {
         polygon.clear();
         let corner = |r, c| Corner { r, c, side: CORNER };
 
+        // Each `scan_border &&` as `||` is equivalent, only slower: a scan finds what the
+        // bisection finds on any edge, and extra vertices sit only on border edges.
         polygon.push(corner(r0, c0));
         let border = scan_border && c0 == 0;
         self.edge(polygon, border, (r0, c0), (r1, c0), 0);
