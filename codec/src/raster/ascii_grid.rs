@@ -290,6 +290,18 @@ mod tests {
         assert_eq!(map.georef.unwrap().position(0.0, 0.0), (0.5, 0.5));
     }
 
+    /// GDAL writes `dx` and `dy` instead of `cellsize` when the cells are not square.
+    #[test]
+    fn gdal_dx_and_dy_place_non_square_cells() {
+        let text = "ncols 2\nnrows 3\nxllcorner 10\nyllcorner 20\ndx 2\nDY 5\n1 2\n3 4\n5 6\n";
+        let map = read_text("dxdy", text).unwrap();
+        let g = map.georef.unwrap();
+        // West edge 10, 2 wide: centres at x 11 and 13. South edge 20, 5 high: centres at
+        // y 22.5, 27.5 and 32.5, north row first.
+        assert_eq!(g.position(0.0, 0.0), (11.0, 32.5));
+        assert_eq!(g.position(2.0, 1.0), (13.0, 22.5));
+    }
+
     #[test]
     fn too_few_values_is_a_truncation_error() {
         let err = read_text("few", "ncols 2\nnrows 2\ncellsize 1\n1 2\n3\n").unwrap_err();

@@ -142,6 +142,17 @@ mod tests {
         assert_eq!(georef_from_name(Path::new("N95W072.hgt"), 1201), None);
     }
 
+    /// Longitudes run to 180 inclusive (W180 is the tile east of the antimeridian), not past.
+    #[test]
+    fn longitude_180_is_a_tile_and_181_is_not() {
+        let g = georef_from_name(Path::new("S01W180.hgt"), 1201).unwrap();
+        assert_eq!(g.position(0.0, 0.0), (-180.0, 0.0));
+        assert!(georef_from_name(Path::new("N00E180.hgt"), 1201).is_some());
+        assert_eq!(georef_from_name(Path::new("N00E181.hgt"), 1201), None);
+        assert_eq!(georef_from_name(Path::new("N90E000.hgt"), 1201), None);
+        assert!(georef_from_name(Path::new("N89E000.hgt"), 1201).is_some());
+    }
+
     #[test]
     fn rejects_a_file_of_the_wrong_size() {
         let dir = scratch_dir("hgt_wrong_size");

@@ -363,7 +363,7 @@ fn bounds_are_edges(extent: f64, n: usize, d: f64) -> Option<bool> {
         |cells: usize| (extent - cells as f64 * d).abs() <= EXTENT_TOLERANCE * extent.abs().max(d);
     if matches(n) {
         Some(true)
-    } else if n > 1 && matches(n - 1) {
+    } else if n >= 1 && matches(n - 1) {
         Some(false)
     } else {
         None
@@ -598,5 +598,190 @@ mod tests {
         assert_eq!(bounds_are_edges(4.0, 4, 1.0), Some(true));
         assert_eq!(bounds_are_edges(3.0, 4, 1.0), Some(false));
         assert_eq!(bounds_are_edges(3.5, 4, 1.0), None);
+        // One sample: equal bounds are its centre, bounds one cell apart its edges.
+        assert_eq!(bounds_are_edges(0.0, 1, 1.0), Some(false));
+        assert_eq!(bounds_are_edges(1.0, 1, 1.0), Some(true));
+        // A cell size other than 1, and the relative slack: 1e-6 of the extent, not less.
+        assert_eq!(bounds_are_edges(2.0, 4, 0.5), Some(true));
+        assert_eq!(bounds_are_edges(1.5, 4, 0.5), Some(false));
+        assert_eq!(bounds_are_edges(2.000_001, 4, 0.5), Some(true));
+        assert_eq!(bounds_are_edges(2.000_01, 4, 0.5), None);
+    }
+
+    /// Every sample type we read, at its extremes, with the step of its kind; a missing arm
+    /// would refuse the type as unsupported.
+    #[test]
+    fn reads_every_supported_dtype() {
+        fn le<T: Copy, const N: usize>(values: &[T], bytes: fn(T) -> [u8; N]) -> Vec<u8> {
+            values.iter().flat_map(|&v| bytes(v)).collect()
+        }
+        let cases = [
+            (
+                "|i1",
+                le(&[i8::MIN, i8::MAX], i8::to_le_bytes),
+                [-128.0, 127.0],
+                Some(1.0),
+            ),
+            (
+                "<i2",
+                le(&[i16::MIN, i16::MAX], i16::to_le_bytes),
+                [-32768.0, 32767.0],
+                Some(1.0),
+            ),
+            (
+                "<i4",
+                le(&[i32::MIN, i32::MAX], i32::to_le_bytes),
+                [-2_147_483_648.0, 2_147_483_647.0],
+                Some(1.0),
+            ),
+            ("|u1", vec![0, u8::MAX], [0.0, 255.0], Some(1.0)),
+            (
+                "<u2",
+                le(&[0, u16::MAX], u16::to_le_bytes),
+                [0.0, 65535.0],
+                Some(1.0),
+            ),
+            (
+                "<u4",
+                le(&[0, u32::MAX], u32::to_le_bytes),
+                [0.0, 4_294_967_295.0],
+                Some(1.0),
+            ),
+            (
+                "<f4",
+                le(&[1.5f32, -2.25], f32::to_le_bytes),
+                [1.5, -2.25],
+                None,
+            ),
+            (
+                "<f8",
+                le(&[1.5f64, -2.25], f64::to_le_bytes),
+                [1.5, -2.25],
+                None,
+            ),
+        ];
+        for (descr, data, want, step) in cases {
+            let name = format!("npy_dtype_{}", &descr[1..]);
+            let path = write_npy(&name, &npy_bytes(descr, false, "(1, 2)", &data));
+            let map = read_npy(&path, &ReadOptions::default()).unwrap();
+            assert_eq!((map.heights.data(), map.step), (&want[..], step), "{descr}");
+        }
+    }
+
+    /// The header checks on their own: nesting up to [`MAX_HEADER_DEPTH`], and shapes whose
+    /// non-zero dimensions multiply past u64 (a zero dimension does not excuse the others).
+    #[test]
+    fn header_check_bounds_nesting_and_shape_products() {
+        let path = Path::new("h.npy");
+        let check = |header: String| check_header(path, header.as_bytes(), "the array");
+        let nested = |depth: usize| {
+            format!(
+                "{{'shape': (1, 1), 'x': {}{}}}",
+                "[".repeat(depth - 1),
+                "]".repeat(depth - 1)
+            )
+        };
+        check(nested(MAX_HEADER_DEPTH)).unwrap();
+        let err = check(nested(MAX_HEADER_DEPTH + 1)).unwrap_err();
+        assert!(err.to_string().contains("nests too deeply"), "{err}");
+
+        check("{'shape': (2, 3), }".into()).unwrap();
+        check("{'shape': (0, 4294967296, 4294967295), }".into()).unwrap();
+        for shape in ["(4294967296, 4294967296)", "(0, 4294967296, 4294967296)"] {
+            let err = check(format!("{{'shape': {shape}, }}")).unwrap_err();
+            assert!(err.to_string().contains("overflows"), "{shape}: {err}");
+        }
+    }
+
+    /// A header longer than [`MAX_HEADER_BYTES`] is refused by its declared length, before
+    /// it is read; one of exactly that length is read.
+    #[test]
+    fn header_length_limit_is_inclusive() {
+        let path = Path::new("long.npy");
+        let version_2 = |len: u32, header: &[u8]| {
+            let mut bytes = b"\x93NUMPY\x02\x00".to_vec();
+            bytes.extend_from_slice(&len.to_le_bytes());
+            bytes.extend_from_slice(header);
+            bytes.push(0);
+            bytes
+        };
+        let mut header = b"{'descr': '|u1', 'fortran_order': False, 'shape': (1, 1), }".to_vec();
+        header.resize(MAX_HEADER_BYTES - 1, b' ');
+        header.push(b'\n');
+        let bytes = version_2(MAX_HEADER_BYTES as u32, &header);
+        let npy = open_array(path, Cursor::new(bytes), "the array").unwrap();
+        assert_eq!(npy.shape(), &[1, 1]);
+
+        let too_long = MAX_HEADER_BYTES as u32 + 1;
+        let Err(err) = open_array(path, Cursor::new(version_2(too_long, &header)), "the array")
+        else {
+            panic!("a {too_long}-byte header was read");
+        };
+        assert!(
+            matches!(err, RasterError::Format { .. })
+                && err.to_string().contains("a 65537-byte header"),
+            "{err}"
+        );
+    }
+
+    /// Bounds with `xmax`, at the outer centres, in metres: placed as given, CRS unknown.
+    #[test]
+    fn npz_bounds_at_centres_with_xmax_in_metres() {
+        let grid = npy_bytes("|u1", false, "(2, 3)", &[1, 2, 3, 4, 5, 6]);
+        let scalar = |v: f64| npy_bytes("<f8", false, "()", &v.to_le_bytes());
+        let path = write_npz(
+            "npz_centres",
+            &[
+                ("elevation", grid),
+                ("dx", scalar(10.0)),
+                ("dy", scalar(5.0)),
+                ("xmin", scalar(500_000.0)),
+                ("xmax", scalar(500_020.0)),
+                ("ymin", scalar(4_000_005.0)),
+                ("ymax", scalar(4_000_000.0)),
+            ],
+        );
+        let g = read_npz(&path, &ReadOptions::default())
+            .unwrap()
+            .georef
+            .unwrap();
+        assert_eq!(g.crs, Crs::Unknown);
+        assert_eq!(g.position(0.0, 0.0), (500_000.0, 4_000_005.0));
+        assert_eq!(g.position(1.0, 2.0), (500_020.0, 4_000_000.0));
+    }
+
+    /// Bounds that do not make a placement: a spacing that is not positive (either one), an
+    /// `xmax` that fits neither reading; and longitudes that run past 180° are not degrees.
+    #[test]
+    fn npz_bounds_that_place_nothing_or_are_not_degrees() {
+        let scalar = |v: f64| npy_bytes("<f8", false, "()", &v.to_le_bytes());
+        let npz = |test: &str, dx: f64, dy: f64, xmin: f64, xmax: Option<f64>| {
+            let mut members = vec![
+                ("elevation", npy_bytes("|u1", false, "(2, 3)", &[0; 6])),
+                ("dx", scalar(dx)),
+                ("dy", scalar(dy)),
+                ("xmin", scalar(xmin)),
+                ("ymin", scalar(10.0)),
+                ("ymax", scalar(30.0)),
+            ];
+            if let Some(xmax) = xmax {
+                members.push(("xmax", scalar(xmax)));
+            }
+            let path = write_npz(test, &members);
+            read_npz(&path, &ReadOptions::default()).unwrap().georef
+        };
+        // Rows: 2 cells of 10 between latitudes 10 and 30 (edges).
+        let g = npz("npz_deg", 10.0, 10.0, 140.0, None).unwrap();
+        assert_eq!(
+            (g.crs, g.position(0.0, 0.0)),
+            (Crs::Geographic, (145.0, 25.0))
+        );
+        // A negative spacing would mirror the raster (a zero one is refused later anyway).
+        assert_eq!(npz("npz_dxneg", -10.0, 10.0, 140.0, None), None);
+        assert_eq!(npz("npz_dyneg", 10.0, -10.0, 140.0, None), None);
+        assert_eq!(npz("npz_xmax", 10.0, 10.0, 140.0, Some(165.0)), None);
+        // West edge 170° but east edge 200°: not longitudes.
+        let g = npz("npz_east", 10.0, 10.0, 170.0, None).unwrap();
+        assert_eq!((g.crs, g.position(0.0, 0.0)), (Crs::Unknown, (175.0, 25.0)));
     }
 }
