@@ -70,3 +70,14 @@ pub enum Error {
 }
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// `v` as the shortest text that reads back as `v`, in exponent form where the plain decimal
+/// would run to dozens of digits (1e300 in 301 digits, a threshold of 1e-300 in 302): for
+/// messages and headers that quote a number.
+pub fn short(v: f64) -> String {
+    if v != 0.0 && v.is_finite() && !(1e-6..1e15).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        v.to_string()
+    }
+}

@@ -578,17 +578,11 @@ const MAX_TOP_PLANE: u32 = 62;
 const MIN_BOUND_UNITS: f64 = 1.0 / (1u64 << 20) as f64;
 const MIN_BOUND_OF_RANGE: f64 = 1.0 / (1u64 << 40) as f64;
 
-/// `got` in exponent form outside [1e-6, 1e15): a fill of 1e300 was quoted in 301 digits.
 fn out_of_range(name: &'static str, expected: &'static str, got: f64) -> ParamError {
-    let got = if got != 0.0 && got.is_finite() && !(1e-6..1e15).contains(&got.abs()) {
-        format!("{got:e}")
-    } else {
-        got.to_string()
-    };
     ParamError::OutOfRange {
         name,
         expected,
-        got,
+        got: crate::error::short(got),
     }
 }
 

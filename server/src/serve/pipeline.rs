@@ -335,27 +335,22 @@ mod tests {
     use quick_cache::Weighter;
     use zerotile_codec::container::Writer;
     use zerotile_codec::ezw::EncodeParams;
+    use zerotile_codec::raster::{read_heightmap, ReadOptions};
     use zerotile_codec::wavelet::Wavelet;
-    use zerotile_codec::Grid;
 
     const ROOT: TileId = TileId { z: 0, x: 0, y: 0 };
 
     /// A one-tile local dataset of real terrain: a 257² window of the SRTM tile N44W072
     /// (3″, 1201², big-endian i16) over the Presidential Range, 1 m steps.
     fn srtm_dataset() -> Dataset {
-        let raw = std::fs::read(crate::fixtures::shared_data("dem/N44W072.hgt")).unwrap();
-        let at = |r: usize, c: usize| {
-            let i = 2 * ((750 + r) * 1201 + 700 + c);
-            f64::from(i16::from_be_bytes([raw[i], raw[i + 1]]))
-        };
-        let g = Grid::new(
-            257,
-            257,
-            (0..257 * 257).map(|k| at(k / 257, k % 257)).collect(),
-        )
-        .unwrap();
+        let hgt = crate::fixtures::shared_data("dem/N44W072.hgt");
+        let g = read_heightmap(hgt, &ReadOptions::default())
+            .unwrap()
+            .crop(750, 700, 257, 257)
+            .unwrap()
+            .heights;
         let enc = ezw::encode(&g, &EncodeParams::new(Wavelet::Cdf97, 1.0)).unwrap();
-        let corners = [at(0, 0), at(0, 256), at(256, 0), at(256, 256)];
+        let corners = [(0, 0), (0, 256), (256, 0), (256, 256)].map(|(r, c)| *g.get(r, c));
         let mut w = Writer::new();
         w.add(ROOT, corners, &enc.bytes);
         let m = crate::fixtures::local_257(enc.bytes.len() as u64);

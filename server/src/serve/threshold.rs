@@ -347,15 +347,8 @@ pub fn integer(name: &str, s: &str, lo: f64, hi: f64) -> Result<f64, ApiError> {
     Ok(v)
 }
 
-/// `v` as the shortest text that reads back as `v`, in exponent form where the plain decimal
-/// would run to dozens of digits (a threshold of 1e-300 is valid, and goes into headers).
-pub fn short(v: f64) -> String {
-    if v != 0.0 && v.is_finite() && !(1e-6..1e15).contains(&v.abs()) {
-        format!("{v:e}")
-    } else {
-        v.to_string()
-    }
-}
+/// A threshold of 1e-300 is valid and goes into headers: quoted short, as the codec does.
+pub use zerotile_codec::error::short;
 
 /// `x,y,z`, each finite and within [`MAX_COORDINATE`].
 pub fn vec3(name: &str, s: &str) -> Result<DVec3, ApiError> {
