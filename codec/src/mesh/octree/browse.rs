@@ -189,11 +189,14 @@ impl Camera {
     }
 
     /// Whether the box's projection meets the region ("속하거나 걸치는": inside or straddling).
-    /// A box reaching behind the eye is taken as meeting it: the eye is in or near it.
+    /// A box straddling the eye plane is taken as meeting it (its projection is unbounded, and
+    /// the eye is in or near it); a box wholly behind the eye is not on screen at all: taking
+    /// it as meeting refined everything behind a camera that looked away from the model.
     pub fn box_meets(&self, node: &Node, roi: &Roi) -> bool {
         let (lo, hi) = (node.min(), node.max());
         let mut x = (f64::INFINITY, f64::NEG_INFINITY);
         let mut y = (f64::INFINITY, f64::NEG_INFINITY);
+        let mut behind = 0;
         for corner in 0..8 {
             let pick = |bit: usize, a: f64, b: f64| if corner & bit != 0 { b } else { a };
             let p = DVec3::new(
@@ -206,8 +209,11 @@ impl Camera {
                     x = (x.0.min(px), x.1.max(px));
                     y = (y.0.min(py), y.1.max(py));
                 }
-                None => return true,
+                None => behind += 1,
             }
+        }
+        if behind > 0 {
+            return behind < 8;
         }
         x.0 <= roi.x1 && x.1 >= roi.x0 && y.0 <= roi.y1 && y.1 >= roi.y0
     }
