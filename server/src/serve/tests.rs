@@ -961,6 +961,36 @@ async fn a_mesh_replaced_across_a_restart_gets_new_etags() {
     let _ = std::fs::remove_dir_all(&data);
 }
 
+/// `fov` and `aspect` only shape a browse: without `roi`, `eye` and `target` they were
+/// dropped and the plain level answered, as if the camera had been used.
+#[tokio::test]
+async fn an_octree_camera_without_a_region_is_refused() {
+    let data = one_triangle_data("octree-camera");
+    let app = router_with_meshes("octree-camera", &data);
+    for q in ["fov=60", "aspect=2", "level=1&fov=60&aspect=2"] {
+        let e = refused(
+            &app,
+            &format!("/v1/meshes/a/octree?{q}"),
+            StatusCode::BAD_REQUEST,
+            "bad_query",
+        )
+        .await;
+        assert!(
+            e["message"]
+                .as_str()
+                .unwrap()
+                .contains("roi, eye and target"),
+            "{e}"
+        );
+    }
+    let (s, _, _) = get(&app, "/v1/meshes/a/octree?level=1").await;
+    assert_eq!(s, StatusCode::OK);
+    let browse = "/v1/meshes/a/octree?level=1&roi=-1,-1,1,1&eye=0,0,5&target=0,0,0&fov=60&aspect=2";
+    let (s, _, _) = get(&app, browse).await;
+    assert_eq!(s, StatusCode::OK);
+    let _ = std::fs::remove_dir_all(&data);
+}
+
 /// An upload replaces a mesh at the same URLs and is served at once, so its LODs are
 /// revalidated on every use (`no-cache`, on the 304 too), not kept fresh for an hour: a
 /// browser holding the old answer asks again and gets the new mesh.

@@ -234,6 +234,22 @@ fn parse_ask(method: &str, q: &HashMap<String, String>, mesh: &TriMesh) -> ApiRe
                 .map(|l| integer("level", l, 0.0, 32.0))
                 .transpose()?
                 .map(|l| l as u32);
+            let browsing = ["roi", "eye", "target"]
+                .into_iter()
+                .any(|k| get(k).is_some());
+            // Without the rest of the camera, fov or aspect would be dropped without a word
+            // and the client would take the plain level for a browse.
+            if let Some(k) = ["fov", "aspect"].into_iter().find(|k| get(k).is_some()) {
+                if !browsing {
+                    return Err(ApiError::bad_request(
+                        "bad_query",
+                        format!(
+                            "{k} shapes a browse, which needs roi, eye and target too; \
+                             without them the answer is the plain level"
+                        ),
+                    ));
+                }
+            }
             let roi = match (get("roi"), get("eye"), get("target")) {
                 (None, None, None) => None,
                 (Some(r), Some(e), Some(t)) => {
