@@ -45,7 +45,8 @@ pub const DEFAULT_MAX_NORMAL_TURN_DEG: f64 = 90.0;
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct QemOptions {
     /// Stop once at most this many faces remain (0: no face target). An interior collapse
-    /// removes two faces, so the result has `target_faces` or `target_faces − 1` faces.
+    /// removes two faces, so the result has `target_faces` or `target_faces − 1` faces. The
+    /// last face is never removed, whatever the target or error limit.
     pub target_faces: usize,
     /// Stop before the first collapse whose error exceeds this fraction of the bounding-box
     /// diagonal (0.01 = 1 %; `f64::INFINITY`: no limit). The error of a vertex is the
@@ -146,7 +147,7 @@ impl QemOptions {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Stop {
-    /// At or below the face target.
+    /// At or below the face target, or down to the one face always kept.
     TargetReached,
     /// The next collapse would exceed the error limit.
     ErrorLimit,
@@ -213,9 +214,12 @@ pub fn simplify(mesh: &TriMesh, options: &QemOptions) -> Result<(TriMesh, QemRep
     if options.aggregation > 0.0 {
         state.add_virtual_pairs(options.aggregation * diagonal);
     }
-    // Contract in error order until the target or the error limit says stop.
+    // Contract in error order until the target or the error limit says stop. At least one
+    // face stays: a lone triangle contracts away whole, so under a loose error limit an open
+    // mesh's parts went one by one and the answer was empty (the vase at 50 % of the diagonal),
+    // which no face target gives.
     let limit = options.max_error * diagonal;
-    let stop = state.run(options.target_faces, limit * limit);
+    let stop = state.run(options.target_faces.max(1), limit * limit);
     // Survivors out, in input order.
     let (out, mut report) = state.finish();
     report.stop = stop;

@@ -134,6 +134,33 @@ fn error_limit_stops_early_and_is_respected() {
 }
 
 #[test]
+fn an_error_limit_never_empties_the_mesh() {
+    // The open vase loses its parts one lone triangle at a time under a loose limit: it was
+    // simplified to no face at all from 50 % of the diagonal. Two separate triangles too.
+    let vase = crate::mesh::validate::repair(&shared("vase-lathe.obj"))
+        .expect("repairable")
+        .0;
+    let pair = TriMesh::new(
+        vec![
+            DVec3::ZERO,
+            DVec3::X,
+            DVec3::Y,
+            DVec3::splat(10.0),
+            DVec3::new(11.0, 10.0, 10.0),
+            DVec3::new(10.0, 11.0, 10.0),
+        ],
+        vec![[0, 1, 2], [3, 4, 5]],
+    );
+    for (name, m) in [("vase", &vase), ("two triangles", &pair)] {
+        for e in [0.5, 1.0] {
+            let (out, _) = simplify(m, &QemOptions::to_error(e)).expect("simplifies");
+            assert_eq!(out.face_count(), 1, "{name} at {e}");
+            assert_eq!(out.vertex_count(), 3, "{name} at {e}");
+        }
+    }
+}
+
+#[test]
 fn options_out_of_range_are_param_errors() {
     let m = shared("npm-bunny.obj");
     let bad = [
