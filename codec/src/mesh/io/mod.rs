@@ -93,8 +93,12 @@ impl Format {
     }
 }
 
+fn without_bom(bytes: &[u8]) -> &[u8] {
+    bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes)
+}
+
 fn skip_bom_and_space(bytes: &[u8]) -> &[u8] {
-    let b = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+    let b = without_bom(bytes);
     let start = b
         .iter()
         .position(|c| !c.is_ascii_whitespace())
@@ -196,10 +200,12 @@ pub fn read_bytes(
     };
     // Parse with the format's crate, counts checked against the limits on the way.
     let mesh = match format {
-        Format::Obj => obj::read(bytes, limits)?,
+        // The text formats may start with a UTF-8 byte-order mark (editors on Windows write
+        // one), which sniffing already skips: the parsers took it for part of the first line.
+        Format::Obj => obj::read(without_bom(bytes), limits)?,
         Format::Ply => ply::read(bytes, limits)?,
         Format::Stl => stl::read(bytes, limits)?,
-        Format::Json => json::read(bytes, limits)?,
+        Format::Json => json::read(without_bom(bytes), limits)?,
         Format::Glb => {
             return Err(MeshError::Unsupported(
                 "reading GLB is not supported; send OBJ, PLY, STL or JSON".into(),

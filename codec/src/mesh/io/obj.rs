@@ -31,7 +31,11 @@ pub(super) fn read(bytes: &[u8], limits: &MeshLimits) -> Result<TriMesh, MeshErr
         ignore_lines: true,
         ..tobj::LoadOptions::default()
     };
-    let mut reader = bytes;
+    // tobj reads lines as UTF-8 and fails the whole file ("read error") on one byte that is
+    // not, which older exporters write in comments and names (Latin-1 "Créé par"); none of
+    // those bytes can be in a number the mesh needs, so they are replaced instead.
+    let text = String::from_utf8_lossy(bytes);
+    let mut reader = text.as_bytes();
     let (models, _materials) = tobj::load_obj_buf(&mut reader, &options, |_| {
         // Material libraries are never opened: a mesh upload must not read other files.
         Err(tobj::LoadError::GenericFailure)

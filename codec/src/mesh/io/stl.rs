@@ -26,10 +26,29 @@ pub(super) fn is_binary(bytes: &[u8]) -> bool {
     claimed(bytes).is_some_and(|n| HEADER as u64 + RECORD * n == bytes.len() as u64)
 }
 
+/// An ASCII STL's text from its `solid` keyword on, past a byte-order mark and blank space.
+/// The solid's name is optional, so `solid` may end its line: files whose first line was a
+/// bare `solid` were read as binary and refused for the huge triangle count their text spelt.
+fn ascii_text(bytes: &[u8]) -> Option<&[u8]> {
+    let text = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+    let text = text.trim_ascii_start();
+    let after = text.strip_prefix(b"solid")?;
+    after
+        .first()
+        .is_none_or(u8::is_ascii_whitespace)
+        .then_some(text)
+}
+
 pub(super) fn read(bytes: &[u8], limits: &MeshLimits) -> Result<TriMesh, MeshError> {
-    let ascii = bytes.starts_with(b"solid ") && !is_binary(bytes);
-    let mesh = if ascii {
-        stl_io::read_stl(&mut Cursor::new(bytes))
+    let ascii = ascii_text(bytes).filter(|_| !is_binary(bytes));
+    let mesh = if let Some(text) = ascii {
+        // stl_io takes a file for ASCII only when it starts with "solid " (space included).
+        let text: std::borrow::Cow<[u8]> = if text.starts_with(b"solid ") {
+            text.into()
+        } else {
+            [b"solid ", &text[5..]].concat().into()
+        };
+        stl_io::read_stl(&mut Cursor::new(text))
     } else {
         // The claimed count against the limits and the bytes present, before reading.
         let n = claimed(bytes).ok_or_else(|| {

@@ -91,6 +91,58 @@ vertex 1 1 0.5\nvertex 0 1 0\nendloop\nendfacet\nendsolid t\n";
     );
 }
 
+/// What editors and older exporters write around the same quad: a UTF-8 byte-order mark,
+/// an ASCII STL solid without a name (or indented), a Latin-1 comment in an OBJ. Each was
+/// refused: the BOM'd OBJ lost its first vertex ("index out of bounds"), the BOM'd JSON was
+/// "expected value", the STLs were read as binary (a limit error for ~1.7e9 faces), and the
+/// Latin-1 OBJ was "read error".
+#[test]
+fn text_meshes_read_past_a_bom_a_bare_solid_and_latin1_bytes() {
+    const BOM: &[u8] = b"\xEF\xBB\xBF";
+    let obj = b"v 0 0 0\nv 1 0 0\nv 1 1 0.5\nv 0 1 0\nf 1 2 3\nf 1 3 4\n";
+    let json = write_bytes(&quad(), Format::Json).unwrap();
+    let facets = "facet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n\
+vertex 1 1 0.5\nendloop\nendfacet\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n\
+vertex 1 1 0.5\nvertex 0 1 0\nendloop\nendfacet\nendsolid\n";
+    let mut latin1 = b"# cr\xe9\xe9 par un vieux logiciel\no caf\xe9\n".to_vec();
+    latin1.extend_from_slice(obj);
+    let cases: Vec<(&str, Vec<u8>, Format)> = vec![
+        ("OBJ with a BOM", [BOM, obj].concat(), Format::Obj),
+        ("JSON with a BOM", [BOM, &json].concat(), Format::Json),
+        ("OBJ with Latin-1 bytes", latin1, Format::Obj),
+        (
+            "bare solid",
+            format!("solid\n{facets}").into_bytes(),
+            Format::Stl,
+        ),
+        (
+            "bare solid, CRLF",
+            format!("solid\r\n{facets}").into_bytes(),
+            Format::Stl,
+        ),
+        (
+            "indented solid",
+            format!("  solid t\n{facets}").into_bytes(),
+            Format::Stl,
+        ),
+        (
+            "STL with a BOM",
+            [BOM, format!("solid t\n{facets}").as_bytes()].concat(),
+            Format::Stl,
+        ),
+    ];
+    for (what, bytes, format) in cases {
+        assert_eq!(Format::sniff(&bytes), Some(format), "{what}");
+        for given in [None, Some(format)] {
+            let m = read_bytes(&bytes, given, &limits()).unwrap_or_else(|e| panic!("{what}: {e}"));
+            assert_eq!(m, quad(), "{what}");
+        }
+    }
+    // A word that merely starts with "solid" is no ASCII STL.
+    let solidly = format!("solidly\n{facets}");
+    assert!(read_bytes(solidly.as_bytes(), Some(Format::Stl), &limits()).is_err());
+}
+
 fn binary_stl(m: &TriMesh, header: &[u8]) -> Vec<u8> {
     let mut b = vec![0u8; 80];
     b[..header.len()].copy_from_slice(header);
