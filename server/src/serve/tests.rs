@@ -1042,6 +1042,51 @@ async fn a_form_labelled_upload_is_told_to_set_its_content_type() {
     assert!(!v["message"].as_str().unwrap().contains("curl"), "{v}");
 }
 
+/// Nothing decodes a compressed upload, so a gzipped OBJ reached the parser as it came and
+/// was a 422 "OBJ: read error"; it is a 415 naming Content-Encoding, and stores nothing.
+#[tokio::test]
+async fn a_compressed_upload_is_told_to_send_the_mesh_uncompressed() {
+    let data = one_triangle_data("upload-gzip");
+    let app = router_with_meshes("upload-gzip", &data);
+    let obj = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+    std::io::Write::write_all(&mut gz, obj).unwrap();
+    let gz = gz.finish().unwrap();
+    for coding in ["gzip", "br", "x-gzip, identity"] {
+        let req = Request::builder()
+            .method(Method::POST)
+            .uri("/v1/meshes/b")
+            .header(header::CONTENT_TYPE, "model/obj")
+            .header(header::CONTENT_ENCODING, coding)
+            .body(Body::from(gz.clone()))
+            .unwrap();
+        let res = app.clone().oneshot(req).await.unwrap();
+        assert_eq!(res.status(), StatusCode::UNSUPPORTED_MEDIA_TYPE, "{coding}");
+        let body = to_bytes(res.into_body(), 1 << 20).await.unwrap();
+        let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
+        assert_eq!(v["error"], "unsupported_media_type", "{coding}");
+        assert!(
+            v["message"].as_str().unwrap().contains("Content-Encoding"),
+            "{v}"
+        );
+    }
+    let (s, _, _) = get(&app, "/v1/meshes/b").await;
+    assert_eq!(s, StatusCode::NOT_FOUND);
+    // identity is no coding.
+    let req = Request::builder()
+        .method(Method::POST)
+        .uri("/v1/meshes/b")
+        .header(header::CONTENT_TYPE, "model/obj")
+        .header(header::CONTENT_ENCODING, "identity")
+        .body(Body::from(&obj[..]))
+        .unwrap();
+    assert_eq!(
+        app.clone().oneshot(req).await.unwrap().status(),
+        StatusCode::CREATED
+    );
+    let _ = std::fs::remove_dir_all(&data);
+}
+
 /// `POST URI` with an OBJ body.
 async fn post_obj(app: &Router, uri: &str, obj: &str) -> (StatusCode, Vec<u8>) {
     let req = Request::builder()

@@ -16,7 +16,7 @@ use std::sync::Arc;
 use axum::body::{Body, Bytes};
 use axum::extract::rejection::{PathRejection, QueryRejection};
 use axum::extract::{Path, Query, State};
-use axum::http::header::{CONTENT_LENGTH, CONTENT_TYPE};
+use axum::http::header::{CONTENT_ENCODING, CONTENT_LENGTH, CONTENT_TYPE};
 use axum::http::{HeaderMap, HeaderValue, StatusCode};
 use axum::response::Response;
 use axum::Json;
@@ -638,6 +638,24 @@ fn upload_target(
     }
     crate::ingest::check_name_of("mesh", &name)
         .map_err(|e| ApiError::bad_request("bad_name", e.to_string()))?;
+    // Nothing decodes a compressed body: it reached the mesh parsers as it came and was
+    // refused as an unreadable mesh (422 "OBJ: read error"), which sent the client looking at
+    // its file instead of at the header. RFC 9110 §15.5.16: a coding not supported is a 415.
+    if let Some(coding) = headers
+        .get(CONTENT_ENCODING)
+        .map(|v| v.to_str().unwrap_or("?").trim())
+        .filter(|c| !c.is_empty() && !c.eq_ignore_ascii_case("identity"))
+    {
+        return Err(ApiError::new(
+            StatusCode::UNSUPPORTED_MEDIA_TYPE,
+            "unsupported_media_type",
+            format!(
+                "an upload is read as sent, and Content-Encoding {} is not decoded; send the \
+                 mesh uncompressed (it may be up to 64 MiB)",
+                echo(coding)
+            ),
+        ));
+    }
     let ct = headers
         .get(CONTENT_TYPE)
         .and_then(|v| v.to_str().ok())
