@@ -458,4 +458,114 @@ mod tests {
         // −9999 is a height here (not the declared no-data).
         assert_eq!(map.min_max(), Some((-9999.0, 12.5)));
     }
+
+    #[test]
+    fn float64_nodata_is_matched_exactly() {
+        let path = scratch_dir("tiff_f64").join("f64.tif");
+        let samples = [1.5f64, -9999.0, f64::NAN, 2.25];
+        write_tiff_as::<colortype::Gray64Float>(&path, (4, 1), &samples, |dir| {
+            dir.write_tag(Tag::GdalNodata, "-9999").unwrap();
+        });
+        let map = read(&path, &ReadOptions::default()).unwrap();
+        assert_eq!((map.nodata_count, map.step), (2, None));
+        let h = map.heights.data();
+        assert_eq!((h[0], h[3]), (1.5, 2.25));
+        assert!(h[1].is_nan() && h[2].is_nan(), "{h:?}");
+    }
+
+    #[test]
+    fn nodata_text_padded_with_whitespace_is_read() {
+        // Writers pad the tag (GDAL's own files carry a NUL, which the decoder cuts off).
+        let path = scratch_dir("tiff_pad").join("pad.tif");
+        write_tiff(&path, (3, 1), &[7, -9999, 8], |dir| {
+            dir.write_tag(Tag::GdalNodata, " -9999 \n").unwrap();
+        });
+        let map = read(&path, &ReadOptions::default()).unwrap();
+        assert_eq!(map.nodata_count, 1);
+        assert_eq!(map.min_max(), Some((7.0, 8.0)));
+    }
+
+    #[test]
+    fn tag_sizes_are_bounded_by_max_samples() {
+        // A tag's values are allocated before they are read; `max_samples` bounds that too, so
+        // a tiny raster cannot ask for a huge tag. Here 16 doubles against 16 samples' bytes.
+        let path = scratch_dir("tiff_tag_limit").join("tag.tif");
+        write_tiff(&path, (2, 2), &[1, 2, 3, 4], |dir| {
+            let m = [1.0; 16];
+            dir.write_tag(Tag::ModelTransformationTag, &m[..]).unwrap();
+        });
+        assert!(read(&path, &ReadOptions::default()).is_ok());
+        let small = ReadOptions {
+            max_samples: 16,
+            ..ReadOptions::default()
+        };
+        let err = read(&path, &small).unwrap_err();
+        assert!(matches!(err, RasterError::Limit { .. }), "{err}");
+    }
+
+    #[test]
+    fn user_defined_or_zero_crs_codes_are_unknown() {
+        for (key, code, want) in [
+            (PROJECTED_CS_TYPE_GEO_KEY, USER_DEFINED, Crs::Unknown),
+            (PROJECTED_CS_TYPE_GEO_KEY, 0, Crs::Unknown),
+            (GEOGRAPHIC_TYPE_GEO_KEY, USER_DEFINED, Crs::Unknown),
+            (GEOGRAPHIC_TYPE_GEO_KEY, 0, Crs::Unknown),
+            (PROJECTED_CS_TYPE_GEO_KEY, 32633, Crs::Epsg(32633)),
+        ] {
+            let path = scratch_dir("tiff_crs").join(format!("crs_{key}_{code}.tif"));
+            write_tiff(&path, (2, 2), &[1, 2, 3, 4], |dir| {
+                let keys: [u16; 8] = [1, 1, 0, 1, key, 0, 1, code];
+                dir.write_tag(Tag::GeoKeyDirectoryTag, &keys[..]).unwrap();
+                dir.write_tag(Tag::ModelPixelScaleTag, &[1.0, 1.0, 0.0][..])
+                    .unwrap();
+                let tie = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+                dir.write_tag(Tag::ModelTiepointTag, &tie[..]).unwrap();
+            });
+            let map = read(&path, &ReadOptions::default()).unwrap();
+            assert_eq!(map.georef.unwrap().crs, want, "key {key} = {code}");
+        }
+    }
+
+    #[test]
+    fn a_tiepoint_away_from_the_raster_origin_is_moved_back_to_it() {
+        // Tiepoint raster (2, 1) ↦ (10, 50): raster (0, 0) is 2 columns west and 1 row north.
+        let path = scratch_dir("tiff_tie").join("tie.tif");
+        write_tiff(&path, (3, 2), &[1, 2, 3, 4, 5, 6], |dir| {
+            let keys: [u16; 8] = [1, 1, 0, 1, 1025, 0, 1, 2];
+            dir.write_tag(Tag::GeoKeyDirectoryTag, &keys[..]).unwrap();
+            dir.write_tag(Tag::ModelPixelScaleTag, &[0.5, 0.25, 0.0][..])
+                .unwrap();
+            let tie = [2.0, 1.0, 0.0, 10.0, 50.0, 0.0];
+            dir.write_tag(Tag::ModelTiepointTag, &tie[..]).unwrap();
+        });
+        let g = read(&path, &ReadOptions::default())
+            .unwrap()
+            .georef
+            .unwrap();
+        assert_eq!(g, Georef::north_up(Crs::Unknown, 9.0, 50.25, 0.5, 0.25));
+        assert_eq!(g.position(1.0, 2.0), (10.0, 50.0));
+    }
+
+    #[test]
+    fn a_rotated_model_transformation_moves_the_centre_along_both_axes() {
+        // Area raster: the first centre is raster (0.5, 0.5), so each model axis moves by half
+        // of both its column and its row step.
+        let path = scratch_dir("tiff_rotated").join("rotated.tif");
+        write_tiff(&path, (2, 2), &[1, 2, 3, 4], |dir| {
+            #[rustfmt::skip]
+            let m = [
+                2.0, 0.5, 0.0, 100.0,
+                0.25, -2.0, 0.0, 200.0,
+                0.0, 0.0, 0.0, 0.0,
+                0.0, 0.0, 0.0, 1.0,
+            ];
+            dir.write_tag(Tag::ModelTransformationTag, &m[..]).unwrap();
+        });
+        let g = read(&path, &ReadOptions::default())
+            .unwrap()
+            .georef
+            .unwrap();
+        assert_eq!(g.transform, [101.25, 2.0, 0.5, 199.125, 0.25, -2.0]);
+        assert_eq!(g.to_gdal(), [100.0, 2.0, 0.5, 200.0, 0.25, -2.0]);
+    }
 }
