@@ -1,6 +1,7 @@
-//! Wavefront OBJ through `tobj`: positions and faces only (normals, texture coordinates and
-//! materials are ignored), polygons fanned into triangles.
+//! Wavefront OBJ through `tobj`: positions and faces only (normals, texture coordinates,
+//! materials, points and polylines are ignored), polygons fanned into triangles.
 
+use std::borrow::Cow;
 use std::io::Write;
 
 use glam::DVec3;
@@ -34,7 +35,7 @@ pub(super) fn read(bytes: &[u8], limits: &MeshLimits) -> Result<TriMesh, MeshErr
     // tobj reads lines as UTF-8 and fails the whole file ("read error") on one byte that is
     // not, which older exporters write in comments and names (Latin-1 "Créé par"); none of
     // those bytes can be in a number the mesh needs, so they are replaced instead.
-    let text = String::from_utf8_lossy(bytes);
+    let text = without_polylines(String::from_utf8_lossy(bytes));
     let mut reader = text.as_bytes();
     let (models, _materials) = tobj::load_obj_buf(&mut reader, &options, |_| {
         // Material libraries are never opened: a mesh upload must not read other files.
@@ -65,6 +66,26 @@ pub(super) fn read(bytes: &[u8], limits: &MeshLimits) -> Result<TriMesh, MeshErr
         rejoin_models(&mut out, &model_of);
     }
     Ok(out)
+}
+
+/// The text without its polyline statements (`l a b c …`). tobj parses `l` like `f`, so a
+/// polyline through three or more vertices (a CAD export's edges, a curve) became polygons,
+/// triangles the file never had; polylines are no surface, so they go.
+fn without_polylines(text: Cow<'_, str>) -> Cow<'_, str> {
+    let polyline = |line: &str| {
+        line.trim_start()
+            .strip_prefix('l')
+            .is_some_and(|rest| rest.starts_with([' ', '\t']))
+    };
+    if !text.lines().any(polyline) {
+        return text;
+    }
+    let mut kept = String::with_capacity(text.len());
+    for line in text.lines().filter(|l| !polyline(l)) {
+        kept.push_str(line);
+        kept.push('\n');
+    }
+    kept.into()
 }
 
 /// Lines starting `v ` and `f `: upper bounds of vertices and lower bounds of triangles.

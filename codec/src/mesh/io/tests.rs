@@ -168,6 +168,24 @@ vertex 1 1 0.5\nvertex 0 1 0\nendloop\nendfacet\nendsolid\n";
     assert!(read_bytes(solidly.as_bytes(), Some(Format::Stl), &limits()).is_err());
 }
 
+/// OBJ polylines (`l`) are no faces: tobj parsed them like `f`, so an edge drawn through
+/// three vertices came out as a triangle, and a file of only polylines as a mesh.
+#[test]
+fn obj_polylines_are_not_faces() {
+    let quad_and_lines = b"v 0 0 0\nv 1 0 0\nv 1 1 0.5\nv 0 1 0\nv 5 5 5\n\
+        l 1 2 3 4 1\n  l\t2 5 4\nf 1 2 3\nl 1 5\nf 1 3 4\n";
+    let m = read_bytes(quad_and_lines, Some(Format::Obj), &limits()).expect("reads");
+    assert_eq!(m, quad());
+    let only_lines = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2 3\n";
+    assert!(
+        matches!(
+            read_bytes(only_lines, Some(Format::Obj), &limits()),
+            Err(MeshError::Invalid(InvalidMesh::Empty))
+        ),
+        "a polyline read as a face"
+    );
+}
+
 fn binary_stl(m: &TriMesh, header: &[u8]) -> Vec<u8> {
     let mut b = vec![0u8; 80];
     b[..header.len()].copy_from_slice(header);
