@@ -206,6 +206,20 @@ pub fn simplify(mesh: &TriMesh, options: &QemOptions) -> Result<(TriMesh, QemRep
     mesh.check()?;
     options.check()?;
     let diagonal = mesh.diagonal();
+    if diagonal > 0.0 && !NATIVE_DIAGONALS.contains(&diagonal) {
+        // Scaled by a power of two, exactly both ways: the errors are all relative to the
+        // diagonal, so the result is the same mesh at the caller's scale.
+        let scale = 2f64.powi(-(diagonal.log2().round() as i32));
+        let unit = TriMesh::new(
+            mesh.positions.iter().map(|p| *p * scale).collect(),
+            mesh.faces.clone(),
+        );
+        let (mut out, report) = simplify(&unit, options)?;
+        for p in &mut out.positions {
+            *p /= scale;
+        }
+        return Ok((out, report));
+    }
     // Per-vertex quadrics from the area-weighted planes of the incident faces (paper §5).
     let mut state = state::State::new(mesh, options, diagonal)?;
     // Penalty planes along open boundaries and creases; non-manifold edges lock their ends.
@@ -230,6 +244,13 @@ pub fn simplify(mesh: &TriMesh, options: &QemOptions) -> Result<(TriMesh, QemRep
     };
     Ok((out, report))
 }
+
+/// Diagonals simplified as they are; others are scaled near 1 first. Errors are ranked as f32
+/// squared distances, which overflow past ~1e19 and flush to zero below ~1e-22 (and the
+/// solve's determinant, a sixth power, sooner): a bunny scaled by 1e22 was simplified with
+/// every error infinite, so `error=E` collapsed it to its last face and reported `inf`, and
+/// one scaled by 1e-25 went the same way with every error zero.
+const NATIVE_DIAGONALS: std::ops::RangeInclusive<f64> = 1e-6..=1e9;
 
 /// Unit normal and offset of the plane through a triangle, and its area (zero area: `None`).
 fn plane(a: DVec3, b: DVec3, c: DVec3) -> Option<(DVec3, f64, f64)> {

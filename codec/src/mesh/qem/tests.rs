@@ -161,6 +161,36 @@ fn an_error_limit_never_empties_the_mesh() {
 }
 
 #[test]
+fn the_result_does_not_depend_on_the_scale() {
+    // Outside ~1e-22..1e19 the f32 ranking overflowed or flushed to zero: scaled by 1e22 or
+    // 1e-25 the bunny at error 1 % collapsed to 4 faces (error inf or 0) where it keeps 220.
+    let bunny = shared("npm-bunny.obj");
+    let (native, report) = simplify(&bunny, &QemOptions::to_error(0.01)).expect("simplifies");
+    for factor in [1e-25, 2f64.powi(-80), 1e-7, 1e12, 2f64.powi(80), 1e22, 1e30] {
+        let scaled = TriMesh::new(
+            bunny.positions.iter().map(|p| *p * factor).collect(),
+            bunny.faces.clone(),
+        );
+        let (out, r) = simplify(&scaled, &QemOptions::to_error(0.01)).expect("simplifies");
+        // Decimal factors round the coordinates, so the errors agree to rounding, not bits.
+        let within = |a: f64, b: f64| (a - b).abs() <= 1e-4 * a.abs().max(b.abs());
+        assert!(r.max_error <= 0.01, "{factor:e}: {r:?}");
+        assert!(
+            out.face_count().abs_diff(native.face_count()) <= 2,
+            "{factor:e}: {} faces, {} unscaled",
+            out.face_count(),
+            native.face_count()
+        );
+        assert!(
+            within(r.max_error, report.max_error) || out.face_count() != native.face_count(),
+            "{factor:e}: error {} against {}",
+            r.max_error,
+            report.max_error
+        );
+    }
+}
+
+#[test]
 fn options_out_of_range_are_param_errors() {
     let m = shared("npm-bunny.obj");
     let bad = [
