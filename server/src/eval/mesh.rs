@@ -241,6 +241,7 @@ pub(super) fn load(path: &Path, weld: bool) -> Result<TriMesh> {
     }
     let (clean, _report) =
         repair(&mesh).with_context(|| format!("repairing {}", path.display()))?;
+    crate::serve::meshes::has_surface(&clean).with_context(|| format!("{}", path.display()))?;
     Ok(clean)
 }
 

@@ -446,3 +446,22 @@ fn a_cell_switches_to_exponent_form_only_when_fixed_would_mislead() {
     assert_eq!(short(1e12, 9), "1.00e12");
     assert_eq!(short(1.0 / 3.0, 9), "3.33e-1");
 }
+
+/// A mesh with faces but no surface (three vertices on one point; four on one line) is
+/// refused, as an upload of it is, instead of measured at 0 % from a zero diagonal.
+#[test]
+fn a_mesh_without_area_is_refused() {
+    let dir = scratch("eval-mesh-flat");
+    for (name, text) in [
+        ("point.obj", "v 1 2 3\nv 1 2 3\nv 1 2 3\nf 1 2 3\n"),
+        (
+            "line.obj",
+            "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 3 0 0\nf 1 2 3\nf 2 3 4\n",
+        ),
+    ] {
+        let path = dir.join(name);
+        std::fs::write(&path, text).unwrap();
+        let err = format!("{:#}", load(&path, false).unwrap_err());
+        assert!(err.contains(name) && err.contains("zero area"), "{err}");
+    }
+}

@@ -289,6 +289,13 @@ fn repaired(mesh: &TriMesh) -> Result<TriMesh> {
         );
     }
     let (clean, _) = repair(mesh)?;
+    has_surface(&clean)?;
+    Ok(clean)
+}
+
+/// Refuses a repaired mesh without faces, or whose faces all have zero area. `eval mesh`
+/// asks the same, so it never reports distances for a mesh the server would not take.
+pub(crate) fn has_surface(clean: &TriMesh) -> Result<()> {
     if clean.faces.is_empty() {
         anyhow::bail!("the mesh has no valid faces");
     }
@@ -298,7 +305,7 @@ fn repaired(mesh: &TriMesh) -> Result<TriMesh> {
              lie on one line)"
         );
     }
-    Ok(clean)
+    Ok(())
 }
 
 #[cfg(test)]
