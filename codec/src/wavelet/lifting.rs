@@ -41,7 +41,8 @@ pub(crate) fn predict<T: Copy>(s: &[T], d: &mut [T], w: usize, op: impl Fn(T, T,
     {
         *x = op(*x, a, b);
     }
-    // Even length: the last detail's right neighbour mirrors back onto its left one.
+    // Even length: the last detail's right neighbour mirrors back onto its left one. (`<=`
+    // would be equivalent: at `inner == nd` the loop's `d[inner * w..]` is empty.)
     if inner < nd {
         let last = &s[(ns - 1) * w..ns * w];
         for (x, &a) in d[inner * w..].iter_mut().zip(last) {
@@ -60,7 +61,8 @@ pub(crate) fn update<T: Copy>(s: &mut [T], d: &[T], w: usize, op: impl Fn(T, T, 
     for (x, &a) in s[..w].iter_mut().zip(&d[..w]) {
         *x = op(*x, a, a);
     }
-    // Interior: s[i] for 1 ≤ i < nd sees d[i-1] and d[i].
+    // Interior: s[i] for 1 ≤ i < nd sees d[i-1] and d[i]. The zip stops at the shortest of
+    // the three, so a longer `d[..]` (`nd / 1` for `nd - 1`) would be equivalent.
     for ((x, &a), &b) in s[w..nd * w]
         .iter_mut()
         .zip(&d[..(nd - 1) * w])
@@ -68,7 +70,8 @@ pub(crate) fn update<T: Copy>(s: &mut [T], d: &[T], w: usize, op: impl Fn(T, T, 
     {
         *x = op(*x, a, b);
     }
-    // Odd length: the last even sample's right neighbour mirrors back onto d[nd-1].
+    // Odd length: the last even sample's right neighbour mirrors back onto d[nd-1]. (`>=`
+    // would be equivalent: at `ns == nd` the loop's `s[nd * w..]` is empty.)
     if ns > nd {
         for (x, &a) in s[nd * w..].iter_mut().zip(&d[(nd - 1) * w..]) {
             *x = op(*x, a, a);
@@ -316,6 +319,38 @@ mod tests {
                         reference[i]
                     );
                 }
+            }
+        }
+    }
+
+    /// Both axes are checked: a layout that differs in one must neither pass (a wrong level
+    /// geometry) nor index past the grid.
+    #[test]
+    fn a_layout_of_another_shape_is_refused() {
+        use super::super::legall53::Integer;
+        for (rows, cols) in [(4, 5), (5, 4)] {
+            let layout = Layout::full(rows, cols);
+            let original = Grid::new(4, 4, (0..16).collect::<Vec<i32>>()).unwrap();
+            let mut g = original.clone();
+            let forward = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                forward_2d(&mut g, &layout, &Integer);
+            }));
+            let mut h = original.clone();
+            let inverse = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                inverse_2d(&mut h, &layout, &Integer);
+            }));
+            let want = format!("layout {rows}×{cols} for a 4×4 grid");
+            for result in [forward, inverse] {
+                if cfg!(debug_assertions) {
+                    let err = result.expect_err("a debug build asserts the shape");
+                    let message = err.downcast_ref::<String>().map_or("", String::as_str);
+                    assert_eq!(message, want);
+                } else {
+                    assert!(result.is_ok());
+                }
+            }
+            if !cfg!(debug_assertions) {
+                assert_eq!((g, h), (original.clone(), original));
             }
         }
     }

@@ -231,6 +231,39 @@ mod tests {
     }
 
     #[test]
+    fn orientation_index_is_its_place_in_all() {
+        for (k, o) in Orientation::ALL.into_iter().enumerate() {
+            assert_eq!(o.index(), k, "{o:?}");
+        }
+    }
+
+    #[test]
+    fn band_len_and_contains_follow_its_extent() {
+        // 7 × 11 over 3 levels: HH1 is rows 4..7, cols 6..11; indices are band-relative.
+        let b = Layout::full(7, 11).band(1, Orientation::HH);
+        assert_eq!((b.row0, b.col0, b.rows, b.cols, b.len()), (4, 6, 3, 5, 15));
+        for (i, j, inside) in [
+            (0, 0, true),
+            (2, 4, true),
+            (1, 3, true),
+            (3, 0, false),
+            (0, 5, false),
+            (3, 5, false),
+        ] {
+            assert_eq!(b.contains(i, j), inside, "({i}, {j})");
+        }
+    }
+
+    #[test]
+    fn levels_stop_at_max_levels() {
+        // 2^12 + 1 needs exactly 12 levels to reach 2 samples; 2^13 + 1 would need 13.
+        assert_eq!(Layout::max_levels(4097, 1), 12);
+        assert_eq!(Layout::max_levels(1, 8193), MAX_LEVELS);
+        assert_eq!(Layout::full(8193, 3).levels(), MAX_LEVELS);
+        assert_eq!(Layout::full(8193, 3).ll().rows, 3);
+    }
+
+    #[test]
     fn every_child_has_exactly_one_parent() {
         for (p, c) in [(4, 8), (5, 9), (5, 10), (1, 1), (2, 3), (3, 7)] {
             let mut seen = vec![0; c];
