@@ -259,6 +259,30 @@ fn bad_asks_get_specific_json_errors() {
     let _ = std::fs::remove_dir_all(&data);
 }
 
+/// `serve --read-only` refuses every upload, new name or old, and stores nothing; the
+/// meshes it has are served as before.
+#[test]
+fn a_read_only_server_takes_no_uploads() {
+    let data = data_dir("read-only");
+    let s = Server::start_flags(&data, &["--read-only"]);
+    let cow = std::fs::read(shared_data().join("meshes/cow.obj")).unwrap();
+    let before = std::fs::read(data.join("meshes/fandisk.obj")).unwrap();
+    for name in ["cow", "fandisk"] {
+        let r = s.post(&format!("/v1/meshes/{name}"), "model/obj", &cow);
+        r.error(403, "read_only");
+        let msg = r.json()["message"].to_string();
+        assert!(msg.contains("--read-only"), "{msg}");
+    }
+    assert!(!data.join("meshes/cow.obj").exists());
+    assert_eq!(
+        std::fs::read(data.join("meshes/fandisk.obj")).unwrap(),
+        before
+    );
+    assert_eq!(s.get("/v1/meshes/cow/original", &[]).status, 404);
+    assert_eq!(s.get("/v1/meshes/fandisk/original", &[]).status, 200);
+    let _ = std::fs::remove_dir_all(&data);
+}
+
 #[test]
 fn uploads_are_validated_limited_and_never_replace_a_mesh_with_a_bad_one() {
     let data = data_dir("upload");

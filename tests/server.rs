@@ -38,6 +38,15 @@ impl Server {
         Self::spawn(cmd)
     }
 
+    /// Serves the folder `data` with extra `serve` flags.
+    pub fn start_flags(data: &Path, flags: &[&str]) -> Self {
+        let mut cmd = Command::new(zerotile_bin());
+        cmd.args(["serve", "--addr", "127.0.0.1:0", "--data"])
+            .arg(data)
+            .args(flags);
+        Self::spawn(cmd)
+    }
+
     /// `zerotile serve` with no `--data`, run in `cwd`: the README's first command, which
     /// serves (and first fills in) `cwd/data`.
     pub fn start_default(cwd: &Path) -> Self {

@@ -217,6 +217,10 @@ pub struct ServeArgs {
     /// send them, and the answer is cacheable.
     #[arg(long)]
     pub trust_forwarded: bool,
+    /// Refuse mesh uploads (POST /v1/meshes/NAME is 403 read_only). For a server anyone can
+    /// reach: uploads are stored in the data folder with no quota.
+    #[arg(long)]
+    pub read_only: bool,
 }
 
 #[derive(Subcommand, Debug)]
@@ -566,6 +570,7 @@ fn serve_config(a: &ServeArgs) -> anyhow::Result<crate::serve::Config> {
         cors_origins: a.cors_origins.clone(),
         public_url,
         trust_forwarded: a.trust_forwarded,
+        read_only: a.read_only,
         cpu_jobs: a.cpu_jobs.unwrap_or(defaults.cpu_jobs),
         cpu_queue: a.cpu_queue.unwrap_or(defaults.cpu_queue),
         render_threads: a.render_threads.unwrap_or(defaults.render_threads),

@@ -112,6 +112,8 @@ impl Weighter<u64, Arc<MeshAnswer>> for AnswerBytes {
 /// The meshes, by name, and the answer cache.
 pub struct MeshCatalog {
     dir: PathBuf,
+    /// `serve --read-only`: uploads are refused though there is a folder to keep them in.
+    read_only: bool,
     entries: RwLock<BTreeMap<String, Arc<MeshEntry>>>,
     /// Held from an upload's write to its insert, so the file on disk and the mesh served
     /// are the same upload's when two arrive for one name (and an upload under another
@@ -144,6 +146,7 @@ impl MeshCatalog {
         let items = (answer_bytes / 200_000).clamp(16, 1 << 16) as usize;
         Self {
             dir,
+            read_only: false,
             entries: RwLock::new(entries),
             store: Mutex::new(()),
             answers: Cache::with_weighter(items, answer_bytes.max(1), AnswerBytes),
@@ -185,6 +188,13 @@ impl MeshCatalog {
         Self::with_entries(dir, entries, answer_bytes)
     }
 
+    /// Refuses uploads from now on (`serve --read-only`): a server anyone can reach would
+    /// otherwise let anyone fill its disk and memory with meshes.
+    pub fn read_only(mut self) -> Self {
+        self.read_only = true;
+        self
+    }
+
     pub fn list(&self) -> Vec<Arc<MeshEntry>> {
         self.entries
             .read()
@@ -204,6 +214,9 @@ impl MeshCatalog {
         bytes: &[u8],
         format: Option<Format>,
     ) -> Result<Arc<MeshEntry>, UploadError> {
+        if self.read_only {
+            return Err(UploadError::ReadOnly);
+        }
         if self.dir.as_os_str().is_empty() {
             return Err(UploadError::NoFolder);
         }
@@ -245,6 +258,9 @@ pub enum UploadError {
     /// The server reads its data from an object store and has no folder to keep meshes in.
     #[error("this server has no mesh folder to store uploads in")]
     NoFolder,
+    /// The server was started with `--read-only`.
+    #[error("this server takes no uploads (serve --read-only)")]
+    ReadOnly,
     /// The mesh was fine; writing it was not.
     #[error("storing the mesh: {0:#}")]
     Store(anyhow::Error),

@@ -186,6 +186,11 @@ pub fn run(opts: ServeOptions) -> Result<()> {
             meshes::MeshCatalog::open(&opts.data, opts.config.response_cache_bytes),
         )
     };
+    let meshes = if opts.config.read_only {
+        meshes.read_only()
+    } else {
+        meshes
+    };
     let n = catalog.len();
     if catalog.is_empty() && meshes.list().is_empty() {
         tracing::warn!(

@@ -44,6 +44,8 @@ pub struct Config {
     pub public_url: Option<String>,
     /// Take the origin from `X-Forwarded-*` (only behind a proxy that sets them).
     pub trust_forwarded: bool,
+    /// Refuse mesh uploads (403 `read_only`).
+    pub read_only: bool,
 }
 
 impl Default for Config {
@@ -60,6 +62,7 @@ impl Default for Config {
             cors_origins: Vec::new(),
             public_url: None,
             trust_forwarded: false,
+            read_only: false,
         }
     }
 }

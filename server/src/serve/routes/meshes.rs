@@ -615,6 +615,11 @@ fn upload_error(e: UploadError) -> ApiError {
             "this server serves its data from an object store and keeps no uploads; \
              upload to a server of a data folder",
         ),
+        UploadError::ReadOnly => ApiError::new(
+            StatusCode::FORBIDDEN,
+            "read_only",
+            "this server was started with --read-only and takes no uploads",
+        ),
         UploadError::Store(_) => ApiError::internal(e),
     }
 }
