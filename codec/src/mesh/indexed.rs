@@ -52,11 +52,18 @@ impl Aabb {
     }
 
     /// Length of the diagonal: the unit mesh errors are reported in (0 for an empty box).
+    /// Past ~1e150 a side's square overflows (and below ~1e-150 it underflows), so such a
+    /// box is measured in units of its longest side; inside, the plain length, bit for bit.
     pub fn diagonal(&self) -> f64 {
         if self.is_empty() {
-            0.0
+            return 0.0;
+        }
+        let d = self.max - self.min;
+        let m = d.abs().max_element();
+        if m == 0.0 || (1e-150..=1e150).contains(&m) {
+            d.length()
         } else {
-            (self.max - self.min).length()
+            m * (d / m).length()
         }
     }
 }

@@ -207,16 +207,28 @@ pub fn simplify(mesh: &TriMesh, options: &QemOptions) -> Result<(TriMesh, QemRep
     options.check()?;
     let diagonal = mesh.diagonal();
     if diagonal > 0.0 && !NATIVE_DIAGONALS.contains(&diagonal) {
-        // Scaled by a power of two, exactly both ways: the errors are all relative to the
-        // diagonal, so the result is the same mesh at the caller's scale.
-        let scale = 2f64.powi(-(diagonal.log2().round() as i32));
+        // Scaled by a power of two, exact both ways unless a coordinate is subnormal at
+        // either scale: the errors are all relative to the diagonal, so the result is the
+        // same mesh at the caller's scale.
+        let [s1, s2] = unit_scale(mesh);
         let unit = TriMesh::new(
-            mesh.positions.iter().map(|p| *p * scale).collect(),
+            mesh.positions.iter().map(|p| *p * s1 * s2).collect(),
             mesh.faces.clone(),
         );
+        if unit.positions.iter().any(|p| !p.is_finite()) {
+            return Err(MeshError::Unsupported(format!(
+                "a mesh {diagonal:e} across lying as far as {:e} from the origin: its \
+                 coordinates do not fit f64 once scaled to simplify it",
+                mesh.bounding_box()
+                    .min
+                    .abs()
+                    .max(mesh.bounding_box().max.abs())
+                    .max_element()
+            )));
+        }
         let (mut out, report) = simplify(&unit, options)?;
         for p in &mut out.positions {
-            *p /= scale;
+            *p = *p / s2 / s1;
         }
         return Ok((out, report));
     }
@@ -243,6 +255,22 @@ pub fn simplify(mesh: &TriMesh, options: &QemOptions) -> Result<(TriMesh, QemRep
         0.0
     };
     Ok((out, report))
+}
+
+/// Two powers of two whose product brings the mesh's longest side near 1. Two, because the
+/// product for a side near the ends of the f64 range (2^±1074) is itself out of range; each
+/// is within 2^±540. The sides are taken as quarters, which never overflow.
+fn unit_scale(mesh: &TriMesh) -> [f64; 2] {
+    let b = mesh.bounding_box();
+    let quarter = (b.max * 0.25 - b.min * 0.25).max_element();
+    let log2 = if quarter > 0.0 {
+        quarter.log2() + 2.0
+    } else {
+        // A side of a few subnormal steps, whose quarter rounds to 0.
+        (b.max - b.min).max_element().log2()
+    };
+    let k = log2.round().clamp(-1100.0, 1100.0) as i32;
+    [2f64.powi(-(k / 2)), 2f64.powi(-(k - k / 2))]
 }
 
 /// Diagonals simplified as they are; others are scaled near 1 first. Errors are ranked as f32

@@ -166,7 +166,7 @@ fn the_result_does_not_depend_on_the_scale() {
     // 1e-25 the bunny at error 1 % collapsed to 4 faces (error inf or 0) where it keeps 220.
     let bunny = shared("npm-bunny.obj");
     let (native, report) = simplify(&bunny, &QemOptions::to_error(0.01)).expect("simplifies");
-    for factor in [1e-25, 2f64.powi(-80), 1e-7, 1e12, 2f64.powi(80), 1e22, 1e30] {
+    for factor in [1e-300, 1e-160, 1e-25, 1e-7, 1e12, 1e22, 1e30, 1e160, 1e300] {
         let scaled = TriMesh::new(
             bunny.positions.iter().map(|p| *p * factor).collect(),
             bunny.faces.clone(),
@@ -188,6 +188,48 @@ fn the_result_does_not_depend_on_the_scale() {
             report.max_error
         );
     }
+}
+
+/// Scaled by powers of two, any two scales are brought to one unit mesh, so their results
+/// are that mesh's, scaled back, to the bit: across the whole f64 range, where a side's
+/// square overflows (2^500 and up) as well as where it does not.
+#[test]
+fn powers_of_two_give_the_same_mesh_to_the_bit() {
+    let bunny = shared("npm-bunny.obj");
+    let scaled = |e: i32| {
+        let f = 2f64.powi(e);
+        TriMesh::new(
+            bunny.positions.iter().map(|p| *p * f).collect(),
+            bunny.faces.clone(),
+        )
+    };
+    let options = QemOptions::to_error(0.01);
+    let (reference, r0) = simplify(&scaled(80), &options).expect("simplifies");
+    for e in [-1000, -500, -80, 100, 500, 1000] {
+        let (out, r) = simplify(&scaled(e), &options).expect("simplifies");
+        assert!(out.positions.iter().all(|p| p.is_finite()), "2^{e}");
+        assert_eq!(out.faces, reference.faces, "2^{e}");
+        let back: Vec<DVec3> = out
+            .positions
+            .iter()
+            .map(|p| *p * 2f64.powi(-e) * 2f64.powi(80))
+            .collect();
+        assert_eq!(back, reference.positions, "2^{e}");
+        assert_eq!(r.max_error.to_bits(), r0.max_error.to_bits(), "2^{e}");
+    }
+}
+
+/// A mesh too small for where it lies cannot be scaled to a unit size in f64: an error, not
+/// a mesh of NaN.
+#[test]
+fn a_mesh_too_small_for_its_place_is_an_error() {
+    let at = DVec3::new(1e10, 0.0, 0.0);
+    let tri = TriMesh::new(
+        vec![at, at + DVec3::X * 1e-300, at + DVec3::Y * 1e-300],
+        vec![[0, 1, 2]],
+    );
+    let err = simplify(&tri, &QemOptions::to_faces(1)).expect_err("cannot be scaled");
+    assert!(err.to_string().contains("do not fit f64"), "{err}");
 }
 
 #[test]
