@@ -195,6 +195,17 @@ impl MeshCatalog {
         self
     }
 
+    /// Whether an upload could be kept, asked before its body is read.
+    pub fn takes_uploads(&self) -> Result<(), UploadError> {
+        if self.read_only {
+            Err(UploadError::ReadOnly)
+        } else if self.dir.as_os_str().is_empty() {
+            Err(UploadError::NoFolder)
+        } else {
+            Ok(())
+        }
+    }
+
     pub fn list(&self) -> Vec<Arc<MeshEntry>> {
         self.entries
             .read()
@@ -214,12 +225,7 @@ impl MeshCatalog {
         bytes: &[u8],
         format: Option<Format>,
     ) -> Result<Arc<MeshEntry>, UploadError> {
-        if self.read_only {
-            return Err(UploadError::ReadOnly);
-        }
-        if self.dir.as_os_str().is_empty() {
-            return Err(UploadError::NoFolder);
-        }
+        self.takes_uploads()?;
         let read = io::read_bytes(bytes, format, &limits()).map_err(anyhow::Error::from);
         let mesh = read
             .and_then(|m| repaired(&m))

@@ -1070,6 +1070,17 @@ async fn a_compressed_upload_is_told_to_send_the_mesh_uncompressed() {
             "{v}"
         );
     }
+    // Two header lines count as one list: identity, then gzip, is gzip.
+    let req = Request::builder()
+        .method(Method::POST)
+        .uri("/v1/meshes/b")
+        .header(header::CONTENT_TYPE, "model/obj")
+        .header(header::CONTENT_ENCODING, "identity")
+        .header(header::CONTENT_ENCODING, "gzip")
+        .body(Body::from(gz.clone()))
+        .unwrap();
+    let res = app.clone().oneshot(req).await.unwrap();
+    assert_eq!(res.status(), StatusCode::UNSUPPORTED_MEDIA_TYPE);
     let (s, _, _) = get(&app, "/v1/meshes/b").await;
     assert_eq!(s, StatusCode::NOT_FOUND);
     // identity is no coding.
@@ -1111,6 +1122,10 @@ async fn post_obj(app: &Router, uri: &str, obj: &str) -> (StatusCode, Vec<u8>) {
 async fn an_upload_the_server_cannot_keep_is_not_an_invalid_mesh() {
     const TRI: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
     let (s, body) = post_obj(&router("upload-no-folder"), "/v1/meshes/b", TRI).await;
+    assert_eq!(s, StatusCode::FORBIDDEN);
+    assert_eq!(error_code(&body), "read_only");
+    // Said before the body is read: an empty one is the same 403, not 400 empty_body.
+    let (s, body) = post_obj(&router("upload-no-folder-empty"), "/v1/meshes/b", "").await;
     assert_eq!(s, StatusCode::FORBIDDEN);
     assert_eq!(error_code(&body), "read_only");
 

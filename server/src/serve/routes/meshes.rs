@@ -578,7 +578,15 @@ pub async fn upload(
     headers: HeaderMap,
     body: Body,
 ) -> ApiResult<(StatusCode, Json<Value>)> {
-    let (name, format) = match upload_target(path, query, &headers) {
+    // A server that keeps no uploads says so before it reads one (up to 64 MiB).
+    let target = upload_target(path, query, &headers).and_then(|t| {
+        state
+            .meshes
+            .takes_uploads()
+            .map(|()| t)
+            .map_err(upload_error)
+    });
+    let (name, format) = match target {
         Ok(t) => t,
         Err(e) => {
             drain(body);
@@ -646,10 +654,14 @@ fn upload_target(
     // Nothing decodes a compressed body: it reached the mesh parsers as it came and was
     // refused as an unreadable mesh (422 "OBJ: read error"), which sent the client looking at
     // its file instead of at the header. RFC 9110 §15.5.16: a coding not supported is a 415.
+    // Every Content-Encoding line and list item counts: `identity` then `gzip` on two lines
+    // is a gzipped body.
     if let Some(coding) = headers
-        .get(CONTENT_ENCODING)
-        .map(|v| v.to_str().unwrap_or("?").trim())
-        .filter(|c| !c.is_empty() && !c.eq_ignore_ascii_case("identity"))
+        .get_all(CONTENT_ENCODING)
+        .iter()
+        .flat_map(|v| v.to_str().unwrap_or("?").split(','))
+        .map(str::trim)
+        .find(|c| !c.is_empty() && !c.eq_ignore_ascii_case("identity"))
     {
         return Err(ApiError::new(
             StatusCode::UNSUPPORTED_MEDIA_TYPE,
