@@ -796,7 +796,9 @@ async fn raw_exchange(
 
 #[tokio::test]
 async fn an_upload_declaring_more_than_the_limit_is_refused_at_once() {
-    let addr = serve_locally(router("upload-declared")).await;
+    // A server that takes uploads: one without a mesh folder refuses before reading.
+    let data = one_triangle_data("upload-declared");
+    let addr = serve_locally(router_with_meshes("upload-declared", &data)).await;
     // A small body under a huge declared length: nothing more will come, so waiting for it
     // ran into the request timeout (503 after 30 s).
     let head = "POST /v1/meshes/g6 HTTP/1.1\r\nhost: x\r\ncontent-type: model/obj\r\n\
@@ -809,7 +811,9 @@ async fn an_upload_declaring_more_than_the_limit_is_refused_at_once() {
 
 #[tokio::test]
 async fn an_upload_that_breaks_off_is_the_clients_fault() {
-    let addr = serve_locally(router("upload-short")).await;
+    // A server that takes uploads: one without a mesh folder refuses before reading.
+    let data = one_triangle_data("upload-short");
+    let addr = serve_locally(router_with_meshes("upload-short", &data)).await;
     let head = "POST /v1/meshes/g6 HTTP/1.1\r\nhost: x\r\ncontent-type: model/obj\r\n\
                 content-length: 100\r\n\r\n";
     let (status, json, _) = raw_exchange(addr, head, b"v 0 0 0\n", true).await;
