@@ -67,7 +67,7 @@ impl Format {
     /// Binary STL has no magic: it is recognised by its exact length (84 + 50 × count).
     pub fn sniff(bytes: &[u8]) -> Option<Self> {
         let text = skip_bom_and_space(bytes);
-        if bytes.starts_with(b"ply") {
+        if without_bom(bytes).starts_with(b"ply") {
             Some(Self::Ply)
         } else if bytes.starts_with(b"glTF") {
             Some(Self::Glb)
@@ -202,8 +202,9 @@ pub fn read_bytes(
     let mesh = match format {
         // The text formats may start with a UTF-8 byte-order mark (editors on Windows write
         // one), which sniffing already skips: the parsers took it for part of the first line.
+        // A PLY's header is text whatever its body, so a BOM before it goes too.
         Format::Obj => obj::read(without_bom(bytes), limits)?,
-        Format::Ply => ply::read(bytes, limits)?,
+        Format::Ply => ply::read(without_bom(bytes), limits)?,
         Format::Stl => stl::read(bytes, limits)?,
         Format::Json => json::read(without_bom(bytes), limits)?,
         Format::Glb => {

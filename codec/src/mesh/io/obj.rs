@@ -72,11 +72,9 @@ pub(super) fn read(bytes: &[u8], limits: &MeshLimits) -> Result<TriMesh, MeshErr
 /// polyline through three or more vertices (a CAD export's edges, a curve) became polygons,
 /// triangles the file never had; polylines are no surface, so they go.
 fn without_polylines(text: Cow<'_, str>) -> Cow<'_, str> {
-    let polyline = |line: &str| {
-        line.trim_start()
-            .strip_prefix('l')
-            .is_some_and(|rest| rest.starts_with([' ', '\t']))
-    };
+    // tobj splits statements on any Unicode whitespace; so must this, or `l` + vertical tab
+    // or no-break space would still reach it as a polygon.
+    let polyline = |line: &str| line.split_whitespace().next() == Some("l");
     if !text.lines().any(polyline) {
         return text;
     }

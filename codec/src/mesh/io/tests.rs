@@ -155,6 +155,17 @@ vertex 1 1 0.5\nvertex 0 1 0\nendloop\nendfacet\nendsolid\n";
             [BOM, format!("solid t\n{facets}").as_bytes()].concat(),
             Format::Stl,
         ),
+        (
+            "PLY with a BOM",
+            [
+                BOM,
+                b"ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n\
+                  property float z\nelement face 2\nproperty list uchar int vertex_indices\n\
+                  end_header\n0 0 0\n1 0 0\n1 1 0.5\n0 1 0\n3 0 1 2\n3 0 2 3\n",
+            ]
+            .concat(),
+            Format::Ply,
+        ),
     ];
     for (what, bytes, format) in cases {
         assert_eq!(Format::sniff(&bytes), Some(format), "{what}");
@@ -173,7 +184,7 @@ vertex 1 1 0.5\nvertex 0 1 0\nendloop\nendfacet\nendsolid\n";
 #[test]
 fn obj_polylines_are_not_faces() {
     let quad_and_lines = b"v 0 0 0\nv 1 0 0\nv 1 1 0.5\nv 0 1 0\nv 5 5 5\n\
-        l 1 2 3 4 1\n  l\t2 5 4\nf 1 2 3\nl 1 5\nf 1 3 4\n";
+        l 1 2 3 4 1\n  l\t2 5 4\nf 1 2 3\nl 1 5\nf 1 3 4\nl\x0b1 2 5\nl\xc2\xa02 3 5\nlod 1\n";
     let m = read_bytes(quad_and_lines, Some(Format::Obj), &limits()).expect("reads");
     assert_eq!(m, quad());
     let only_lines = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2 3\n";
