@@ -42,38 +42,22 @@ fn ascii_text(bytes: &[u8]) -> Option<&[u8]> {
 pub(super) fn read(bytes: &[u8], limits: &MeshLimits) -> Result<TriMesh, MeshError> {
     let ascii = ascii_text(bytes).filter(|_| !is_binary(bytes));
     let mesh = if let Some(text) = ascii {
-        // stl_io takes a file for ASCII only when it starts with "solid " (space included).
-        let text: std::borrow::Cow<[u8]> = if text.starts_with(b"solid ") {
-            text.into()
-        } else {
-            [b"solid ", &text[5..]].concat().into()
-        };
-        stl_io::read_stl(&mut Cursor::new(text))
+        read_ascii(text).or_else(|ascii_err| {
+            // A binary file whose header starts with "solid" and which has bytes past its
+            // records (some exporters pad) looks like text: read as binary when its claimed
+            // triangles fit, else the text's error stands.
+            let fits = claimed(bytes).is_some_and(|n| {
+                limits.faces(n).is_ok() && HEADER as u64 + RECORD * n <= bytes.len() as u64
+            });
+            if fits {
+                read_binary(bytes, limits).map_err(|_| ascii_err)
+            } else {
+                Err(ascii_err)
+            }
+        })?
     } else {
-        // The claimed count against the limits and the bytes present, before reading.
-        let n = claimed(bytes).ok_or_else(|| {
-            MeshError::decode(
-                FORMAT,
-                format!("truncated: {} bytes, no header", bytes.len()),
-            )
-        })?;
-        limits.faces(n)?;
-        let need = HEADER as u64 + RECORD * n;
-        if (bytes.len() as u64) < need {
-            return Err(MeshError::decode(
-                FORMAT,
-                format!(
-                    "truncated: the header claims {n} triangles ({need} bytes), the file has {}",
-                    bytes.len()
-                ),
-            ));
-        }
-        // A binary header may itself begin with "solid ": blank it so stl_io reads binary.
-        let mut copy = bytes.to_vec();
-        copy[..5].fill(0);
-        stl_io::read_stl(&mut Cursor::new(copy))
-    }
-    .map_err(|e| MeshError::decode(FORMAT, e.to_string()))?;
+        read_binary(bytes, limits)?
+    };
     limits.vertices(mesh.vertices.len() as u64)?;
     limits.faces(mesh.faces.len() as u64)?;
     let positions = mesh
@@ -87,4 +71,39 @@ pub(super) fn read(bytes: &[u8], limits: &MeshLimits) -> Result<TriMesh, MeshErr
         .map(|t| t.vertices.map(|i| u32::try_from(i).unwrap_or(u32::MAX)))
         .collect();
     Ok(TriMesh::new(positions, faces))
+}
+
+fn read_ascii(text: &[u8]) -> Result<stl_io::IndexedMesh, MeshError> {
+    // stl_io takes a file for ASCII only when it starts with "solid " (space included).
+    let text: std::borrow::Cow<[u8]> = if text.starts_with(b"solid ") {
+        text.into()
+    } else {
+        [b"solid ", &text[5..]].concat().into()
+    };
+    stl_io::read_stl(&mut Cursor::new(text)).map_err(|e| MeshError::decode(FORMAT, e.to_string()))
+}
+
+fn read_binary(bytes: &[u8], limits: &MeshLimits) -> Result<stl_io::IndexedMesh, MeshError> {
+    // The claimed count against the limits and the bytes present, before reading.
+    let n = claimed(bytes).ok_or_else(|| {
+        MeshError::decode(
+            FORMAT,
+            format!("truncated: {} bytes, no header", bytes.len()),
+        )
+    })?;
+    limits.faces(n)?;
+    let need = HEADER as u64 + RECORD * n;
+    if (bytes.len() as u64) < need {
+        return Err(MeshError::decode(
+            FORMAT,
+            format!(
+                "truncated: the header claims {n} triangles ({need} bytes), the file has {}",
+                bytes.len()
+            ),
+        ));
+    }
+    // A binary header may itself begin with "solid ": blank it so stl_io reads binary.
+    let mut copy = bytes.to_vec();
+    copy[..5].fill(0);
+    stl_io::read_stl(&mut Cursor::new(copy)).map_err(|e| MeshError::decode(FORMAT, e.to_string()))
 }

@@ -197,6 +197,35 @@ fn obj_polylines_are_not_faces() {
     );
 }
 
+/// A binary STL whose header starts like text ("solid", then a newline, tab or space) and
+/// which has bytes past its records reads as binary, as it did before bare `solid` lines
+/// were taken for text; broken text with such a start is still the text's error.
+#[test]
+fn a_padded_binary_stl_with_a_solid_header_is_binary() {
+    for header in [
+        &b"solid\nexported"[..],
+        b"solid\texported",
+        b"solid exported",
+    ] {
+        let mut bytes = binary_stl(&quad(), header);
+        bytes.extend_from_slice(&[0, 0]);
+        assert_eq!(Format::sniff(&bytes), Some(Format::Stl));
+        for given in [None, Some(Format::Stl)] {
+            let m = read_bytes(&bytes, given, &limits())
+                .unwrap_or_else(|e| panic!("{:?}: {e}", String::from_utf8_lossy(header)));
+            assert_eq!(m.face_count(), 2);
+            assert_eq!(m.vertex_count(), 4);
+        }
+    }
+    let err = read_bytes(
+        b"solid t\nfacet normal 0 0 1\nouter loop\n",
+        None,
+        &limits(),
+    )
+    .expect_err("broken text");
+    assert!(err.to_string().starts_with("STL:"), "{err}");
+}
+
 fn binary_stl(m: &TriMesh, header: &[u8]) -> Vec<u8> {
     let mut b = vec![0u8; 80];
     b[..header.len()].copy_from_slice(header);
