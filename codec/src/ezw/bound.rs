@@ -55,13 +55,16 @@ pub fn quantise_up(err: f64, t: f64) -> i32 {
     if err <= 0.0 {
         return ZERO;
     }
+    // Only where the search starts: the loops below settle on the smallest code whatever
+    // the guess (mutants of this line and of the clamp's `-Q_LIMIT` are equivalent, slower).
     let guess = ((err / t).log2() * f64::from(STEPS)).ceil();
     let mut q = if guess.is_finite() {
         (guess as i32).clamp(-Q_LIMIT, Q_LIMIT)
     } else {
         Q_LIMIT
     };
-    // The logarithm is approximate: settle on the exact table.
+    // The logarithm is approximate: settle on the exact table. (`value(q, t) <= err` here
+    // is equivalent: at equality it steps up once and the next loop steps back.)
     while q < Q_LIMIT && value(q, t) < err {
         q += 1;
     }
@@ -94,6 +97,57 @@ mod tests {
         }
         assert_eq!(quantise_up(0.0, 1.0), ZERO);
         assert_eq!(value(ZERO, 1.0), 0.0);
+    }
+
+    /// An error one ulp above a table value needs the next code. There the logarithm is
+    /// blind to the ulp (log2 of 2^n·(1 + 2^-52) rounds to n), so the first guess is a code
+    /// too low and only the upward search finds the bound that holds.
+    #[test]
+    fn one_ulp_above_a_table_value_is_the_next_code() {
+        let up = |v: f64| f64::from_bits(v.to_bits() + 1);
+        for t in [1.0, 0.0625, 4096.0, 1e-3, 3.2] {
+            for q in -300..300 {
+                let err = up(value(q, t));
+                let got = quantise_up(err, t);
+                assert_eq!(got, q + 1, "t {t} q {q}");
+                assert!(value(got, t) >= err);
+            }
+        }
+    }
+
+    /// 2^±1024 · T_k is outside f64 for T_k = 1 but not for every threshold: the power of
+    /// two is applied in two halves, so a code far up the scale on a tiny threshold (or far
+    /// down on a huge one) still gives its exact value, not ∞, 0 or NaN.
+    #[test]
+    fn extreme_octaves_stay_exact() {
+        let (tiny, huge) = ((2f64).powi(-1000), (2f64).powi(1000));
+        assert_eq!(value(16 * 1030, tiny), (2f64).powi(30));
+        assert_eq!(value(-16 * 1030, huge), (2f64).powi(-30));
+        assert_eq!(value(Q_LIMIT, tiny), (2f64).powi(24));
+        assert_eq!(value(-Q_LIMIT, huge), (2f64).powi(-24));
+        assert_eq!(
+            value(16 * 1030 + 8, tiny),
+            (2f64).powi(30) * std::f64::consts::SQRT_2
+        );
+    }
+
+    /// Codes stay within ±Q_LIMIT, the range the stream reader accepts, even where the
+    /// table would want more: past the top the bound is clamped (an error over 2^1024
+    /// thresholds, which a readable stream's planes cannot reach), past the bottom it is
+    /// looser than it could be, never below the error.
+    #[test]
+    fn codes_stay_within_the_limit() {
+        let (tiny, huge) = ((2f64).powi(-1000), (2f64).powi(1000));
+        assert_eq!(quantise_up((2f64).powi(25), tiny), Q_LIMIT);
+        assert_eq!(quantise_up(f64::MAX, tiny), Q_LIMIT);
+        assert_eq!(quantise_up((2f64).powi(-40), huge), -Q_LIMIT);
+        assert!(value(-Q_LIMIT, huge) >= (2f64).powi(-40));
+        // err / t below f64's range: the logarithm is -∞, the search starts at the top and
+        // comes all the way down.
+        assert_eq!(quantise_up((2f64).powi(-80), huge), -Q_LIMIT);
+        // At the limits themselves, the exact codes.
+        assert_eq!(quantise_up((2f64).powi(24), tiny), Q_LIMIT);
+        assert_eq!(quantise_up((2f64).powi(-24), huge), -Q_LIMIT);
     }
 
     /// A bound that is exactly a table value codes as that value's own code: `value` is

@@ -61,6 +61,7 @@ pub fn reconstruct(mag: u64, known: u8) -> f64 {
 pub fn reconstruct_integer(mag: u64, known: u8, shift: u8) -> f64 {
     let (known, shift) = (u32::from(known.min(63)), u32::from(shift.min(62)));
     let mut twice = u128::from(mag) << 1;
+    // `>=` is equivalent: at known == shift the added term is 0.
     if known > shift {
         twice += (1u128 << known) - (1u128 << shift);
     }
@@ -87,6 +88,8 @@ pub fn forward(
             let shifts = integer_shifts(layout);
             for (idx, &c) in g.data().iter().enumerate() {
                 mags[idx] = u64::from(c.unsigned_abs()) << shifts[band_of[idx] as usize];
+                // `c <= 0` is equivalent (and below): a zero coefficient has magnitude 0, is
+                // never significant, and its sign is never coded.
                 negs[idx] = c < 0;
             }
             (mags, negs, 0)
@@ -211,5 +214,75 @@ mod tests {
         for (s, w) in integer_shifts(&layout).iter().zip(weights) {
             assert_eq!(f64::from(*s), w.log2().round());
         }
+    }
+
+    /// A one-row grid's LH and HH bands are empty (norm 0): they weigh 1, and the others are
+    /// over the smallest non-zero norm, so no weight is 0 or infinite (the dequantiser
+    /// divides by them).
+    #[test]
+    fn empty_bands_weigh_one_and_do_not_set_the_scale() {
+        for (rows, cols) in [(1, 257), (65, 1), (1, 17)] {
+            let layout = Layout::full(rows, cols);
+            for wavelet in [Wavelet::LeGall53, Wavelet::Cdf97] {
+                let norms = band_norms(wavelet, &layout);
+                let smallest = norms
+                    .iter()
+                    .map(|n| n.l2)
+                    .filter(|&v| v > 0.0)
+                    .fold(f64::INFINITY, f64::min);
+                assert!(smallest.is_finite(), "{rows}x{cols}");
+                let weights = real_weights(wavelet, &layout);
+                let bands = layout.bands_coarse_to_fine();
+                assert!(bands.iter().any(|b| b.is_empty()), "{rows}x{cols}");
+                for ((w, n), b) in weights.iter().zip(&norms).zip(&bands) {
+                    let at = format!("{wavelet:?} {rows}x{cols} {b:?}");
+                    if b.is_empty() {
+                        assert_eq!(*w, 1.0, "{at}");
+                    } else {
+                        assert_eq!(*w, n.l2 / smallest, "{at}");
+                        assert!(w.is_finite() && *w >= 1.0, "{at}: {w}");
+                    }
+                }
+            }
+        }
+    }
+
+    /// The 9/7 quantiser steps 2^qexp from 2^-4 up, to the first one that keeps every
+    /// weighted magnitude below 2^40: so above 2^-4 the largest is at least 2^39. It stops at
+    /// 2^30, the largest exponent a stream may hold (the reader refuses 31).
+    #[test]
+    fn real_magnitudes_stay_below_2_40_with_the_finest_step() {
+        let layout = Layout::full(33, 17);
+        let bump = Grid::new(
+            33,
+            17,
+            (0..33 * 17)
+                .map(|k| (((k * 37) % 101) as f64 - 50.0) / 50.0)
+                .collect(),
+        )
+        .unwrap();
+        let mut seen = Vec::new();
+        for scale in [1.0, 1e3, 1e9, 1e11, 3e12, 1e15, 1e17] {
+            let g = bump.map(|&v| v * scale);
+            let (mags, negs, qexp) = forward(&g, Wavelet::Cdf97, &layout);
+            let max = mags.iter().copied().max().unwrap();
+            let at = format!("scale {scale}: qexp {qexp}, max {max}");
+            assert!((-4..=30).contains(&qexp), "{at}");
+            assert!(max < 1 << 40, "{at}");
+            if qexp > -4 {
+                assert!(max >= 1 << 39, "{at}");
+            }
+            // Signs: a coefficient that codes anything has one, half of them negative here.
+            assert!(mags.iter().zip(&negs).any(|(&m, &n)| m > 0 && n), "{at}");
+            assert!(mags.iter().zip(&negs).any(|(&m, &n)| m > 0 && !n), "{at}");
+            seen.push(qexp);
+        }
+        assert_eq!(seen[0], -4);
+        assert!(seen.windows(2).all(|w| w[0] <= w[1]), "{seen:?}");
+        assert!(seen.iter().any(|&q| q > -4 && q < 30), "{seen:?}");
+        // Past 2^70 the exponent stays at 30 and the magnitudes grow past 2^40 instead.
+        let (mags, _, qexp) = forward(&bump.map(|&v| v * 1e24), Wavelet::Cdf97, &layout);
+        assert_eq!(qexp, 30);
+        assert!(mags.iter().any(|&m| m >= 1 << 40));
     }
 }
