@@ -61,7 +61,9 @@ pub fn reconstruct(mag: u64, known: u8) -> f64 {
 pub fn reconstruct_integer(mag: u64, known: u8, shift: u8) -> f64 {
     let (known, shift) = (u32::from(known.min(63)), u32::from(shift.min(62)));
     let mut twice = u128::from(mag) << 1;
-    // `>=` is equivalent: at known == shift the added term is 0.
+    // `>=` is equivalent: at known == shift the added term is 0. So is `1 << shift` as
+    // `1 >> shift` below: magnitudes hold no bits under `known`, so with known > shift the
+    // numerator is a multiple of 2^(shift+1) and an extra 2^shift never changes the quotient.
     if known > shift {
         twice += (1u128 << known) - (1u128 << shift);
     }
