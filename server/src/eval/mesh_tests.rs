@@ -464,4 +464,9 @@ fn a_mesh_without_area_is_refused() {
         let err = format!("{:#}", load(&path, false).unwrap_err());
         assert!(err.contains(name) && err.contains("zero area"), "{err}");
     }
+    // Areas past the f64 range would make every distance NaN.
+    let path = dir.join("huge.obj");
+    std::fs::write(&path, "v 0 0 0\nv 1e200 0 0\nv 0 1e200 0\nf 1 2 3\n").unwrap();
+    let err = format!("{:#}", load(&path, false).unwrap_err());
+    assert!(err.contains("beyond the f64 range"), "{err}");
 }

@@ -321,7 +321,18 @@ pub(crate) fn has_surface(clean: &TriMesh) -> Result<()> {
     if clean.faces.is_empty() {
         anyhow::bail!("the mesh has no valid faces");
     }
-    if !clean.face_areas().iter().any(|&a| a > 0.0) {
+    let areas = clean.face_areas();
+    // Past ~1e77 apart a face's area overflows (uploads stop at 3.4e38; `eval mesh` does
+    // not): areas weigh the distance samples, so an infinite one makes every figure NaN.
+    if let Some(f) = areas.iter().position(|a| !a.is_finite()) {
+        anyhow::bail!(
+            "face {} has an area beyond the f64 range: the mesh is too large ({:e} across) to \
+             measure",
+            f + 1,
+            clean.diagonal()
+        );
+    }
+    if !areas.iter().any(|&a| a > 0.0) {
         anyhow::bail!(
             "the mesh has no valid faces: every face has zero area (its corners coincide or \
              lie on one line)"
