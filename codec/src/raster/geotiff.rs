@@ -346,23 +346,28 @@ mod tests {
         assert_eq!(g, Georef::north_up(Crs::Geographic, 10.0, 50.0, 0.5, 0.25));
     }
 
-    #[test]
-    fn model_transformation_places_an_area_raster() {
-        let path = scratch_dir("tiff_transform").join("transform.tif");
+    /// The placement of a 2 × 2 area raster whose only georeferencing is the
+    /// ModelTransformation `m` (row-major 4 × 4).
+    fn placed_by_transform(tag: &str, m: [f64; 16]) -> Georef {
+        let path = scratch_dir(tag).join("transform.tif");
         write_tiff(&path, (2, 2), &[1, 2, 3, 4], |dir| {
-            #[rustfmt::skip]
-            let m = [
-                2.0, 0.0, 0.0, 100.0,
-                0.0, -2.0, 0.0, 200.0,
-                0.0, 0.0, 0.0, 0.0,
-                0.0, 0.0, 0.0, 1.0,
-            ];
             dir.write_tag(Tag::ModelTransformationTag, &m[..]).unwrap();
         });
-        let g = read(&path, &ReadOptions::default())
+        read(&path, &ReadOptions::default())
             .unwrap()
             .georef
-            .unwrap();
+            .unwrap()
+    }
+
+    #[test]
+    fn model_transformation_places_an_area_raster() {
+        #[rustfmt::skip]
+        let g = placed_by_transform("tiff_transform", [
+            2.0, 0.0, 0.0, 100.0,
+            0.0, -2.0, 0.0, 200.0,
+            0.0, 0.0, 0.0, 0.0,
+            0.0, 0.0, 0.0, 1.0,
+        ]);
         assert_eq!(g.crs, Crs::Unknown);
         assert_eq!(g.position(0.0, 0.0), (101.0, 199.0));
         assert_eq!(g.to_gdal(), [100.0, 2.0, 0.0, 200.0, 0.0, -2.0]);
@@ -550,21 +555,13 @@ mod tests {
     fn a_rotated_model_transformation_moves_the_centre_along_both_axes() {
         // Area raster: the first centre is raster (0.5, 0.5), so each model axis moves by half
         // of both its column and its row step.
-        let path = scratch_dir("tiff_rotated").join("rotated.tif");
-        write_tiff(&path, (2, 2), &[1, 2, 3, 4], |dir| {
-            #[rustfmt::skip]
-            let m = [
-                2.0, 0.5, 0.0, 100.0,
-                0.25, -2.0, 0.0, 200.0,
-                0.0, 0.0, 0.0, 0.0,
-                0.0, 0.0, 0.0, 1.0,
-            ];
-            dir.write_tag(Tag::ModelTransformationTag, &m[..]).unwrap();
-        });
-        let g = read(&path, &ReadOptions::default())
-            .unwrap()
-            .georef
-            .unwrap();
+        #[rustfmt::skip]
+        let g = placed_by_transform("tiff_rotated", [
+            2.0, 0.5, 0.0, 100.0,
+            0.25, -2.0, 0.0, 200.0,
+            0.0, 0.0, 0.0, 0.0,
+            0.0, 0.0, 0.0, 1.0,
+        ]);
         assert_eq!(g.transform, [101.25, 2.0, 0.5, 199.125, 0.25, -2.0]);
         assert_eq!(g.to_gdal(), [100.0, 2.0, 0.5, 200.0, 0.25, -2.0]);
     }
