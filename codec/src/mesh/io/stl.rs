@@ -42,19 +42,11 @@ fn ascii_text(bytes: &[u8]) -> Option<&[u8]> {
 pub(super) fn read(bytes: &[u8], limits: &MeshLimits) -> Result<TriMesh, MeshError> {
     let ascii = ascii_text(bytes).filter(|_| !is_binary(bytes));
     let mesh = if let Some(text) = ascii {
-        read_ascii(text).or_else(|ascii_err| {
-            // A binary file whose header starts with "solid" and which has bytes past its
-            // records (some exporters pad) looks like text: read as binary when its claimed
-            // triangles fit, else the text's error stands.
-            let fits = claimed(bytes).is_some_and(|n| {
-                limits.faces(n).is_ok() && HEADER as u64 + RECORD * n <= bytes.len() as u64
-            });
-            if fits {
-                read_binary(bytes, limits).map_err(|_| ascii_err)
-            } else {
-                Err(ascii_err)
-            }
-        })?
+        // A binary file whose header starts with "solid" and which has bytes past its records
+        // (some exporters pad) looks like text: read as binary when the text fails, and if
+        // that fails too (its claimed count checked against the limits and the bytes first,
+        // before any copy) the text's error stands.
+        read_ascii(text).or_else(|ascii_err| read_binary(bytes, limits).map_err(|_| ascii_err))?
     } else {
         read_binary(bytes, limits)?
     };

@@ -27,7 +27,7 @@ use serde::Serialize;
 pub use quadric::Quadric;
 
 use super::error::MeshError;
-use super::indexed::TriMesh;
+use super::indexed::{Aabb, TriMesh};
 use crate::error::ParamError;
 
 /// Weight of the boundary penalty planes per unit of squared edge length, relative to the
@@ -205,12 +205,13 @@ pub fn simplify(mesh: &TriMesh, options: &QemOptions) -> Result<(TriMesh, QemRep
     // Contracts first: finite coordinates, indices in range, sane options.
     mesh.check()?;
     options.check()?;
-    let diagonal = mesh.diagonal();
+    let bounds = mesh.bounding_box();
+    let diagonal = bounds.diagonal();
     if diagonal > 0.0 && !NATIVE_DIAGONALS.contains(&diagonal) {
         // Scaled by a power of two, exact both ways unless a coordinate is subnormal at
         // either scale: the errors are all relative to the diagonal, so the result is the
         // same mesh at the caller's scale.
-        let [s1, s2] = unit_scale(mesh);
+        let [s1, s2] = unit_scale(&bounds);
         let unit = TriMesh::new(
             mesh.positions.iter().map(|p| *p * s1 * s2).collect(),
             mesh.faces.clone(),
@@ -219,11 +220,7 @@ pub fn simplify(mesh: &TriMesh, options: &QemOptions) -> Result<(TriMesh, QemRep
             return Err(MeshError::Unsupported(format!(
                 "a mesh {diagonal:e} across lying as far as {:e} from the origin: its \
                  coordinates do not fit f64 once scaled to simplify it",
-                mesh.bounding_box()
-                    .min
-                    .abs()
-                    .max(mesh.bounding_box().max.abs())
-                    .max_element()
+                bounds.min.abs().max(bounds.max.abs()).max_element()
             )));
         }
         let (mut out, report) = simplify(&unit, options)?;
@@ -260,8 +257,7 @@ pub fn simplify(mesh: &TriMesh, options: &QemOptions) -> Result<(TriMesh, QemRep
 /// Two powers of two whose product brings the mesh's longest side near 1. Two, because the
 /// product for a side near the ends of the f64 range (2^±1074) is itself out of range; each
 /// is within 2^±540. The sides are taken as quarters, which never overflow.
-fn unit_scale(mesh: &TriMesh) -> [f64; 2] {
-    let b = mesh.bounding_box();
+fn unit_scale(b: &Aabb) -> [f64; 2] {
     let quarter = (b.max * 0.25 - b.min * 0.25).max_element();
     let log2 = if quarter > 0.0 {
         quarter.log2() + 2.0
