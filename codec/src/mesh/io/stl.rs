@@ -1,6 +1,7 @@
 //! STL through `stl_io` (ASCII and binary in). STL stores every triangle with its own three
 //! corners; `stl_io` welds bit-identical corners, which is the mesh the file means.
 
+use std::borrow::Cow;
 use std::io::Cursor;
 
 use glam::DVec3;
@@ -66,13 +67,18 @@ pub(super) fn read(bytes: &[u8], limits: &MeshLimits) -> Result<TriMesh, MeshErr
 }
 
 fn read_ascii(text: &[u8]) -> Result<stl_io::IndexedMesh, MeshError> {
+    // stl_io reads lines as UTF-8, and on one byte that is not (a Latin-1 solid name, "solid
+    // caf\xe9") took the file for binary ("failed to fill whole buffer"); numbers and keywords
+    // are ASCII, so such bytes are replaced, as the OBJ reader does.
+    let text = String::from_utf8_lossy(text);
     // stl_io takes a file for ASCII only when it starts with "solid " (space included).
-    let text: std::borrow::Cow<[u8]> = if text.starts_with(b"solid ") {
-        text.into()
+    let text: Cow<str> = if text.starts_with("solid ") {
+        text
     } else {
-        [b"solid ", &text[5..]].concat().into()
+        format!("solid {}", &text[5..]).into()
     };
-    stl_io::read_stl(&mut Cursor::new(text)).map_err(|e| MeshError::decode(FORMAT, e.to_string()))
+    stl_io::read_stl(&mut Cursor::new(text.as_bytes()))
+        .map_err(|e| MeshError::decode(FORMAT, e.to_string()))
 }
 
 fn read_binary(bytes: &[u8], limits: &MeshLimits) -> Result<stl_io::IndexedMesh, MeshError> {

@@ -179,6 +179,28 @@ vertex 1 1 0.5\nvertex 0 1 0\nendloop\nendfacet\nendsolid\n";
     assert!(read_bytes(solidly.as_bytes(), Some(Format::Stl), &limits()).is_err());
 }
 
+/// An ASCII STL with Latin-1 bytes in its solid's name (and its endsolid's) is text: it was
+/// taken for binary and refused ("failed to fill whole buffer").
+#[test]
+fn an_ascii_stl_with_a_latin1_name_reads() {
+    let facets = b"facet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n\
+vertex 1 1 0.5\nendloop\nendfacet\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n\
+vertex 1 1 0.5\nvertex 0 1 0\nendloop\nendfacet\n";
+    for (first, last) in [
+        (&b"solid caf\xe9\n"[..], &b"endsolid caf\xe9\n"[..]),
+        (b"solid\t\xe9t\xe9\r\n", b"endsolid\n"),
+        (b"solid t\n", b"endsolid caf\xe9 \xc3\n"),
+    ] {
+        let bytes = [first, facets, last].concat();
+        let what = String::from_utf8_lossy(&[first, last].concat()).into_owned();
+        assert_eq!(Format::sniff(&bytes), Some(Format::Stl), "{what}");
+        for given in [None, Some(Format::Stl)] {
+            let m = read_bytes(&bytes, given, &limits()).unwrap_or_else(|e| panic!("{what}: {e}"));
+            assert_eq!(m, quad(), "{what}");
+        }
+    }
+}
+
 /// OBJ polylines (`l`) are no faces: tobj parsed them like `f`, so an edge drawn through
 /// three vertices came out as a triangle, and a file of only polylines as a mesh.
 #[test]
