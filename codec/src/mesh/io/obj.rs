@@ -140,9 +140,8 @@ pub(super) fn write(mesh: &TriMesh, out: &mut impl Write) -> Result<(), MeshErro
         mesh.positions.len(),
         mesh.faces.len()
     )?;
-    // f64 Display is the shortest text that reads back to the same number.
     for p in &mesh.positions {
-        writeln!(w, "v {} {} {}", p.x, p.y, p.z)?;
+        writeln!(w, "v {} {} {}", Coord(p.x), Coord(p.y), Coord(p.z))?;
     }
     for t in &mesh.faces {
         let [a, b, c] = t.map(|i| u64::from(i) + 1);
@@ -150,4 +149,25 @@ pub(super) fn write(mesh: &TriMesh, out: &mut impl Write) -> Result<(), MeshErro
     }
     w.flush()?;
     Ok(())
+}
+
+/// An f64 in the shortest digits that read back to it. `{}` gives those in fixed notation
+/// only, so 1e-300 was 300 digits; outside ordinary magnitudes (the range in which serde_json
+/// and ryu write fixed notation too) exponent notation (`1e-300`, which OBJ readers parse)
+/// is used where it is shorter, and ordinary coordinates are written as they always were.
+struct Coord(f64);
+
+impl std::fmt::Display for Coord {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let x = self.0;
+        if x == 0.0 || (1e-5..1e16).contains(&x.abs()) {
+            return write!(f, "{x}");
+        }
+        let (fixed, exp) = (x.to_string(), format!("{x:e}"));
+        f.write_str(if exp.len() < fixed.len() {
+            &exp
+        } else {
+            &fixed
+        })
+    }
 }

@@ -77,6 +77,64 @@ fn obj_and_json_keep_f64_exactly() {
     }
 }
 
+/// Coordinates at f64's ends read back bit for bit from OBJ and JSON, and OBJ writes them
+/// in a few characters: 1e-300 was 300 digits in fixed notation. Ordinary coordinates are
+/// written as before.
+#[test]
+fn obj_and_json_write_extreme_coordinates_short_and_exact() {
+    let extremes = [
+        1e-300,
+        5e-324,
+        f64::MAX,
+        -0.0,
+        -1.2345e-300,
+        f64::MIN_POSITIVE,
+        -9.999999999999999e-6,
+        1e16,
+        1.2345678901234567e16,
+        -1e300,
+    ];
+    let mut m = quad();
+    m.positions[2] = DVec3::new(0.5, -3.6488749249916674, 1000.0);
+    for c in extremes.chunks(3) {
+        let n = m.positions.len() as u32;
+        let at = |i: usize| c.get(i).copied().unwrap_or(0.25);
+        m.positions
+            .extend([DVec3::new(at(0), at(1), at(2)), DVec3::X, DVec3::Y]);
+        m.faces.push([n, n + 1, n + 2]);
+    }
+    let bits = |m: &TriMesh| -> Vec<[u64; 3]> {
+        m.positions
+            .iter()
+            .map(|p| p.to_array().map(f64::to_bits))
+            .collect()
+    };
+    for format in [Format::Obj, Format::Json] {
+        let bytes = write_bytes(&m, format).expect("encodes");
+        let back = read_bytes(&bytes, Some(format), &limits()).expect("decodes");
+        assert_eq!(bits(&back), bits(&m), "{}", format.name());
+        assert_eq!(back.faces, m.faces, "{}", format.name());
+    }
+    let obj = String::from_utf8(write_bytes(&m, Format::Obj).expect("encodes")).expect("text");
+    let longest = obj.lines().map(str::len).max().unwrap_or(0);
+    assert!(longest <= 80, "a {longest}-character line:\n{obj}");
+    assert!(obj.contains("\nv 0.5 -3.6488749249916674 1000\n"), "{obj}");
+    assert!(
+        obj.contains("\nv 1e-300 5e-324 1.7976931348623157e308\n"),
+        "{obj}"
+    );
+    assert!(obj.contains("\nv -0 -1.2345e-300 "), "{obj}");
+    assert!(
+        obj.contains("\nv -9.999999999999999e-6 1e16 12345678901234568\n"),
+        "{obj}"
+    );
+    assert!(obj.contains("\nv -1e300 0.25 0.25\n"), "{obj}");
+    // serde_json writes them short already (ryu): 1e-300, 1.7976931348623157e308.
+    let json = String::from_utf8(write_bytes(&m, Format::Json).expect("encodes")).expect("text");
+    let longest = json.split([',', '[']).map(str::len).max().unwrap_or(0);
+    assert!(longest <= 24, "a {longest}-character number: {json}");
+}
+
 #[test]
 fn ascii_and_big_endian_ply_read() {
     let ascii = b"ply\nformat ascii 1.0\ncomment hi\nelement vertex 4\nproperty float x\n\
