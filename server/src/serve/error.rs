@@ -5,7 +5,7 @@
 //! internals never reach a client.
 
 use axum::extract::rejection::{PathRejection, QueryRejection};
-use axum::http::StatusCode;
+use axum::http::{HeaderName, HeaderValue, StatusCode};
 use axum::response::{IntoResponse, Response};
 use axum::Json;
 
@@ -32,6 +32,8 @@ pub struct ApiError {
     pub code: &'static str,
     /// For people: what was wrong and what is accepted.
     pub message: String,
+    /// Headers the status calls for beyond the body (a 415's `Accept-Encoding`).
+    pub headers: Vec<(HeaderName, HeaderValue)>,
 }
 
 impl ApiError {
@@ -40,7 +42,14 @@ impl ApiError {
             status,
             code,
             message: message.into(),
+            headers: Vec::new(),
         }
+    }
+
+    /// The error with `name: value` among its response headers.
+    pub fn with_header(mut self, name: HeaderName, value: HeaderValue) -> Self {
+        self.headers.push((name, value));
+        self
     }
 
     pub fn bad_request(code: &'static str, message: impl Into<String>) -> Self {
@@ -93,6 +102,9 @@ impl IntoResponse for ApiError {
         let body = serde_json::json!({ "error": self.code, "message": self.message });
         let mut res = (self.status, Json(body)).into_response();
         res.extensions_mut().insert(ErrorBody(self.status));
+        for (name, value) in self.headers {
+            res.headers_mut().append(name, value);
+        }
         if self.status == StatusCode::SERVICE_UNAVAILABLE {
             res.headers_mut().insert(
                 axum::http::header::RETRY_AFTER,

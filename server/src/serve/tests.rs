@@ -1018,11 +1018,12 @@ async fn mesh_lods_are_revalidated_since_an_upload_replaces_them() {
 }
 
 /// `curl --data-binary @mesh.obj URL`, the first upload a curl user tries, labels the body
-/// a form: still a 415 (a form is not a mesh), but one that says which header to add.
+/// a form: still a 415 (a form is not a mesh), but one that says which header to add. No
+/// `Accept-Encoding`: a 415 that is not about the content coding must not carry one.
 #[tokio::test]
 async fn a_form_labelled_upload_is_told_to_set_its_content_type() {
     let app = router("upload-form");
-    let (s, _, body) = send(
+    let (s, h, body) = send(
         &app,
         Method::POST,
         "/v1/meshes/a",
@@ -1030,6 +1031,7 @@ async fn a_form_labelled_upload_is_told_to_set_its_content_type() {
     )
     .await;
     assert_eq!(s, StatusCode::UNSUPPORTED_MEDIA_TYPE);
+    assert!(h.get(header::ACCEPT_ENCODING).is_none(), "{h:?}");
     let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
     assert_eq!(v["error"], "unsupported_media_type");
     let m = v["message"].as_str().unwrap();
@@ -1047,7 +1049,8 @@ async fn a_form_labelled_upload_is_told_to_set_its_content_type() {
 }
 
 /// Nothing decodes a compressed upload, so a gzipped OBJ reached the parser as it came and
-/// was a 422 "OBJ: read error"; it is a 415 naming Content-Encoding, and stores nothing.
+/// was a 422 "OBJ: read error"; it is a 415 naming Content-Encoding, and stores nothing. Its
+/// `Accept-Encoding: identity` says which coding would do (RFC 9110 §15.5.16); it was absent.
 #[tokio::test]
 async fn a_compressed_upload_is_told_to_send_the_mesh_uncompressed() {
     let data = one_triangle_data("upload-gzip");
@@ -1066,6 +1069,11 @@ async fn a_compressed_upload_is_told_to_send_the_mesh_uncompressed() {
             .unwrap();
         let res = app.clone().oneshot(req).await.unwrap();
         assert_eq!(res.status(), StatusCode::UNSUPPORTED_MEDIA_TYPE, "{coding}");
+        assert_eq!(
+            res.headers()[header::ACCEPT_ENCODING],
+            "identity",
+            "{coding}"
+        );
         let body = to_bytes(res.into_body(), 1 << 20).await.unwrap();
         let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
         assert_eq!(v["error"], "unsupported_media_type", "{coding}");
@@ -1085,6 +1093,7 @@ async fn a_compressed_upload_is_told_to_send_the_mesh_uncompressed() {
         .unwrap();
     let res = app.clone().oneshot(req).await.unwrap();
     assert_eq!(res.status(), StatusCode::UNSUPPORTED_MEDIA_TYPE);
+    assert_eq!(res.headers()[header::ACCEPT_ENCODING], "identity");
     let (s, _, _) = get(&app, "/v1/meshes/b").await;
     assert_eq!(s, StatusCode::NOT_FOUND);
     // identity is no coding.

@@ -16,7 +16,7 @@ use std::sync::Arc;
 use axum::body::{Body, Bytes};
 use axum::extract::rejection::{PathRejection, QueryRejection};
 use axum::extract::{Path, Query, State};
-use axum::http::header::{CONTENT_ENCODING, CONTENT_LENGTH, CONTENT_TYPE};
+use axum::http::header::{ACCEPT_ENCODING, CONTENT_ENCODING, CONTENT_LENGTH, CONTENT_TYPE};
 use axum::http::{HeaderMap, HeaderValue, StatusCode};
 use axum::response::Response;
 use axum::Json;
@@ -655,7 +655,8 @@ fn upload_target(
     // refused as an unreadable mesh (422 "OBJ: read error"), which sent the client looking at
     // its file instead of at the header. RFC 9110 §15.5.16: a coding not supported is a 415.
     // Every Content-Encoding line and list item counts: `identity` then `gzip` on two lines
-    // is a gzipped body.
+    // is a gzipped body. Such a 415 names the codings accepted in Accept-Encoding, which
+    // tells it from a 415 for the Content-Type (which must not carry it: RFC 9110 §12.5.3).
     if let Some(coding) = headers
         .get_all(CONTENT_ENCODING)
         .iter()
@@ -671,7 +672,8 @@ fn upload_target(
                  mesh uncompressed (it may be up to 64 MiB)",
                 echo(coding)
             ),
-        ));
+        )
+        .with_header(ACCEPT_ENCODING, HeaderValue::from_static("identity")));
     }
     let ct = headers
         .get(CONTENT_TYPE)
