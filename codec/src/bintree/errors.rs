@@ -351,8 +351,8 @@ struct Shape {
     /// The columns the runs cover: x − x_a from `dx0` to `dx0 + width − 1`.
     dx0: f64,
     width: usize,
-    /// The level's triangles of this shape (index within the level), padded with copies of
-    /// the last to a multiple of [`LANES`].
+    /// The level's triangles of this shape (index within the level); [`Shapes::errors`]
+    /// fills a short last group of lanes with copies of its last triangle.
     tris: Vec<u32>,
 }
 
@@ -938,6 +938,101 @@ mod tests {
                     old.to_bits(),
                     "{what} sample {s}: {new} vs {old}"
                 );
+            }
+        }
+    }
+
+    /// The shapes serve every level whose shapes each fill the lanes, except the two finest
+    /// (`finest_two_levels` sweeps them): levels 3 to `splittable` − 3, so at 257² all but the
+    /// three coarsest (2, 4 and 8 triangles in 2 or 4 shapes), which the scanline evaluates.
+    /// A served level's shapes hold each of its triangles once.
+    #[test]
+    fn shapes_serve_every_level_but_the_three_coarsest_and_the_two_finest() {
+        for n in [5usize, 9, 17, 257] {
+            let h = Hierarchy::new(n).unwrap();
+            let splittable = h.levels() - 1;
+            assert_eq!(h.shapes.len(), splittable, "n {n}");
+            for (l, shapes) in h.shapes.iter().enumerate() {
+                let served = (3..splittable.saturating_sub(2)).contains(&l);
+                assert_eq!(shapes.is_some(), served, "n {n} level {l}");
+                let Some(shapes) = shapes else { continue };
+                assert!(
+                    shapes.shapes.iter().all(|s| s.tris.len() >= LANES),
+                    "n {n} level {l}"
+                );
+                let mut tris: Vec<u32> =
+                    shapes.shapes.iter().flat_map(|s| s.tris.clone()).collect();
+                tris.sort_unstable();
+                assert_eq!(tris, (0..2u32 << l).collect::<Vec<_>>(), "n {n} level {l}");
+            }
+        }
+    }
+
+    /// A shape whose det is not a power of two (no bintree triangle's: legs of 3 samples, det
+    /// ±9) divides rather than multiplying by an inexact `1 / det`, and still gives the
+    /// scanline's error bit for bit, for a full group of lanes and a short one; a degenerate
+    /// shape gives 0, as the scanline does.
+    #[test]
+    fn shapes_of_any_det_give_the_scanline_error_bit_for_bit() {
+        let n = 9;
+        let g = crate::fixtures::n44w072_crop(700, 700, n);
+        let coords = Coords::new(n);
+        let s = |x: u32, y: u32| y * n as u32 + x;
+        let tri = |a, b, c| Tri { a, b, c, m: 0 };
+        // Corners a, b, c from (x, y).
+        type Corners = fn(u32, u32) -> [(u32, u32); 3];
+        let cases: [(&str, Corners, f64, Option<f64>); 4] = [
+            (
+                "legs of 3",
+                |x, y| [(x, y), (x + 3, y), (x, y + 3)],
+                9.0,
+                None,
+            ),
+            (
+                "mirrored",
+                |x, y| [(x, y), (x, y + 3), (x + 3, y)],
+                -9.0,
+                None,
+            ),
+            (
+                "legs of 2",
+                |x, y| [(x, y), (x + 2, y), (x, y + 2)],
+                4.0,
+                Some(0.25),
+            ),
+            ("degenerate", |x, y| [(x, y); 3], 0.0, None),
+        ];
+        for (what, corners, det, inv) in cases {
+            // Five triangles: a full group of lanes and a short one.
+            let level: Vec<Tri> = [(0, 0), (5, 0), (2, 3), (0, 5), (4, 5)]
+                .map(|(x, y)| {
+                    let [a, b, c] = corners(x, y).map(|(x, y)| s(x, y));
+                    tri(a, b, c)
+                })
+                .to_vec();
+            let key = Shapes::key(&level[0], coords);
+            assert!(
+                level.iter().all(|t| Shapes::key(t, coords) == key),
+                "{what}"
+            );
+            let shapes = Shapes::of_groups(n, vec![(key, (0..5).collect())]);
+            assert_eq!(
+                (shapes.shapes[0].det, shapes.shapes[0].inv),
+                (det, inv),
+                "{what}"
+            );
+            let mut own = vec![f64::NAN; level.len()];
+            shapes.errors::<LANES>(&level, g.data(), None, |i, _, e| own[i] = e);
+            for (t, fast) in level.iter().zip(own) {
+                let slow = plane_error(t, g.data(), coords);
+                assert_eq!(fast.to_bits(), slow.to_bits(), "{what}: {t:?}");
+                if det == 0.0 {
+                    assert_eq!(fast, 0.0, "{what}: {t:?}");
+                } else {
+                    let defined = brute_force(t, g.data(), n);
+                    assert!(defined > 0.0, "{what}: {t:?}");
+                    assert!((fast - defined).abs() <= 1e-9 * defined, "{what}: {t:?}");
+                }
             }
         }
     }
