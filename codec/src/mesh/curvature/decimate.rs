@@ -25,28 +25,36 @@ struct Removal {
     drift: SmallVec<[(f64, f64); 8]>,
 }
 
-impl Removal {
-    /// ε (paper eq. 9) at inverse area scale `x`.
-    fn error(&self, x: f64) -> f64 {
-        self.drift
-            .iter()
-            .fold(0.0, |e, &(a, b)| e.max((a * x + b).abs()))
-    }
+/// ε (paper eq. 9) of a removal with ring drift `drift` at inverse area scale `x`.
+fn epsilon(drift: &[(f64, f64)], x: f64) -> f64 {
+    drift
+        .iter()
+        .fold(0.0, |e, &(a, b)| e.max((a * x + b).abs()))
+}
 
-    /// The largest inverse area scale at which ε ≤ `bound`, if any: x only falls as
-    /// vertices go, so a removal refused above it passes once x has fallen that far.
-    fn passes_below(&self, bound: f64) -> Option<f64> {
-        let (mut lo, mut hi) = (0.0_f64, f64::INFINITY);
-        for &(a, b) in &self.drift {
-            if a > 0.0 {
-                lo = lo.max((-bound - b) / a);
-                hi = hi.min((bound - b) / a);
-            } else if b.abs() > bound {
-                return None;
-            }
+/// The largest inverse area scale at which ε ≤ `bound`, if any: x only falls as vertices
+/// go, so a removal refused above it passes once x has fallen that far.
+fn passes_below(drift: &[(f64, f64)], bound: f64) -> Option<f64> {
+    let (mut lo, mut hi) = (0.0_f64, f64::INFINITY);
+    for &(a, b) in drift {
+        if a > 0.0 {
+            lo = lo.max((-bound - b) / a);
+            hi = hi.min((bound - b) / a);
+        } else if b.abs() > bound {
+            return None;
         }
-        (lo <= hi).then_some(hi)
     }
+    (lo <= hi).then_some(hi)
+}
+
+/// A removal that did not go, remembered until its neighbourhood changes: evaluating one
+/// is most of decimation's time, and each level (and each step of a face target) tries
+/// again every vertex the last one refused, mostly unchanged.
+struct Refusal {
+    /// [`Decimator::stamp`] of the vertex when it was evaluated.
+    stamp: u32,
+    /// The drift of [`Removal`], or `None` when the removal would break the surface.
+    drift: Option<Box<[(f64, f64)]>>,
 }
 
 /// Min-heap entry: key, vertex, the vertex's version when pushed.
@@ -79,6 +87,12 @@ pub struct Decimator {
     /// Corners and non-manifold vertices of the input: never removed.
     locked: Vec<bool>,
     version: Vec<u32>,
+    /// Each live vertex's measure on the current mesh.
+    measure: Vec<Measure>,
+    /// Moves on whenever a vertex's removal could evaluate differently: when its faces or
+    /// any neighbour's faces change (a removal reads its ring's fans).
+    stamp: Vec<u32>,
+    refused: Vec<Option<Refusal>>,
     /// W of every vertex on the input mesh, and the input's scales.
     w_orig: Vec<f64>,
     area_max: f64,
@@ -116,6 +130,9 @@ impl Decimator {
             removed: vec![false; n],
             locked: vec![false; n],
             version: vec![0; n],
+            measure: Vec::new(),
+            stamp: vec![0; n],
+            refused: std::iter::repeat_with(|| None).take(n).collect(),
             w_orig: vec![0.0; n],
             area_max: 0.0,
             weighted_max: 0.0,
@@ -140,6 +157,7 @@ impl Decimator {
             }
         }
         d.input_vertices = d.live_vertices;
+        d.measure = measures;
         d
     }
 
@@ -191,12 +209,12 @@ impl Decimator {
     /// W; without that a level kept every vertex refused early on, which the scale had
     /// freed by the end (the vase kept 78 % at ε = 0.15, now 68 %).
     pub fn run_to_error_until(&mut self, max_error: f64, floor: usize) {
-        let mut heap = BinaryHeap::new();
+        let mut heap: BinaryHeap<Entry> = (0..self.pos.len() as u32)
+            .filter_map(|v| self.entry(v))
+            .collect::<Vec<_>>()
+            .into();
         // Parked removals keyed by −x: the largest inverse scale at which each passes.
         let mut parked = BinaryHeap::new();
-        for v in 0..self.pos.len() as u32 {
-            self.push_by_curvature(&mut heap, v);
-        }
         while let Some(Entry(_, v, ver)) = heap.pop() {
             if self.live_faces <= floor {
                 break;
@@ -204,13 +222,40 @@ impl Decimator {
             if ver != self.version[v as usize] || self.removed[v as usize] {
                 continue;
             }
-            let Some(r) = self.evaluate(v) else { continue };
             let x = self.inverse_scale(self.live_vertices - 1);
-            let error = r.error(x);
-            if error > max_error {
-                if let Some(at) = r.passes_below(max_error).filter(|&at| at < x) {
+            let refused = self.refused[v as usize]
+                .as_ref()
+                .filter(|r| r.stamp == self.stamp[v as usize])
+                .map(|r| r.drift.as_deref());
+            // Debug builds (the tests) check each remembered refusal against a fresh look.
+            debug_assert!(
+                refused.is_none_or(
+                    |d| self.evaluate(v).map(|r| r.drift.to_vec()) == d.map(<[_]>::to_vec)
+                )
+            );
+            let drift = match refused {
+                Some(None) => continue,
+                Some(Some(drift)) if epsilon(drift, x) > max_error => Some(drift),
+                _ => None,
+            };
+            if let Some(drift) = drift {
+                if let Some(at) = passes_below(drift, max_error).filter(|&at| at < x) {
                     parked.push(Entry(-at, v, ver));
                 }
+                continue;
+            }
+            let stamp = self.stamp[v as usize];
+            let Some(r) = self.evaluate(v) else {
+                self.refused[v as usize] = Some(Refusal { stamp, drift: None });
+                continue;
+            };
+            let error = epsilon(&r.drift, x);
+            if error > max_error {
+                if let Some(at) = passes_below(&r.drift, max_error).filter(|&at| at < x) {
+                    parked.push(Entry(-at, v, ver));
+                }
+                let drift = Some(r.drift.into_vec().into_boxed_slice());
+                self.refused[v as usize] = Some(Refusal { stamp, drift });
                 continue;
             }
             let Removal {
@@ -219,19 +264,16 @@ impl Decimator {
                 measures,
                 ..
             } = r;
-            let ring = self.apply(v, faces, geoms, error);
+            let ring = self.apply(v, faces, geoms, &measures, error);
             // Only the ring's W changed (the paper recomputes the 1-ring). Removals next to
             // the ring that were refused are not tried again this level, although their ε
             // moved too: re-trying that 2-ring tripled the fandisk's time.
-            for u in ring {
-                let known = measures.iter().find(|e| e.0 == u).map(|e| e.1);
-                self.push_measured(&mut heap, u, known);
-            }
+            heap.extend(ring.into_iter().filter_map(|u| self.entry(u)));
             let x = self.inverse_scale(self.live_vertices.saturating_sub(1));
             while parked.peek().is_some_and(|e: &Entry| -e.0 >= x) {
                 if let Some(Entry(_, u, ver)) = parked.pop() {
                     if ver == self.version[u as usize] {
-                        self.push_by_curvature(&mut heap, u);
+                        heap.extend(self.entry(u));
                     }
                 }
             }
@@ -254,19 +296,19 @@ impl Decimator {
         alive_mesh(&self.pos, &self.faces, &self.alive)
     }
 
-    fn push_by_curvature(&self, heap: &mut BinaryHeap<Entry>, v: u32) {
-        self.push_measured(heap, v, None);
-    }
-
-    /// [`Self::push_by_curvature`] with `v`'s current measure when it is already known.
-    fn push_measured(&self, heap: &mut BinaryHeap<Entry>, v: u32, known: Option<Measure>) {
+    /// `v`'s place in the removal order (by its W now), if it may go.
+    fn entry(&self, v: u32) -> Option<Entry> {
         if self.removed[v as usize] || self.locked[v as usize] {
-            return;
+            return None;
         }
-        let m = known.unwrap_or_else(|| self.measure_now(v));
         let scale = self.area_scale(self.live_vertices);
-        let w = discrete_curvature(&m, scale, self.weighted_max, &self.weights);
-        heap.push(Entry(w, v, self.version[v as usize]));
+        let w = discrete_curvature(
+            &self.measure[v as usize],
+            scale,
+            self.weighted_max,
+            &self.weights,
+        );
+        Some(Entry(w, v, self.version[v as usize]))
     }
 
     /// The alive faces of `v` with their geometry.
@@ -347,13 +389,27 @@ impl Decimator {
     }
 
     /// Applies a removal; returns the ring, whose W changed (and whose versions move on).
+    /// `measures` are the ring's measures after it ([`Removal::measures`]).
     fn apply(
         &mut self,
         v: u32,
         new_faces: Vec<[u32; 3]>,
         geoms: Vec<Option<FaceGeom>>,
+        measures: &[(u32, Measure)],
         error: f64,
     ) -> Vec<u32> {
+        // Every vertex whose removal reads a fan that changes: the ring's neighbours (v
+        // and the ring among them). New edges join ring vertices only, so no vertex
+        // becomes a ring vertex's neighbour without being stamped here.
+        for &f in &self.vf[v as usize] {
+            for u in self.faces[f as usize] {
+                for &g in &self.vf[u as usize] {
+                    for x in self.faces[g as usize] {
+                        self.stamp[x as usize] = self.stamp[x as usize].wrapping_add(1);
+                    }
+                }
+            }
+        }
         let dead: Vec<u32> = std::mem::take(&mut self.vf[v as usize]);
         let mut ring: Vec<u32> = Vec::new();
         for &f in &dead {
@@ -389,6 +445,13 @@ impl Decimator {
         }
         for &u in &ring {
             self.version[u as usize] = self.version[u as usize].wrapping_add(1);
+            self.measure[u as usize] = match measures.iter().find(|e| e.0 == u) {
+                Some(&(_, m)) => m,
+                None => self.measure_now(u),
+            };
+            debug_assert!(
+                self.removed[u as usize] || self.measure[u as usize] == self.measure_now(u)
+            );
         }
         ring
     }
