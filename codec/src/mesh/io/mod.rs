@@ -12,6 +12,7 @@ mod obj;
 mod ply;
 mod stl;
 
+use std::borrow::Cow;
 use std::io::Write;
 use std::path::Path;
 
@@ -95,6 +96,22 @@ impl Format {
 
 fn without_bom(bytes: &[u8]) -> &[u8] {
     bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes)
+}
+
+/// `bytes` as text for a reader that wants UTF-8, each byte of an invalid sequence replaced
+/// by `?`: mesh numbers and keywords are ASCII, and old exporters write Latin-1 in comments
+/// and names. One byte for one keeps the copy the input's size, where
+/// `String::from_utf8_lossy`'s three-byte U+FFFD tripled it for binary-looking input.
+fn lenient_text(bytes: &[u8]) -> Cow<'_, str> {
+    if let Ok(text) = std::str::from_utf8(bytes) {
+        return text.into();
+    }
+    let mut text = String::with_capacity(bytes.len());
+    for chunk in bytes.utf8_chunks() {
+        text.push_str(chunk.valid());
+        text.extend(std::iter::repeat_n('?', chunk.invalid().len()));
+    }
+    text.into()
 }
 
 fn skip_bom_and_space(bytes: &[u8]) -> &[u8] {

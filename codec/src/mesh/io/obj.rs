@@ -35,7 +35,7 @@ pub(super) fn read(bytes: &[u8], limits: &MeshLimits) -> Result<TriMesh, MeshErr
     // tobj reads lines as UTF-8 and fails the whole file ("read error") on one byte that is
     // not, which older exporters write in comments and names (Latin-1 "Créé par"); none of
     // those bytes can be in a number the mesh needs, so they are replaced instead.
-    let text = without_polylines(String::from_utf8_lossy(bytes));
+    let text = without_polylines(super::lenient_text(bytes));
     let mut reader = text.as_bytes();
     let (models, _materials) = tobj::load_obj_buf(&mut reader, &options, |_| {
         // Material libraries are never opened: a mesh upload must not read other files.

@@ -70,7 +70,7 @@ fn read_ascii(text: &[u8]) -> Result<stl_io::IndexedMesh, MeshError> {
     // stl_io reads lines as UTF-8, and on one byte that is not (a Latin-1 solid name, "solid
     // caf\xe9") took the file for binary ("failed to fill whole buffer"); numbers and keywords
     // are ASCII, so such bytes are replaced, as the OBJ reader does.
-    let text = String::from_utf8_lossy(text);
+    let text = super::lenient_text(text);
     // stl_io takes a file for ASCII only when it starts with "solid " (space included).
     let text: Cow<str> = if text.starts_with("solid ") {
         text

@@ -716,3 +716,23 @@ fn extensions_name_their_formats() {
     let glb = write_bytes(&quad(), Format::Glb).expect("writes");
     assert!(read_bytes(&glb, Some(Format::Glb), &limits()).is_err());
 }
+
+#[test]
+fn text_with_stray_bytes_keeps_its_size_and_its_ascii() {
+    // A padded binary STL whose header says "solid" goes through the text path first: its
+    // copy must stay the input's size, not triple.
+    let mut bytes = b"solid caf\xe9\n".to_vec();
+    bytes.extend((0..3000).map(|i| 0x80 | (i % 64) as u8));
+    bytes.extend_from_slice("endsolid \u{e9}t\u{e9}".as_bytes());
+    let text = super::lenient_text(&bytes);
+    assert_eq!(text.len(), bytes.len());
+    assert!(text.starts_with("solid caf?\n"));
+    assert!(
+        text.ends_with("endsolid \u{e9}t\u{e9}"),
+        "valid UTF-8 is kept"
+    );
+    assert!(matches!(
+        super::lenient_text(b"v 1 2 3\n"),
+        Cow::Borrowed(_)
+    ));
+}
