@@ -128,6 +128,11 @@ pub fn app(state: AppState) -> Router {
             header::HeaderName::from_static("x-faces"),
             header::HeaderName::from_static("x-error"),
             header::HeaderName::from_static("x-max-level"),
+            // What a client is told to do next: when to retry a 503 or a 429, which methods
+            // a route answers (405), which coding an upload must use (415).
+            header::RETRY_AFTER,
+            header::ALLOW,
+            header::ACCEPT_ENCODING,
         ]);
     routes
         .layer(axum::middleware::from_fn_with_state(

@@ -2266,3 +2266,46 @@ async fn a_long_bad_value_is_echoed_cut() {
     }
     let _ = std::fs::remove_dir_all(&data);
 }
+
+#[tokio::test]
+async fn a_browser_may_read_every_header_the_api_answers_with() {
+    // A cross-origin script sees only the CORS-safelisted response headers and those listed
+    // in Access-Control-Expose-Headers: a 503's Retry-After, a 405's Allow or an upload
+    // 415's Accept-Encoding must be listed for a web client to act on them.
+    let app = router("expose");
+    let origin = [("origin", "https://viewer.example")];
+    let (_, tile, _) = send(
+        &app,
+        Method::GET,
+        "/v1/datasets/hill/tiles/0/0/0.bin?threshold=2",
+        &origin,
+    )
+    .await;
+    let exposed = tile["access-control-expose-headers"]
+        .to_str()
+        .unwrap()
+        .to_ascii_lowercase();
+    let exposed: Vec<&str> = exposed.split(',').map(str::trim).collect();
+    let (_, wrong_method, _) = send(&app, Method::PUT, "/v1/meshes/x", &origin).await;
+    let safelisted = [
+        "cache-control",
+        "content-language",
+        "content-length",
+        "content-type",
+        "expires",
+        "last-modified",
+        "pragma",
+    ];
+    let plumbing = |n: &str| n.starts_with("access-control-") || ["vary", "date"].contains(&n);
+    for h in [&tile, &wrong_method] {
+        for name in h.keys().map(|n| n.as_str()) {
+            assert!(
+                safelisted.contains(&name) || plumbing(name) || exposed.contains(&name),
+                "{name} is sent but not exposed: {exposed:?}"
+            );
+        }
+    }
+    for name in ["retry-after", "allow", "accept-encoding"] {
+        assert!(exposed.contains(&name), "{name}: {exposed:?}");
+    }
+}
