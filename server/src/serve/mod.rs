@@ -12,6 +12,7 @@
 //!
 //! The routes are listed in docs/api.md.
 
+pub mod built_once;
 pub mod catalog;
 pub mod dataset;
 pub mod error;
@@ -128,7 +129,7 @@ pub fn app(state: AppState) -> Router {
             header::HeaderName::from_static("x-faces"),
             header::HeaderName::from_static("x-error"),
             header::HeaderName::from_static("x-max-level"),
-            // What a client is told to do next: when to retry a 503 or a 429, which methods
+            // What a client is told to do next: when to retry a 503, which methods
             // a route answers (405), which coding an upload must use (415).
             header::RETRY_AFTER,
             header::ALLOW,
