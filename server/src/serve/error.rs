@@ -105,7 +105,8 @@ impl IntoResponse for ApiError {
         for (name, value) in self.headers {
             res.headers_mut().append(name, value);
         }
-        if self.status == StatusCode::SERVICE_UNAVAILABLE {
+        let told = res.headers().contains_key(axum::http::header::RETRY_AFTER);
+        if self.status == StatusCode::SERVICE_UNAVAILABLE && !told {
             res.headers_mut().insert(
                 axum::http::header::RETRY_AFTER,
                 axum::http::HeaderValue::from(RETRY_AFTER_SECONDS),

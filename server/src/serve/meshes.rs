@@ -7,7 +7,8 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::sync::{Arc, Mutex, OnceLock, RwLock};
+use std::sync::{Arc, Mutex, RwLock};
+use std::time::Duration;
 
 use anyhow::{Context, Result};
 use quick_cache::sync::Cache;
@@ -17,6 +18,8 @@ use zerotile_codec::mesh::io::{self, Format, MeshLimits};
 use zerotile_codec::mesh::silhouette::ViewSphere;
 use zerotile_codec::mesh::{repair, TriMesh};
 use zerotile_codec::mesh::{OctreeLod, OctreeOptions};
+
+use super::built_once::BuiltOnce;
 
 /// Folder of meshes inside the data folder.
 pub const MESH_DIR: &str = "meshes";
@@ -38,9 +41,27 @@ pub struct MeshEntry {
     /// the old mesh).
     pub content: u64,
     pub source: PathBuf,
-    silhouette: OnceLock<Result<ViewSphere, String>>,
-    octree: OnceLock<Result<OctreeLod, String>>,
-    curvature: OnceLock<Result<Vec<Level>, String>>,
+    silhouette: BuiltOnce<ViewSphere>,
+    octree: BuiltOnce<OctreeLod>,
+    curvature: BuiltOnce<Vec<Level>>,
+}
+
+/// A mesh's LOD structures, each built on first use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Structure {
+    CurvatureLevels,
+    Octree,
+    ViewSphere,
+}
+
+impl Structure {
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::CurvatureLevels => "curvature levels",
+            Self::Octree => "octree",
+            Self::ViewSphere => "view sphere",
+        }
+    }
 }
 
 impl MeshEntry {
@@ -50,41 +71,43 @@ impl MeshEntry {
             content: content_hash(&mesh),
             mesh,
             source,
-            silhouette: OnceLock::new(),
-            octree: OnceLock::new(),
-            curvature: OnceLock::new(),
+            silhouette: BuiltOnce::default(),
+            octree: BuiltOnce::default(),
+            curvature: BuiltOnce::default(),
+        }
+    }
+
+    /// How long another request has been building `s`, while it is under way.
+    pub fn building_for(&self, s: Structure) -> Option<Duration> {
+        match s {
+            Structure::CurvatureLevels => self.curvature.building_for(),
+            Structure::Octree => self.octree.building_for(),
+            Structure::ViewSphere => self.silhouette.building_for(),
         }
     }
 
     /// The octree hierarchy, built once.
     pub fn octree(&self) -> Result<&OctreeLod, String> {
-        self.octree
-            .get_or_init(|| {
-                OctreeLod::build(&self.mesh, &OctreeOptions::default()).map_err(|e| e.to_string())
-            })
-            .as_ref()
-            .map_err(Clone::clone)
+        self.octree.get_or_build(|| {
+            OctreeLod::build(&self.mesh, &OctreeOptions::default()).map_err(|e| e.to_string())
+        })
     }
 
     /// The nested curvature levels cut at the paper's ε, built once: one continuing
     /// decimation gives all of them for the price of the coarsest.
     pub fn curvature_levels(&self) -> Result<&[Level], String> {
         self.curvature
-            .get_or_init(|| {
+            .get_or_build(|| {
                 curvature::levels(&self.mesh, &PAPER_LEVELS, &CurvatureOptions::default())
                     .map_err(|e| e.to_string())
             })
-            .as_ref()
             .map(Vec::as_slice)
-            .map_err(Clone::clone)
     }
 
     /// The view sphere, built once.
     pub fn view_sphere(&self) -> Result<&ViewSphere, String> {
         self.silhouette
-            .get_or_init(|| ViewSphere::new(&self.mesh).map_err(|e| e.to_string()))
-            .as_ref()
-            .map_err(Clone::clone)
+            .get_or_build(|| ViewSphere::new(&self.mesh).map_err(|e| e.to_string()))
     }
 }
 

@@ -2309,3 +2309,81 @@ async fn a_browser_may_read_every_header_the_api_answers_with() {
         assert!(exposed.contains(&name), "{name}: {exposed:?}");
     }
 }
+
+/// While one request builds a mesh's curvature levels (a minute on a 2M-face upload), an
+/// ask for them is answered at once with 503 `building` and Retry-After, instead of
+/// waiting for the build inside a render slot: retries every second filled the slots and
+/// shed terrain tiles. Once built, the same ask is served.
+#[tokio::test]
+async fn an_ask_while_a_lod_is_building_is_told_to_come_back() {
+    use crate::serve::meshes::Structure;
+    let data = crate::fixtures::scratch("lod-building");
+    std::fs::create_dir_all(data.join("meshes")).unwrap();
+    // A bumpy closed sphere, 200 × 100 quads: its levels take a fraction of a second.
+    let (rings, segments) = (100, 200);
+    let mut obj = String::from("v 0 0 1\nv 0 0 -1\n");
+    for i in 1..rings {
+        for j in 0..segments {
+            let (t, p) = (
+                std::f64::consts::PI * f64::from(i) / f64::from(rings),
+                std::f64::consts::TAU * f64::from(j) / f64::from(segments),
+            );
+            let r = 1.0 + 0.05 * (7.0 * p).sin() * (5.0 * t).sin();
+            obj += &format!(
+                "v {} {} {}\n",
+                r * t.sin() * p.cos(),
+                r * t.sin() * p.sin(),
+                r * t.cos()
+            );
+        }
+    }
+    let at = |i: u32, j: u32| 3 + (i - 1) * segments + j % segments;
+    for j in 0..segments {
+        obj += &format!("f 1 {} {}\n", at(1, j), at(1, j + 1));
+        obj += &format!("f 2 {} {}\n", at(rings - 1, j + 1), at(rings - 1, j));
+        for i in 1..rings - 1 {
+            let (a, b, c, d) = (at(i, j), at(i, j + 1), at(i + 1, j + 1), at(i + 1, j));
+            obj += &format!("f {a} {d} {c}\nf {a} {c} {b}\n");
+        }
+    }
+    std::fs::write(data.join("meshes/bumpy.obj"), obj).unwrap();
+    let state = state_over(
+        hill_dataset("lod-building", "local", &[ROOT]),
+        Config::default(),
+    )
+    .with_meshes(crate::serve::meshes::MeshCatalog::open(&data, 1 << 20));
+    let entry = state.meshes.get("bumpy").unwrap();
+    let app = app(state);
+    let uri = "/v1/meshes/bumpy/curvature?level=2&format=json";
+
+    let first = tokio::spawn({
+        let app = app.clone();
+        async move { get(&app, uri).await }
+    });
+    let waited = std::time::Instant::now();
+    while entry.building_for(Structure::CurvatureLevels).is_none() {
+        assert!(!first.is_finished(), "built before it was seen building");
+        assert!(waited.elapsed().as_secs() < 30, "the build never started");
+        tokio::time::sleep(std::time::Duration::from_millis(1)).await;
+    }
+    let (s, h, body) = get(&app, uri).await;
+    assert_eq!(s, StatusCode::SERVICE_UNAVAILABLE);
+    assert_eq!(error_code(&body), "building");
+    assert_eq!(h[header::RETRY_AFTER], "5");
+    let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
+    assert!(
+        v["message"].as_str().unwrap().contains("curvature levels"),
+        "{v}"
+    );
+    // Other methods and terrain tiles are not held up.
+    let (s, _, _) = get(&app, "/v1/datasets/hill/tiles/0/0/0.bin?threshold=2").await;
+    assert_eq!(s, StatusCode::OK);
+
+    let (s, h, _) = first.await.unwrap();
+    assert_eq!(s, StatusCode::OK);
+    assert_eq!(entry.building_for(Structure::CurvatureLevels), None);
+    let (s, again, _) = get(&app, uri).await;
+    assert_eq!(s, StatusCode::OK);
+    assert_eq!(again["x-faces"], h["x-faces"]);
+    let _ = std::fs::remove_dir_all(&data);
+}

@@ -16,7 +16,9 @@ use std::sync::Arc;
 use axum::body::{Body, Bytes};
 use axum::extract::rejection::{PathRejection, QueryRejection};
 use axum::extract::{Path, Query, State};
-use axum::http::header::{ACCEPT_ENCODING, CONTENT_ENCODING, CONTENT_LENGTH, CONTENT_TYPE};
+use axum::http::header::{
+    ACCEPT_ENCODING, CONTENT_ENCODING, CONTENT_LENGTH, CONTENT_TYPE, RETRY_AFTER,
+};
 use axum::http::{HeaderMap, HeaderValue, StatusCode};
 use axum::response::Response;
 use axum::Json;
@@ -30,7 +32,7 @@ use zerotile_codec::mesh::silhouette::View;
 use zerotile_codec::mesh::{qem, QemOptions, TriMesh};
 
 use crate::serve::error::{echo, ApiError, ApiResult};
-use crate::serve::meshes::{MeshAnswer, MeshEntry, UploadError, MAX_UPLOAD_BYTES};
+use crate::serve::meshes::{MeshAnswer, MeshEntry, Structure, UploadError, MAX_UPLOAD_BYTES};
 use crate::serve::revalidate::{self, REVALIDATE};
 use crate::serve::state::AppState;
 use crate::serve::threshold::{aspect, integer, number, vec3};
@@ -124,6 +126,39 @@ enum Ask {
         level: Option<u32>,
         roi: Option<Browse>,
     },
+}
+
+impl Ask {
+    /// The mesh's LOD structure this ask reads, if any.
+    fn structure(&self) -> Option<Structure> {
+        match self {
+            Self::CurvatureLevel(_) => Some(Structure::CurvatureLevels),
+            Self::Silhouette { .. } => Some(Structure::ViewSphere),
+            Self::Octree { .. } => Some(Structure::Octree),
+            Self::Original | Self::Curvature(_) | Self::QemFaces(_) | Self::QemError(_) => None,
+        }
+    }
+}
+
+/// Seconds a client is told to wait for a LOD structure under way: they take seconds to a
+/// minute, and each ask while one is built is answered at once.
+pub const BUILDING_RETRY_SECONDS: u32 = 5;
+
+/// 503 for an ask whose structure another request is building: waiting for it here would
+/// hold a render slot for up to a minute, and a client's retries would fill the slots.
+fn building(e: &MeshEntry, s: Structure, since: std::time::Duration) -> ApiError {
+    ApiError::new(
+        StatusCode::SERVICE_UNAVAILABLE,
+        "building",
+        format!(
+            "the {} of mesh {:?} ({} faces) have been building for {} s; retry in a few seconds",
+            s.name(),
+            e.name,
+            e.mesh.face_count(),
+            since.as_secs()
+        ),
+    )
+    .with_header(RETRY_AFTER, HeaderValue::from(BUILDING_RETRY_SECONDS))
 }
 
 /// The octree level served when `level` is not given.
@@ -440,6 +475,11 @@ pub async fn lod(
     let answer = match state.meshes.answers.get(&key) {
         Some(hit) => hit,
         None => {
+            if let Some(s) = ask.structure() {
+                if let Some(since) = e.building_for(s) {
+                    return Err(building(&e, s, since));
+                }
+            }
             let ticket = state.admit_render()?;
             let job = e.clone();
             let fresh = tokio::task::spawn_blocking(move || -> ApiResult<MeshAnswer> {
