@@ -552,6 +552,8 @@ impl Shape {
             for (j, gx_dx) in gx_dx.iter().enumerate() {
                 for k in 0..L {
                     let d = (row[k][j] - (za[k] + (gx_dx[k] + gy_dy[k]))).abs();
+                    // `>=` is equivalent: an equal `d` is the same number (no −0 from
+                    // `abs`, and `f64::MIN` is below any), and a NaN fails both.
                     worst[k] = if d > worst[k] { d } else { worst[k] };
                 }
             }
@@ -576,7 +578,9 @@ fn plane_error(t: &Tri, h: &[f64], coords: Coords) -> f64 {
     let (pa, pb, pc) = (coords.xy(t.a), coords.xy(t.b), coords.xy(t.c));
 
     // Vertices top to bottom; the long edge v0–v2 bounds every row, the short ones split at
-    // v1's row.
+    // v1's row. `>=` in the three tests is equivalent: it also swaps two vertices on one row
+    // (the top or the bottom), which trades the long edge's role with a short one's; each row
+    // is bounded by the same two edges, and their `min` and `max` are unchanged.
     let mut v = [pa, pb, pc];
     if v[0].1 > v[1].1 {
         v.swap(0, 1);
@@ -618,6 +622,7 @@ fn plane_error(t: &Tri, h: &[f64], coords: Coords) -> f64 {
         // Branch-free max lanes so the loop vectorises.
         let gy_dy = plane.gy * (y - plane.ya) as f64;
         let mut chunks = row.chunks_exact(LANES).zip(gx_dx.chunks_exact(LANES));
+        // `>=` for `>` in both loops is equivalent, as in `Shape::error`.
         for (z, p) in &mut chunks {
             for k in 0..LANES {
                 let d = (z[k] - (plane.za + (p[k] + gy_dy))).abs();
