@@ -13,8 +13,18 @@ use std::time::{Duration, Instant};
 pub struct BuiltOnce<T> {
     cell: OnceLock<Result<T, String>>,
     /// When the build under way began; `None` before the first ask and after a build that
-    /// panicked, so the next ask builds again.
+    /// panicked, so the next ask builds again. Whoever sets it builds: the claim is taken
+    /// under this lock, so two first asks cannot both go on to wait in the cell.
     started: Mutex<Option<Instant>>,
+}
+
+/// Why [`BuiltOnce::get_or_build`] has no structure to give.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum BuildError {
+    /// The build failed (kept: it fails the same way again).
+    Failed(String),
+    /// Another caller is building it, for this long so far.
+    Building(Duration),
 }
 
 impl<T> Default for BuiltOnce<T> {
@@ -27,24 +37,41 @@ impl<T> Default for BuiltOnce<T> {
 }
 
 impl<T> BuiltOnce<T> {
-    /// The structure, built by `build` if no one has built it yet (waiting for a build
-    /// under way, if there is one).
-    pub fn get_or_build(&self, build: impl FnOnce() -> Result<T, String>) -> Result<&T, String> {
+    /// The structure, built here by `build` if no one has built it yet, or
+    /// [`BuildError::Building`] at once if another caller is building it. Checking
+    /// [`Self::building_for`] first is not enough: asks admitted before the build began
+    /// (two first asks at once, or any queued behind a busy render pool) would each wait
+    /// for it inside a render slot.
+    pub fn get_or_build(
+        &self,
+        build: impl FnOnce() -> Result<T, String>,
+    ) -> Result<&T, BuildError> {
         if self.cell.get().is_none() {
-            self.started().get_or_insert_with(Instant::now);
+            let mut started = self.started();
+            // Checked again under the lock: the builder fills the cell without it.
+            if self.cell.get().is_none() {
+                if let Some(t) = *started {
+                    return Err(BuildError::Building(t.elapsed()));
+                }
+                *started = Some(Instant::now());
+            }
         }
         // A panicking build leaves the cell empty; the guard clears the start so the next
-        // ask is not told forever that a build is under way.
+        // ask builds again instead of being told forever that a build is under way.
         struct Clear<'a, T>(&'a BuiltOnce<T>);
         impl<T> Drop for Clear<'_, T> {
             fn drop(&mut self) {
+                let mut started = self.0.started();
                 if self.0.cell.get().is_none() {
-                    *self.0.started() = None;
+                    *started = None;
                 }
             }
         }
         let _clear = Clear(self);
-        self.cell.get_or_init(build).as_ref().map_err(Clone::clone)
+        self.cell
+            .get_or_init(build)
+            .as_ref()
+            .map_err(|m| BuildError::Failed(m.clone()))
     }
 
     /// How long a build has been under way, if one is and it has not finished.
@@ -87,7 +114,24 @@ mod tests {
         };
         go.wait();
         assert!(once.building_for().is_some(), "under way");
+        // A second ask, even one that did not look first, is answered without waiting (on
+        // a thread, so that a wait fails the test instead of hanging it).
+        let (tx, rx) = std::sync::mpsc::channel();
+        let asker = {
+            let once = once.clone();
+            std::thread::spawn(move || {
+                let r = once.get_or_build(|| Ok(8)).copied();
+                let _ = tx.send(r.clone());
+                r
+            })
+        };
+        let second = rx.recv_timeout(std::time::Duration::from_secs(5));
         done.wait();
+        assert!(
+            matches!(second, Ok(Err(BuildError::Building(_)))),
+            "{second:?}"
+        );
+        let _ = asker.join();
         assert_eq!(builder.join().unwrap(), Ok(7));
         assert_eq!(once.building_for(), None, "built");
         assert_eq!(once.get_or_build(|| Ok(8)), Ok(&7), "built once");
@@ -96,9 +140,10 @@ mod tests {
     #[test]
     fn a_failed_build_is_kept_and_a_panicked_one_is_not_under_way() {
         let failed = BuiltOnce::<u32>::default();
-        assert_eq!(failed.get_or_build(|| Err("no".into())), Err("no".into()));
+        let no = Err(BuildError::Failed("no".into()));
+        assert_eq!(failed.get_or_build(|| Err("no".into())), no);
         assert_eq!(failed.building_for(), None);
-        assert_eq!(failed.get_or_build(|| Ok(1)), Err("no".into()));
+        assert_eq!(failed.get_or_build(|| Ok(1)), no);
 
         let panicked = BuiltOnce::<u32>::default();
         let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {

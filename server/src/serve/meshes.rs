@@ -19,7 +19,7 @@ use zerotile_codec::mesh::silhouette::ViewSphere;
 use zerotile_codec::mesh::{repair, TriMesh};
 use zerotile_codec::mesh::{OctreeLod, OctreeOptions};
 
-use super::built_once::BuiltOnce;
+use super::built_once::{BuildError, BuiltOnce};
 
 /// Folder of meshes inside the data folder.
 pub const MESH_DIR: &str = "meshes";
@@ -87,7 +87,7 @@ impl MeshEntry {
     }
 
     /// The octree hierarchy, built once.
-    pub fn octree(&self) -> Result<&OctreeLod, String> {
+    pub fn octree(&self) -> Result<&OctreeLod, BuildError> {
         self.octree.get_or_build(|| {
             OctreeLod::build(&self.mesh, &OctreeOptions::default()).map_err(|e| e.to_string())
         })
@@ -95,7 +95,7 @@ impl MeshEntry {
 
     /// The nested curvature levels cut at the paper's ε, built once: one continuing
     /// decimation gives all of them for the price of the coarsest.
-    pub fn curvature_levels(&self) -> Result<&[Level], String> {
+    pub fn curvature_levels(&self) -> Result<&[Level], BuildError> {
         self.curvature
             .get_or_build(|| {
                 curvature::levels(&self.mesh, &PAPER_LEVELS, &CurvatureOptions::default())
@@ -105,7 +105,7 @@ impl MeshEntry {
     }
 
     /// The view sphere, built once.
-    pub fn view_sphere(&self) -> Result<&ViewSphere, String> {
+    pub fn view_sphere(&self) -> Result<&ViewSphere, BuildError> {
         self.silhouette
             .get_or_build(|| ViewSphere::new(&self.mesh).map_err(|e| e.to_string()))
     }

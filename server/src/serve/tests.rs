@@ -2310,16 +2310,9 @@ async fn a_browser_may_read_every_header_the_api_answers_with() {
     }
 }
 
-/// While one request builds a mesh's curvature levels (a minute on a 2M-face upload), an
-/// ask for them is answered at once with 503 `building` and Retry-After, instead of
-/// waiting for the build inside a render slot: retries every second filled the slots and
-/// shed terrain tiles. Once built, the same ask is served.
-#[tokio::test]
-async fn an_ask_while_a_lod_is_building_is_told_to_come_back() {
-    use crate::serve::meshes::Structure;
-    let data = crate::fixtures::scratch("lod-building");
-    std::fs::create_dir_all(data.join("meshes")).unwrap();
-    // A bumpy closed sphere, 200 × 100 quads: its levels take a fraction of a second.
+/// A bumpy closed sphere, 200 × 100 quads, as OBJ: its curvature levels take a fraction
+/// of a second.
+fn bumpy_sphere_obj() -> String {
     let (rings, segments) = (100, 200);
     let mut obj = String::from("v 0 0 1\nv 0 0 -1\n");
     for i in 1..rings {
@@ -2346,6 +2339,19 @@ async fn an_ask_while_a_lod_is_building_is_told_to_come_back() {
             obj += &format!("f {a} {d} {c}\nf {a} {c} {b}\n");
         }
     }
+    obj
+}
+
+/// While one request builds a mesh's curvature levels (a minute on a 2M-face upload), an
+/// ask for them is answered at once with 503 `building` and Retry-After, instead of
+/// waiting for the build inside a render slot: retries every second filled the slots and
+/// shed terrain tiles. Once built, the same ask is served.
+#[tokio::test]
+async fn an_ask_while_a_lod_is_building_is_told_to_come_back() {
+    use crate::serve::meshes::Structure;
+    let data = crate::fixtures::scratch("lod-building");
+    std::fs::create_dir_all(data.join("meshes")).unwrap();
+    let obj = bumpy_sphere_obj();
     std::fs::write(data.join("meshes/bumpy.obj"), obj).unwrap();
     let state = state_over(
         hill_dataset("lod-building", "local", &[ROOT]),
@@ -2385,5 +2391,94 @@ async fn an_ask_while_a_lod_is_building_is_told_to_come_back() {
     let (s, again, _) = get(&app, uri).await;
     assert_eq!(s, StatusCode::OK);
     assert_eq!(again["x-faces"], h["x-faces"]);
+    let _ = std::fs::remove_dir_all(&data);
+}
+
+/// Two first asks at once (curvature levels 1 and 2, as a LOD viewer sends them) both pass
+/// the "is it building?" look before either build starts: with the render pool busy they
+/// queue, and the second to get a slot used to wait there for the first one's build,
+/// holding that slot for the whole build. It is now told `building` as soon as it runs.
+#[tokio::test]
+async fn asks_admitted_before_a_build_began_do_not_wait_for_it() {
+    use crate::serve::meshes::Structure;
+    let data = crate::fixtures::scratch("lod-building-race");
+    std::fs::create_dir_all(data.join("meshes")).unwrap();
+    std::fs::write(data.join("meshes/bumpy.obj"), bumpy_sphere_obj()).unwrap();
+    let state = state_over(
+        hill_dataset("lod-building-race", "local", &[ROOT]),
+        Config {
+            cpu_jobs: 2,
+            cpu_queue: 8,
+            ..Config::default()
+        },
+    )
+    .with_meshes(crate::serve::meshes::MeshCatalog::open(&data, 1 << 20));
+    let entry = state.meshes.get("bumpy").unwrap();
+    // Both render slots busy until released.
+    let (running_tx, running_rx) = std::sync::mpsc::channel();
+    let holds: Vec<_> = (0..2)
+        .map(|_| {
+            let ticket = state.admit_render().unwrap();
+            let (release, wait) = std::sync::mpsc::channel::<()>();
+            let running = running_tx.clone();
+            let held = std::thread::spawn(move || {
+                ticket.run(|| {
+                    running.send(()).unwrap();
+                    let _ = wait.recv();
+                });
+            });
+            (release, held)
+        })
+        .collect();
+    for _ in 0..2 {
+        running_rx.recv().unwrap();
+    }
+    let app = app(state.clone());
+    let ask = |level: u32| {
+        let app = app.clone();
+        tokio::spawn(async move {
+            let uri = format!("/v1/meshes/bumpy/curvature?level={level}&format=json");
+            get(&app, &uri).await
+        })
+    };
+    let asks = [ask(1), ask(2)];
+    let waited = std::time::Instant::now();
+    while state.renders.admitted() < 4 {
+        assert!(
+            waited.elapsed().as_secs() < 30,
+            "the asks were not admitted"
+        );
+        tokio::time::sleep(std::time::Duration::from_millis(1)).await;
+    }
+    let mut holds = holds.into_iter();
+    let (release, held) = holds.next().unwrap();
+    release.send(()).unwrap();
+    held.join().unwrap();
+    while entry.building_for(Structure::CurvatureLevels).is_none() {
+        assert!(waited.elapsed().as_secs() < 30, "the build never started");
+        tokio::time::sleep(std::time::Duration::from_millis(1)).await;
+    }
+    let (release, held) = holds.next().unwrap();
+    release.send(()).unwrap();
+    held.join().unwrap();
+
+    let mut answers = Vec::new();
+    for a in asks {
+        let (s, h, body) = a.await.unwrap();
+        let code = if s == StatusCode::OK {
+            String::new()
+        } else {
+            error_code(&body)
+        };
+        answers.push((s, code, h.get(header::RETRY_AFTER).cloned()));
+    }
+    answers.sort_by_key(|a| a.0);
+    assert_eq!(answers[0].0, StatusCode::OK, "{answers:?}");
+    assert_eq!(
+        (answers[1].0, answers[1].1.as_str()),
+        (StatusCode::SERVICE_UNAVAILABLE, "building"),
+        "{answers:?}"
+    );
+    assert_eq!(answers[1].2.as_ref().unwrap(), "5");
     let _ = std::fs::remove_dir_all(&data);
 }

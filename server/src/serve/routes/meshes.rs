@@ -31,6 +31,7 @@ use zerotile_codec::mesh::octree::{Roi, View as OctreeView};
 use zerotile_codec::mesh::silhouette::View;
 use zerotile_codec::mesh::{qem, QemOptions, TriMesh};
 
+use crate::serve::built_once::BuildError;
 use crate::serve::error::{echo, ApiError, ApiResult};
 use crate::serve::meshes::{MeshAnswer, MeshEntry, Structure, UploadError, MAX_UPLOAD_BYTES};
 use crate::serve::revalidate::{self, REVALIDATE};
@@ -369,6 +370,12 @@ impl Computed {
 /// Runs an ask.
 fn compute(e: &MeshEntry, ask: &Ask) -> Result<Computed, ApiError> {
     let bad = |m: String| ApiError::bad_request("bad_mesh_query", m);
+    let unbuilt = |s: Structure| {
+        move |x: BuildError| match x {
+            BuildError::Failed(m) => bad(m),
+            BuildError::Building(since) => building(e, s, since),
+        }
+    };
     match ask {
         Ask::Original => Ok(Computed::new(e.mesh.clone(), 0.0)),
         Ask::Curvature(eps) => {
@@ -377,7 +384,9 @@ fn compute(e: &MeshEntry, ask: &Ask) -> Result<Computed, ApiError> {
             Ok(Computed::new(m, *eps))
         }
         Ask::CurvatureLevel(k) => {
-            let levels = e.curvature_levels().map_err(bad)?;
+            let levels = e
+                .curvature_levels()
+                .map_err(unbuilt(Structure::CurvatureLevels))?;
             let level = k
                 .checked_sub(1)
                 .and_then(|i| levels.get(i))
@@ -386,7 +395,7 @@ fn compute(e: &MeshEntry, ask: &Ask) -> Result<Computed, ApiError> {
                 .with_max_level(u32::try_from(levels.len()).unwrap_or(u32::MAX)))
         }
         Ask::Silhouette { level, view } => {
-            let vs = e.view_sphere().map_err(bad)?;
+            let vs = e.view_sphere().map_err(unbuilt(Structure::ViewSphere))?;
             let deepest = u32::from(vs.max_level());
             let answer = match view {
                 Some(v) => {
@@ -409,7 +418,7 @@ fn compute(e: &MeshEntry, ask: &Ask) -> Result<Computed, ApiError> {
             Ok(Computed::new(m, r.max_error))
         }
         Ask::Octree { level, roi } => {
-            let lod = e.octree().map_err(bad)?;
+            let lod = e.octree().map_err(unbuilt(Structure::Octree))?;
             // A small mesh's octree can stop above the default level: the default is a
             // starting point, not an ask, so it gives way to the deepest level there is.
             let level = &level.unwrap_or_else(|| OCTREE_DEFAULT_LEVEL.min(lod.max_level()));
@@ -475,6 +484,7 @@ pub async fn lod(
     let answer = match state.meshes.answers.get(&key) {
         Some(hit) => hit,
         None => {
+            // Saves a render slot; the build's claim (in compute) is what decides.
             if let Some(s) = ask.structure() {
                 if let Some(since) = e.building_for(s) {
                     return Err(building(&e, s, since));
