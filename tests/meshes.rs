@@ -283,6 +283,34 @@ fn a_read_only_server_takes_no_uploads() {
     let _ = std::fs::remove_dir_all(&data);
 }
 
+/// Uploads stop at `serve --mesh-quota` faces held in all: each is kept in memory, so
+/// uploads under new names would otherwise grow the server without bound. A mesh replaced
+/// frees its own room; a refused upload stores nothing.
+#[test]
+fn uploads_stop_at_the_mesh_quota() {
+    let data = data_dir("quota");
+    // fandisk 12,946 faces + the sphere 10,000 = 22,946 held; the cow's 5,804 count as
+    // 10,000 (the smallest charge), so one cow fits under 35,000 and a second does not.
+    let s = Server::start_flags(&data, &["--mesh-quota", "35000"]);
+    let cow = std::fs::read(shared_data().join("meshes/cow.obj")).unwrap();
+    assert_eq!(s.post("/v1/meshes/cow", "model/obj", &cow).status, 201);
+    let r = s.post("/v1/meshes/cow2", "model/obj", &cow);
+    r.error(507, "mesh_quota");
+    let msg = r.json()["message"].to_string();
+    assert!(
+        msg.contains("32946") && msg.contains("--mesh-quota"),
+        "{msg}"
+    );
+    assert!(!data.join("meshes/cow2.obj").exists());
+    assert_eq!(s.get("/v1/meshes/cow2/original", &[]).status, 404);
+    // Replacing a mesh is charged for the difference only.
+    assert_eq!(s.post("/v1/meshes/cow", "model/obj", &cow).status, 201);
+    assert_eq!(s.post("/v1/meshes/fandisk", "model/obj", &cow).status, 201);
+    s.post("/v1/meshes/cow2", "model/obj", &cow)
+        .error(507, "mesh_quota");
+    let _ = std::fs::remove_dir_all(&data);
+}
+
 #[test]
 fn uploads_are_validated_limited_and_never_replace_a_mesh_with_a_bad_one() {
     let data = data_dir("upload");

@@ -221,6 +221,11 @@ pub struct ServeArgs {
     /// reach: uploads are stored in the data folder with no quota.
     #[arg(long)]
     pub read_only: bool,
+    /// Faces the served meshes may hold together; an upload that would pass it is 507
+    /// mesh_quota (each mesh counts as at least 10,000). Meshes in the folder at start are
+    /// served whatever they hold [default: 10000000]
+    #[arg(long, value_name = "FACES")]
+    pub mesh_quota: Option<u64>,
 }
 
 #[derive(Subcommand, Debug)]
@@ -571,6 +576,7 @@ fn serve_config(a: &ServeArgs) -> anyhow::Result<crate::serve::Config> {
         public_url,
         trust_forwarded: a.trust_forwarded,
         read_only: a.read_only,
+        mesh_quota: a.mesh_quota.unwrap_or(defaults.mesh_quota),
         cpu_jobs: a.cpu_jobs.unwrap_or(defaults.cpu_jobs),
         cpu_queue: a.cpu_queue.unwrap_or(defaults.cpu_queue),
         render_threads: a.render_threads.unwrap_or(defaults.render_threads),

@@ -30,6 +30,22 @@ pub const MAX_UPLOAD_BYTES: usize = 64 << 20;
 /// Largest mesh served, faces: LOD structures hold a few copies of it.
 pub const MAX_FACES: usize = 2_000_000;
 
+/// Faces the served meshes may hold together before uploads are refused (`serve
+/// --mesh-quota`): five of the largest. Each mesh is kept in memory with the LOD structures
+/// it is asked for (a 2M-face mesh ~47 MB, its curvature levels as much again), and
+/// without a bound, uploads under new names would grow the server until it is killed.
+pub const DEFAULT_MESH_QUOTA: u64 = 10_000_000;
+
+/// What the quota charges a mesh at the least, in faces: its entry, file and cached answers
+/// cost something however small it is, so one-triangle uploads under ever new names
+/// cannot grow the catalog without bound (the default quota holds 1,000 of them).
+pub const SMALLEST_CHARGE: u64 = 10_000;
+
+/// A mesh's charge against the quota.
+fn charge(faces: usize) -> u64 {
+    (faces as u64).max(SMALLEST_CHARGE)
+}
+
 /// One mesh, repaired, with its LOD structures built when first asked for.
 pub struct MeshEntry {
     pub name: String,
@@ -137,6 +153,8 @@ pub struct MeshCatalog {
     dir: PathBuf,
     /// `serve --read-only`: uploads are refused though there is a folder to keep them in.
     read_only: bool,
+    /// [`DEFAULT_MESH_QUOTA`] unless set.
+    quota: u64,
     entries: RwLock<BTreeMap<String, Arc<MeshEntry>>>,
     /// Held from an upload's write to its insert, so the file on disk and the mesh served
     /// are the same upload's when two arrive for one name (and an upload under another
@@ -170,6 +188,7 @@ impl MeshCatalog {
         Self {
             dir,
             read_only: false,
+            quota: DEFAULT_MESH_QUOTA,
             entries: RwLock::new(entries),
             store: Mutex::new(()),
             answers: Cache::with_weighter(items, answer_bytes.max(1), AnswerBytes),
@@ -218,6 +237,14 @@ impl MeshCatalog {
         self
     }
 
+    /// Sets the faces the served meshes may hold together ([`DEFAULT_MESH_QUOTA`]). Meshes
+    /// in the folder at start are all served, whatever they hold; uploads that would pass
+    /// the quota are refused.
+    pub fn with_quota(mut self, faces: u64) -> Self {
+        self.quota = faces;
+        self
+    }
+
     /// Whether an upload could be kept, asked before its body is read.
     pub fn takes_uploads(&self) -> Result<(), UploadError> {
         if self.read_only {
@@ -263,6 +290,22 @@ impl MeshCatalog {
             .store
             .lock()
             .map_err(|_| UploadError::Store(anyhow::anyhow!("mesh store lock poisoned")))?;
+        // Under the store lock, so two uploads cannot both take the last room. A mesh
+        // replaced frees its own charge.
+        let held: u64 = self
+            .list()
+            .iter()
+            .filter(|e| e.name != name)
+            .map(|e| charge(e.mesh.face_count()))
+            .sum();
+        let faces = mesh.face_count();
+        if held.saturating_add(charge(faces)) > self.quota {
+            return Err(UploadError::Quota {
+                held,
+                quota: self.quota,
+                faces,
+            });
+        }
         crate::ingest::write_atomically(&path, bytes).map_err(UploadError::Store)?;
         // An older upload under another extension would shadow this one at the next start.
         for other in Format::READABLE.iter().filter(|&&f| f != format) {
@@ -290,6 +333,13 @@ pub enum UploadError {
     /// The server was started with `--read-only`.
     #[error("this server takes no uploads (serve --read-only)")]
     ReadOnly,
+    /// Keeping the mesh would pass the quota of faces the served meshes may hold.
+    #[error(
+        "the served meshes hold {held} faces of the {quota} this server keeps (serve \
+         --mesh-quota; each mesh counts as at least {SMALLEST_CHARGE}); this one has {faces}: \
+         replace a mesh of the same name or ask the operator for room"
+    )]
+    Quota { held: u64, quota: u64, faces: usize },
     /// The mesh was fine; writing it was not.
     #[error("storing the mesh: {0:#}")]
     Store(anyhow::Error),

@@ -192,6 +192,7 @@ pub fn run(opts: ServeOptions) -> Result<()> {
             meshes::MeshCatalog::open(&opts.data, opts.config.response_cache_bytes),
         )
     };
+    let meshes = meshes.with_quota(opts.config.mesh_quota);
     let meshes = if opts.config.read_only {
         meshes.read_only()
     } else {

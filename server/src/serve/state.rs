@@ -46,6 +46,8 @@ pub struct Config {
     pub trust_forwarded: bool,
     /// Refuse mesh uploads (403 `read_only`).
     pub read_only: bool,
+    /// Faces the served meshes may hold together before uploads are refused (507).
+    pub mesh_quota: u64,
 }
 
 impl Default for Config {
@@ -63,6 +65,7 @@ impl Default for Config {
             public_url: None,
             trust_forwarded: false,
             read_only: false,
+            mesh_quota: super::meshes::DEFAULT_MESH_QUOTA,
         }
     }
 }

@@ -678,6 +678,11 @@ fn upload_error(e: UploadError) -> ApiError {
             "read_only",
             "this server was started with --read-only and takes no uploads",
         ),
+        UploadError::Quota { .. } => ApiError::new(
+            StatusCode::INSUFFICIENT_STORAGE,
+            "mesh_quota",
+            e.to_string(),
+        ),
         UploadError::Store(_) => ApiError::internal(e),
     }
 }
