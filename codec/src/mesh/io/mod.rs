@@ -107,11 +107,16 @@ fn lenient_text(bytes: &[u8]) -> Cow<'_, str> {
         return text.into();
     }
     let mut text = String::with_capacity(bytes.len());
+    push_lenient(&mut text, bytes);
+    text.into()
+}
+
+/// Appends `bytes` to `text` as [`lenient_text`] reads them.
+fn push_lenient(text: &mut String, bytes: &[u8]) {
     for chunk in bytes.utf8_chunks() {
         text.push_str(chunk.valid());
         text.extend(std::iter::repeat_n('?', chunk.invalid().len()));
     }
-    text.into()
 }
 
 fn skip_bom_and_space(bytes: &[u8]) -> &[u8] {

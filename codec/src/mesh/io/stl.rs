@@ -70,12 +70,16 @@ fn read_ascii(text: &[u8]) -> Result<stl_io::IndexedMesh, MeshError> {
     // stl_io reads lines as UTF-8, and on one byte that is not (a Latin-1 solid name, "solid
     // caf\xe9") took the file for binary ("failed to fill whole buffer"); numbers and keywords
     // are ASCII, so such bytes are replaced, as the OBJ reader does.
-    let text = super::lenient_text(text);
-    // stl_io takes a file for ASCII only when it starts with "solid " (space included).
-    let text: Cow<str> = if text.starts_with("solid ") {
-        text
-    } else {
-        format!("solid {}", &text[5..]).into()
+    // stl_io takes a file for ASCII only when it starts with "solid " (space included): a
+    // bare "solid" gets its space in the same one copy, not a second copy of the first.
+    let text: Cow<str> = match text.strip_prefix(b"solid") {
+        Some(rest) if !rest.starts_with(b" ") => {
+            let mut s = String::with_capacity(text.len() + 1);
+            s.push_str("solid ");
+            super::push_lenient(&mut s, rest);
+            s.into()
+        }
+        _ => super::lenient_text(text),
     };
     stl_io::read_stl(&mut Cursor::new(text.as_bytes()))
         .map_err(|e| MeshError::decode(FORMAT, e.to_string()))
