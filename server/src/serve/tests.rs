@@ -701,16 +701,31 @@ fn a_cancelled_render_decodes_nothing_more() {
 /// disconnect) stops the render before its next tile decode instead of decoding all five.
 /// The decodes under way when it leaves finish and no other starts. One render thread (a
 /// server whose other threads are busy) decodes one tile at a time, so the abort has four
-/// decodes' time to arrive even on a loaded test machine; on two, the first two decodes
-/// run at once and it had less than one (CI saw all five finish). (On a tile with fewer
-/// than four neighbours fewer than five decodes would pass uncancelled too.)
+/// decodes' time to arrive; on two, the first two decodes run at once and it had less than
+/// one (CI saw all five finish). (On a tile with fewer than four neighbours fewer than five
+/// decodes would pass uncancelled too.) Still a race with the scheduler: with the other
+/// tests' work on both cores the abort came late once in five runs, so it gets three tries,
+/// and a render that is never stopped early fails all three.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn dropping_a_request_stops_its_decode_work() {
+    let mut seen = Vec::new();
+    for attempt in 0..3 {
+        let decoded = decodes_after_the_client_left(&format!("cancel-drop-{attempt}")).await;
+        if decoded < 5 {
+            return;
+        }
+        seen.push(decoded);
+    }
+    panic!("every try decoded all 5 tiles after the client left: {seen:?}");
+}
+
+/// Tiles decoded by a render whose client left after its first decode.
+async fn decodes_after_the_client_left(tag: &str) -> u64 {
     // Geodetic zoom 2 (8 × 4 tiles): tile (1, 1) has all four neighbours, five decodes.
     let all: Vec<TileId> = (0..8)
         .flat_map(|x| (0..4).map(move |y| id(2, x, y)))
         .collect();
-    let d = hill_dataset("cancel-drop", "geodetic", &all);
+    let d = hill_dataset(tag, "geodetic", &all);
     let name = d.name.clone();
     let mut catalog = Catalog::default();
     catalog.insert(d);
@@ -737,11 +752,7 @@ async fn dropping_a_request_stops_its_decode_work() {
         );
         tokio::time::sleep(std::time::Duration::from_millis(1)).await;
     }
-    let decoded = metrics.tiles_decoded.load(Relaxed);
-    assert!(
-        decoded < 5,
-        "{decoded} of the 5 tiles decoded after the client left"
-    );
+    metrics.tiles_decoded.load(Relaxed)
 }
 
 /// Serves `app` on a free local port, for tests that need a real connection (a body that
@@ -2480,5 +2491,47 @@ async fn asks_admitted_before_a_build_began_do_not_wait_for_it() {
         "{answers:?}"
     );
     assert_eq!(answers[1].2.as_ref().unwrap(), "5");
+    let _ = std::fs::remove_dir_all(&data);
+}
+
+/// An answer whose client left while it was computed (or whose request timed out, as a
+/// curvature ask on a 2M-face mesh can) is cached all the same: the retry is a hit, not
+/// the same work again.
+#[tokio::test]
+async fn an_answer_outlives_the_client_that_asked_for_it() {
+    let data = crate::fixtures::scratch("lod-left");
+    std::fs::create_dir_all(data.join("meshes")).unwrap();
+    std::fs::write(data.join("meshes/bumpy.obj"), bumpy_sphere_obj()).unwrap();
+    let state = state_over(
+        hill_dataset("lod-left", "local", &[ROOT]),
+        Config::default(),
+    )
+    .with_meshes(crate::serve::meshes::MeshCatalog::open(&data, 1 << 20));
+    let app = app(state.clone());
+    let uri = "/v1/meshes/bumpy/curvature?error=0.2&format=json";
+    let asked = tokio::spawn({
+        let app = app.clone();
+        async move { get(&app, uri).await }
+    });
+    let waited = std::time::Instant::now();
+    while state.renders.admitted() == 0 {
+        assert!(
+            !asked.is_finished(),
+            "answered before it was seen computing"
+        );
+        assert!(waited.elapsed().as_secs() < 30, "the ask was not admitted");
+        tokio::time::sleep(std::time::Duration::from_millis(1)).await;
+    }
+    asked.abort();
+    assert!(asked.await.unwrap_err().is_cancelled());
+    while state.renders.admitted() > 0 {
+        assert!(waited.elapsed().as_secs() < 60, "the job never finished");
+        tokio::time::sleep(std::time::Duration::from_millis(5)).await;
+    }
+    assert_eq!(state.meshes.answers.len(), 1, "the left answer was cached");
+    let (s, h, _) = get(&app, uri).await;
+    assert_eq!(s, StatusCode::OK);
+    assert!(h["x-faces"].to_str().unwrap().parse::<usize>().unwrap() > 0);
+    assert_eq!(state.meshes.answers.len(), 1, "served from the cache");
     let _ = std::fs::remove_dir_all(&data);
 }

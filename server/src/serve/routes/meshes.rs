@@ -492,24 +492,26 @@ pub async fn lod(
             }
             let ticket = state.admit_render()?;
             let job = e.clone();
-            let fresh = tokio::task::spawn_blocking(move || -> ApiResult<MeshAnswer> {
+            let keep = state.clone();
+            // The answer is cached by the job itself: a client that leaves (or the request
+            // timeout, on a large mesh) does not throw the work away, and its retry is a hit.
+            tokio::task::spawn_blocking(move || -> ApiResult<Arc<MeshAnswer>> {
                 ticket.run(|| {
                     let c = compute(&job, &ask)?;
                     let bytes = io::write_bytes(&c.mesh, format).map_err(ApiError::internal)?;
-                    Ok(MeshAnswer {
+                    let fresh = Arc::new(MeshAnswer {
                         bytes: crate::serve::tile_cache::exact_bytes(bytes),
                         vertices: c.mesh.vertex_count(),
                         faces: c.mesh.face_count(),
                         error: c.error,
                         max_level: c.max_level,
-                    })
+                    });
+                    keep.meshes.answers.insert(key, fresh.clone());
+                    Ok(fresh)
                 })
             })
             .await
-            .map_err(ApiError::internal)??;
-            let fresh = Arc::new(fresh);
-            state.meshes.answers.insert(key, fresh.clone());
-            fresh
+            .map_err(ApiError::internal)??
         }
     };
 
