@@ -233,6 +233,9 @@ impl Decimator {
                     |d| self.evaluate(v).map(|r| r.drift.to_vec()) == d.map(<[_]>::to_vec)
                 )
             );
+            // Only a shortcut: without the `Some(None)` arm, or with the guard `false`, a
+            // remembered refusal is evaluated again and refused the same way (same stamp,
+            // same drift; the debug assertion above checks it). Equivalent mutants.
             let drift = match refused {
                 Some(None) => continue,
                 Some(Some(drift)) if epsilon(drift, x) > max_error => Some(drift),
@@ -251,6 +254,9 @@ impl Decimator {
             };
             let error = epsilon(&r.drift, x);
             if error > max_error {
+                // Here and above, `at < x` as `at <= x` differs only when rounding puts a
+                // refused removal's pass point on x itself (ε(x) > bound but (bound − b) / a
+                // = x): equivalent in practice.
                 if let Some(at) = passes_below(&r.drift, max_error).filter(|&at| at < x) {
                     parked.push(Entry(-at, v, ver));
                 }
@@ -284,6 +290,8 @@ impl Decimator {
     /// order of W, the last one stopped at the target. Ends early if nothing more can go.
     pub fn run_to_faces(&mut self, target: usize) {
         let mut bound = 0.02;
+        // Equivalent: `>` as `>=` (a level run at the target stops at its first pop, its
+        // floor reached), `<` as `<=` (no product of 0.02 by 1.15s and 2s is 64.0 exactly).
         while self.live_faces > target && bound < 64.0 {
             let before = self.live_faces;
             self.run_to_error_until(bound, target);
@@ -298,6 +306,9 @@ impl Decimator {
 
     /// `v`'s place in the removal order (by its W now), if it may go.
     fn entry(&self, v: u32) -> Option<Entry> {
+        // This guard and `evaluate`'s back each other up: either one as `&&` is an
+        // equivalent mutant (a removed or locked vertex popped is refused by the other, or
+        // skipped as removed at the pop).
         if self.removed[v as usize] || self.locked[v as usize] {
             return None;
         }
@@ -481,4 +492,33 @@ pub(crate) fn alive_mesh(positions: &[DVec3], faces: &[[u32; 3]], alive: &[bool]
     };
     mesh.drop_unreferenced();
     mesh
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{epsilon, passes_below};
+
+    #[test]
+    fn epsilon_is_the_largest_ring_drift_at_the_scale() {
+        // |2·3 − 1| = 5 against |0.5·3 + 0.25| = 1.75.
+        assert_eq!(epsilon(&[(2.0, -1.0), (0.5, 0.25)], 3.0), 5.0);
+        assert_eq!(epsilon(&[(0.5, 0.25), (2.0, -1.0)], 0.25), 0.5);
+        assert_eq!(epsilon(&[], 3.0), 0.0);
+    }
+
+    #[test]
+    fn passes_below_is_the_largest_scale_that_keeps_every_drift_in_bound() {
+        // |2x − 1| ≤ 3 up to x = 2.
+        assert_eq!(passes_below(&[(2.0, -1.0)], 3.0), Some(2.0));
+        // |2x − 10| ≤ 2 on [4, 6], |2x − 9| ≤ 2 on [3.5, 5.5]: both on [4, 5.5].
+        assert_eq!(passes_below(&[(2.0, -10.0)], 2.0), Some(6.0));
+        assert_eq!(passes_below(&[(2.0, -10.0), (2.0, -9.0)], 2.0), Some(5.5));
+        // [4, 6] and [0, 2] do not meet: no scale passes.
+        assert_eq!(passes_below(&[(2.0, -10.0), (2.0, -2.0)], 2.0), None);
+        // No area part: in bound at every scale (|b| = bound included), or at none.
+        assert_eq!(passes_below(&[(0.0, 0.5)], 1.0), Some(f64::INFINITY));
+        assert_eq!(passes_below(&[(0.0, 1.0)], 1.0), Some(f64::INFINITY));
+        assert_eq!(passes_below(&[(0.0, -3.0)], 1.0), None);
+        assert_eq!(passes_below(&[(2.0, -1.0), (0.0, 3.0)], 1.0), None);
+    }
 }

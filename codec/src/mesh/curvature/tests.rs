@@ -304,3 +304,139 @@ fn real_meshes_keep_the_papers_order_at_every_level() {
         );
     }
 }
+
+#[test]
+fn the_decimators_counts_and_worst_error_follow_its_mesh() {
+    let sphere = uv_sphere(10, 20, 1.0);
+    let mut d = Decimator::new(&sphere, Weights::default(), DEFAULT_LAMBDA_C);
+    assert_eq!(
+        (d.faces(), d.vertices(), d.worst_error()),
+        (sphere.faces.len(), sphere.positions.len(), 0.0)
+    );
+    // One W per input vertex, the same all round a latitude.
+    let w = d.original_curvature();
+    assert_eq!(w.len(), sphere.positions.len());
+    assert!(
+        w[1..=20]
+            .iter()
+            .all(|&x| x > 0.0 && (x - w[1]).abs() < 1e-9),
+        "{w:?}"
+    );
+    d.run_to_error(0.2);
+    let m = d.mesh();
+    assert!(m.faces.len() < sphere.faces.len());
+    assert_eq!(
+        (d.faces(), d.vertices()),
+        (m.faces.len(), m.positions.len())
+    );
+    assert!(
+        d.worst_error() > 0.0 && d.worst_error() <= 0.2,
+        "{}",
+        d.worst_error()
+    );
+}
+
+#[test]
+fn without_an_area_scale_a_flat_sheet_still_decimates() {
+    // A flat 6 × 6 sheet and 2,000 unreferenced vertices: the area quantile is 0, so W has
+    // no area part and removing a flat vertex costs nothing.
+    let mut positions = Vec::new();
+    for y in 0..6 {
+        for x in 0..6 {
+            positions.push(DVec3::new(x as f64, y as f64, 0.0));
+        }
+    }
+    let mut faces = Vec::new();
+    for y in 0..5u32 {
+        for x in 0..5u32 {
+            let a = y * 6 + x;
+            faces.push([a, a + 1, a + 7]);
+            faces.push([a, a + 7, a + 6]);
+        }
+    }
+    positions.extend((0..2000).map(|i| DVec3::new(100.0 + i as f64, 0.0, 0.0)));
+    let mesh = TriMesh { positions, faces };
+    let mut d = Decimator::new(&mesh, Weights::default(), DEFAULT_LAMBDA_C);
+    assert_eq!(d.vertices(), 36);
+    d.run_to_error(0.01);
+    assert!(d.vertices() < 20, "{} of 36 kept", d.vertices());
+    assert_eq!(d.worst_error(), 0.0);
+}
+
+#[test]
+fn a_removal_whose_epsilon_equals_the_bound_goes_fresh_or_remembered() {
+    // The first removal alone, unbounded: its ε is e.
+    let sphere = uv_sphere(10, 20, 1.0);
+    let n = sphere.faces.len();
+    let new = || Decimator::new(&sphere, Weights::default(), DEFAULT_LAMBDA_C);
+    let mut d = new();
+    d.run_to_error_until(f64::INFINITY, n - 2);
+    let (e, first) = (d.worst_error(), d.mesh());
+    assert_eq!(first.faces.len(), n - 2);
+    assert!(e > 0.0);
+    // ε ≤ bound passes: at bound e the same vertex goes first, evaluated afresh…
+    let mut d = new();
+    d.run_to_error_until(e, n - 2);
+    assert_eq!(d.mesh(), first);
+    // …or remembered from a level at bound 0 that refused everything.
+    let mut d = new();
+    d.run_to_error(0.0);
+    assert_eq!(d.faces(), n);
+    d.run_to_error_until(e, n - 2);
+    assert_eq!(d.mesh(), first);
+}
+
+#[test]
+fn an_unreachable_face_target_ends_at_the_last_level() {
+    // No closed mesh reaches 0 faces: the levels stop at ε 64 with what could go gone.
+    let sphere = uv_sphere(6, 12, 1.0);
+    let (m, eps) = to_faces(&sphere, 0, &CurvatureOptions::default()).unwrap();
+    assert!(
+        m.faces.len() >= 4 && m.faces.len() < 20,
+        "{}",
+        m.faces.len()
+    );
+    assert!(eps > 0.0 && eps < 64.0, "{eps}");
+    assert_eq!(boundary_and_winding(&m), (0, true));
+}
+
+#[test]
+fn a_face_target_costs_at_most_a_step_past_the_level_that_meets_it() {
+    // The levels climb 15 % at a time while faces go: a target that ε 0.2 alone meets is
+    // met by ε 0.23 at most.
+    let sphere = uv_sphere(20, 40, 1.0);
+    let o = CurvatureOptions::default();
+    assert!(to_error(&sphere, 0.2, &o).unwrap().faces.len() <= 1000);
+    let (m, eps) = to_faces(&sphere, 1000, &o).unwrap();
+    assert!(
+        m.faces.len() <= 1000 && eps <= 0.2 * 1.15,
+        "{} faces, ε {eps}",
+        m.faces.len()
+    );
+}
+
+#[test]
+fn a_level_that_removed_nothing_leaves_the_next_as_a_fresh_one_runs() {
+    // Bound 0 refuses every removal and remembers each refusal; the next level must
+    // decide as a fresh decimator does, parking included (the vase parks many).
+    let mut ellipsoid = uv_sphere(16, 32, 1.0);
+    for p in &mut ellipsoid.positions {
+        p.z *= 0.5;
+    }
+    let vase = crate::mesh::io::read_path(
+        &crate::fixtures::shared_data("meshes/vase-lathe.obj"),
+        &crate::mesh::io::MeshLimits::default(),
+    )
+    .unwrap();
+    for mesh in [ellipsoid, vase] {
+        let new = || Decimator::new(&mesh, Weights::default(), DEFAULT_LAMBDA_C);
+        let mut fresh = new();
+        fresh.run_to_error(0.15);
+        let mut d = new();
+        d.run_to_error(0.0);
+        assert_eq!(d.faces(), mesh.faces.len());
+        d.run_to_error(0.15);
+        assert!(fresh.faces() < mesh.faces.len());
+        assert_eq!(d.mesh(), fresh.mesh());
+    }
+}
