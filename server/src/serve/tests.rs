@@ -2353,6 +2353,17 @@ fn bumpy_sphere_obj() -> String {
     obj
 }
 
+/// A scratch data folder holding `meshes/bumpy.obj` ([`bumpy_sphere_obj`]) and the state
+/// serving it (and the one-tile `hill`).
+fn bumpy_state(tag: &str, config: Config) -> (std::path::PathBuf, AppState) {
+    let data = crate::fixtures::scratch(tag);
+    std::fs::create_dir_all(data.join("meshes")).unwrap();
+    std::fs::write(data.join("meshes/bumpy.obj"), bumpy_sphere_obj()).unwrap();
+    let state = state_over(hill_dataset(tag, "local", &[ROOT]), config)
+        .with_meshes(crate::serve::meshes::MeshCatalog::open(&data, 1 << 20));
+    (data, state)
+}
+
 /// While one request builds a mesh's curvature levels (a minute on a 2M-face upload), an
 /// ask for them is answered at once with 503 `building` and Retry-After, instead of
 /// waiting for the build inside a render slot: retries every second filled the slots and
@@ -2360,15 +2371,7 @@ fn bumpy_sphere_obj() -> String {
 #[tokio::test]
 async fn an_ask_while_a_lod_is_building_is_told_to_come_back() {
     use crate::serve::meshes::Structure;
-    let data = crate::fixtures::scratch("lod-building");
-    std::fs::create_dir_all(data.join("meshes")).unwrap();
-    let obj = bumpy_sphere_obj();
-    std::fs::write(data.join("meshes/bumpy.obj"), obj).unwrap();
-    let state = state_over(
-        hill_dataset("lod-building", "local", &[ROOT]),
-        Config::default(),
-    )
-    .with_meshes(crate::serve::meshes::MeshCatalog::open(&data, 1 << 20));
+    let (data, state) = bumpy_state("lod-building", Config::default());
     let entry = state.meshes.get("bumpy").unwrap();
     let app = app(state);
     let uri = "/v1/meshes/bumpy/curvature?level=2&format=json";
@@ -2412,18 +2415,12 @@ async fn an_ask_while_a_lod_is_building_is_told_to_come_back() {
 #[tokio::test]
 async fn asks_admitted_before_a_build_began_do_not_wait_for_it() {
     use crate::serve::meshes::Structure;
-    let data = crate::fixtures::scratch("lod-building-race");
-    std::fs::create_dir_all(data.join("meshes")).unwrap();
-    std::fs::write(data.join("meshes/bumpy.obj"), bumpy_sphere_obj()).unwrap();
-    let state = state_over(
-        hill_dataset("lod-building-race", "local", &[ROOT]),
-        Config {
-            cpu_jobs: 2,
-            cpu_queue: 8,
-            ..Config::default()
-        },
-    )
-    .with_meshes(crate::serve::meshes::MeshCatalog::open(&data, 1 << 20));
+    let config = Config {
+        cpu_jobs: 2,
+        cpu_queue: 8,
+        ..Config::default()
+    };
+    let (data, state) = bumpy_state("lod-building-race", config);
     let entry = state.meshes.get("bumpy").unwrap();
     // Both render slots busy until released.
     let (running_tx, running_rx) = std::sync::mpsc::channel();
@@ -2499,14 +2496,7 @@ async fn asks_admitted_before_a_build_began_do_not_wait_for_it() {
 /// the same work again.
 #[tokio::test]
 async fn an_answer_outlives_the_client_that_asked_for_it() {
-    let data = crate::fixtures::scratch("lod-left");
-    std::fs::create_dir_all(data.join("meshes")).unwrap();
-    std::fs::write(data.join("meshes/bumpy.obj"), bumpy_sphere_obj()).unwrap();
-    let state = state_over(
-        hill_dataset("lod-left", "local", &[ROOT]),
-        Config::default(),
-    )
-    .with_meshes(crate::serve::meshes::MeshCatalog::open(&data, 1 << 20));
+    let (data, state) = bumpy_state("lod-left", Config::default());
     let app = app(state.clone());
     let uri = "/v1/meshes/bumpy/curvature?error=0.2&format=json";
     let asked = tokio::spawn({
