@@ -218,7 +218,7 @@ pub struct ServeArgs {
     #[arg(long)]
     pub trust_forwarded: bool,
     /// Refuse mesh uploads (POST /v1/meshes/NAME is 403 read_only). For a server anyone can
-    /// reach: uploads are stored in the data folder with no quota.
+    /// reach: uploads are otherwise stored in the data folder, up to --mesh-quota.
     #[arg(long)]
     pub read_only: bool,
     /// Faces the served meshes may hold together; an upload that would pass it is 507

@@ -47,6 +47,23 @@ fn passes_below(drift: &[(f64, f64)], bound: f64) -> Option<f64> {
     (lo <= hi).then_some(hi)
 }
 
+/// Parks refused removal `v` (at `ver`) until the inverse area scale, `x` now, has fallen to
+/// where ε ≤ `bound`, if it ever does.
+fn park(
+    parked: &mut BinaryHeap<Entry>,
+    drift: &[(f64, f64)],
+    bound: f64,
+    x: f64,
+    v: u32,
+    ver: u32,
+) {
+    // `at < x` as `at <= x` differs only when rounding puts a refused removal's pass point
+    // on x itself (ε(x) > bound but (bound − b) / a = x): an equivalent mutant in practice.
+    if let Some(at) = passes_below(drift, bound).filter(|&at| at < x) {
+        parked.push(Entry(-at, v, ver));
+    }
+}
+
 /// A removal that did not go, remembered until its neighbourhood changes: evaluating one
 /// is most of decimation's time, and each level (and each step of a face target) tries
 /// again every vertex the last one refused, mostly unchanged.
@@ -236,16 +253,13 @@ impl Decimator {
             // Only a shortcut: without the `Some(None)` arm, or with the guard `false`, a
             // remembered refusal is evaluated again and refused the same way (same stamp,
             // same drift; the debug assertion above checks it). Equivalent mutants.
-            let drift = match refused {
+            match refused {
                 Some(None) => continue,
-                Some(Some(drift)) if epsilon(drift, x) > max_error => Some(drift),
-                _ => None,
-            };
-            if let Some(drift) = drift {
-                if let Some(at) = passes_below(drift, max_error).filter(|&at| at < x) {
-                    parked.push(Entry(-at, v, ver));
+                Some(Some(drift)) if epsilon(drift, x) > max_error => {
+                    park(&mut parked, drift, max_error, x, v, ver);
+                    continue;
                 }
-                continue;
+                _ => {}
             }
             let stamp = self.stamp[v as usize];
             let Some(r) = self.evaluate(v) else {
@@ -254,12 +268,7 @@ impl Decimator {
             };
             let error = epsilon(&r.drift, x);
             if error > max_error {
-                // Here and above, `at < x` as `at <= x` differs only when rounding puts a
-                // refused removal's pass point on x itself (ε(x) > bound but (bound − b) / a
-                // = x): equivalent in practice.
-                if let Some(at) = passes_below(&r.drift, max_error).filter(|&at| at < x) {
-                    parked.push(Entry(-at, v, ver));
-                }
+                park(&mut parked, &r.drift, max_error, x, v, ver);
                 let drift = Some(r.drift.into_vec().into_boxed_slice());
                 self.refused[v as usize] = Some(Refusal { stamp, drift });
                 continue;
@@ -412,14 +421,13 @@ impl Decimator {
         // Every vertex whose removal reads a fan that changes: the ring's neighbours (v
         // and the ring among them). New edges join ring vertices only, so no vertex
         // becomes a ring vertex's neighbour without being stamped here.
-        for &f in &self.vf[v as usize] {
-            for u in self.faces[f as usize] {
-                for &g in &self.vf[u as usize] {
-                    for x in self.faces[g as usize] {
-                        self.stamp[x as usize] = self.stamp[x as usize].wrapping_add(1);
-                    }
-                }
-            }
+        let touched = self.vf[v as usize]
+            .iter()
+            .flat_map(|&f| self.faces[f as usize])
+            .flat_map(|u| &self.vf[u as usize])
+            .flat_map(|&g| self.faces[g as usize]);
+        for x in touched {
+            self.stamp[x as usize] = self.stamp[x as usize].wrapping_add(1);
         }
         let dead: Vec<u32> = std::mem::take(&mut self.vf[v as usize]);
         let mut ring: Vec<u32> = Vec::new();
