@@ -2,6 +2,7 @@
 //! corners; `stl_io` welds bit-identical corners, which is the mesh the file means.
 
 use std::borrow::Cow;
+use std::collections::HashMap;
 use std::io::Cursor;
 
 use glam::DVec3;
@@ -45,8 +46,8 @@ pub(super) fn read(bytes: &[u8], limits: &MeshLimits) -> Result<TriMesh, MeshErr
     let mesh = if let Some(text) = ascii {
         // A binary file whose header starts with "solid" and which has bytes past its records
         // (some exporters pad) looks like text: read as binary when the text fails, and if
-        // that fails too (its claimed count checked against the limits and the bytes first,
-        // before any copy) the text's error stands.
+        // that fails too (its claimed count checked against the limits and the bytes first)
+        // the text's error stands.
         read_ascii(text).or_else(|ascii_err| read_binary(bytes, limits).map_err(|_| ascii_err))?
     } else {
         read_binary(bytes, limits)?
@@ -85,6 +86,11 @@ fn read_ascii(text: &[u8]) -> Result<stl_io::IndexedMesh, MeshError> {
         .map_err(|e| MeshError::decode(FORMAT, e.to_string()))
 }
 
+/// Binary STL, read in place. stl_io tells binary from text by looking for "solid ", so a
+/// header starting with it needed a copy of the whole file with those bytes blanked, and its
+/// look reads a line, which in binary data without a newline byte runs to the file's end.
+/// The records are fixed-size, so they are read here and welded as stl_io welds them (by the
+/// corners' bit patterns, in order of first use).
 fn read_binary(bytes: &[u8], limits: &MeshLimits) -> Result<stl_io::IndexedMesh, MeshError> {
     // The claimed count against the limits and the bytes present, before reading.
     let n = claimed(bytes).ok_or_else(|| {
@@ -95,17 +101,35 @@ fn read_binary(bytes: &[u8], limits: &MeshLimits) -> Result<stl_io::IndexedMesh,
     })?;
     limits.faces(n)?;
     let need = HEADER as u64 + RECORD * n;
-    if (bytes.len() as u64) < need {
-        return Err(MeshError::decode(
-            FORMAT,
-            format!(
-                "truncated: the header claims {n} triangles ({need} bytes), the file has {}",
-                bytes.len()
-            ),
-        ));
+    let records = usize::try_from(need)
+        .ok()
+        .and_then(|need| bytes.get(HEADER..need))
+        .ok_or_else(|| {
+            MeshError::decode(
+                FORMAT,
+                format!(
+                    "truncated: the header claims {n} triangles ({need} bytes), the file has {}",
+                    bytes.len()
+                ),
+            )
+        })?;
+    let mut index: HashMap<[u32; 3], usize> = HashMap::new();
+    let mut vertices = Vec::new();
+    let mut faces = Vec::with_capacity(records.len() / RECORD as usize);
+    for r in records.chunks_exact(RECORD as usize) {
+        let f = |k: usize| f32::from_le_bytes([r[k], r[k + 1], r[k + 2], r[k + 3]]);
+        let mut corners = [0; 3];
+        for (c, at) in corners.iter_mut().zip([12, 24, 36]) {
+            let p = [f(at), f(at + 4), f(at + 8)];
+            *c = *index.entry(p.map(f32::to_bits)).or_insert_with(|| {
+                vertices.push(stl_io::Vertex::new(p));
+                vertices.len() - 1
+            });
+        }
+        faces.push(stl_io::IndexedTriangle {
+            normal: stl_io::Normal::new([f(0), f(4), f(8)]),
+            vertices: corners,
+        });
     }
-    // A binary header may itself begin with "solid ": blank it so stl_io reads binary.
-    let mut copy = bytes.to_vec();
-    copy[..5].fill(0);
-    stl_io::read_stl(&mut Cursor::new(copy)).map_err(|e| MeshError::decode(FORMAT, e.to_string()))
+    Ok(stl_io::IndexedMesh { vertices, faces })
 }

@@ -736,3 +736,27 @@ fn text_with_stray_bytes_keeps_its_size_and_its_ascii() {
         Cow::Borrowed(_)
     ));
 }
+
+/// The binary STL reader reads records in place; it must give stl_io's mesh (the same welded
+/// corners in the same order) on a real model, and on every header stl_io can read as binary.
+#[test]
+fn binary_stl_reads_as_stl_io_reads_it() {
+    let path = format!(
+        "{}/../../shared/data/meshes/cow.obj",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let cow = read_bytes(&std::fs::read(&path).expect("cow.obj"), None, &limits()).expect("cow");
+    let bytes = binary_stl(&cow, b"binary cow");
+    let want = stl_io::read_stl(&mut std::io::Cursor::new(&bytes)).expect("stl_io reads it");
+    let got = read_bytes(&bytes, Some(Format::Stl), &limits()).expect("reads");
+    assert_eq!(got.faces.len(), want.faces.len());
+    assert_eq!(got.positions.len(), want.vertices.len());
+    for (g, w) in got.faces.iter().zip(&want.faces) {
+        assert_eq!(g.map(|i| i as usize), w.vertices);
+    }
+    for (g, w) in got.positions.iter().zip(&want.vertices) {
+        assert_eq!(g.to_array(), [0, 1, 2].map(|k| f64::from(w[k])));
+    }
+    // The cow's corners are shared: welding joined them.
+    assert!(got.positions.len() * 2 < got.faces.len() * 3);
+}
