@@ -57,8 +57,6 @@ pub fn footprint(cam: &Camera, far: f64) -> Result<Vec<DVec2>, ViewError> {
 
     let th = (cam.fov_deg.to_radians() / 2.0).tan();
     let tw = th * cam.aspect;
-    let corners = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
-        .map(|(sx, sy)| forward + right * (sx * tw) + up * (sy * th));
     let foot = cam.eye.truncate();
     let mut polygon: Vec<DVec2> = (0..DISK_SIDES)
         .map(|i| {
@@ -66,13 +64,20 @@ pub fn footprint(cam: &Camera, far: f64) -> Result<Vec<DVec2>, ViewError> {
             foot + DVec2::new(a.cos(), a.sin()) * far
         })
         .collect();
-    let next = corners.iter().cycle().skip(1);
-    for (&c, &d) in corners.iter().zip(next) {
-        // The side plane through the eye and two neighbouring corner rays, its normal
-        // pointing into the frustum; on the terrain plane (z = -height relative to the eye)
-        // it keeps the points p with n.xy · (p - foot) ≥ n.z · height.
-        let n = c.cross(d);
-        let n = if n.dot(forward) < 0.0 { -n } else { n };
+    // The four side planes through the eye, by their normals pointing into the frustum: the
+    // ray forward + right·x + up·y is inside when |x| ≤ tw and |y| ≤ th. Written from the
+    // frame, not as the cross product of two corner rays: at a small fov those rays are
+    // nearly parallel, their cross product was rounding noise, and nothing was clipped (fov
+    // 1e-13° saw the whole disk, 1e-11° almost nothing).
+    let sides = [
+        forward * tw - right,
+        forward * th - up,
+        forward * tw + right,
+        forward * th + up,
+    ];
+    for n in sides {
+        // On the terrain plane (z = -height relative to the eye) the side keeps the points
+        // p with n.xy · (p - foot) ≥ n.z · height.
         let keep = |p: DVec2| n.truncate().dot(p - foot) - n.z * height;
         polygon = clip(&polygon, keep);
     }
@@ -175,21 +180,54 @@ mod tests {
             };
             polygon_area(&footprint(&cam, 5000.0).unwrap())
         };
+        // Coordinates of ~10³ m put the shoelace sum's rounding near 10⁻¹⁰ m²: a speck's area
+        // is that noise, so the order is checked past it.
+        const NOISE: f64 = 1e-9;
         let mut last = 0.0;
-        for fov in [1.0, 10.0, 30.0, 60.0, 90.0, 120.0, 150.0, 179.0] {
+        for fov in [
+            1e-300, 1e-15, 1e-13, 1e-11, 1e-8, 1e-6, 0.01, 1.0, 10.0, 30.0, 60.0, 90.0, 120.0,
+            150.0, 179.0,
+        ] {
             let mut row = 0.0;
             for aspect in [0.001, 0.1, 1.0, 2.0, 10.0, 1000.0] {
                 let a = area(fov, aspect);
-                assert!(a >= row, "fov {fov} aspect {aspect}: {a} < {row}");
+                assert!(a >= row - NOISE, "fov {fov} aspect {aspect}: {a} < {row}");
                 row = a;
             }
             let a = area(fov, 1.0);
-            assert!(a >= last, "fov {fov}: {a} < {last}");
+            assert!(a >= last - NOISE, "fov {fov}: {a} < {last}");
             last = a;
         }
         // Past the horizon the view is the disk's: the widest view sees all of it.
         let disk = std::f64::consts::PI * 5000.0 * 5000.0;
         assert!(area(179.0, 1000.0) > 0.49 * disk, "{}", area(179.0, 1000.0));
+        // A telescope sees a speck (fov 1e-13° saw the whole disk when the side planes were
+        // cross products of nearly parallel corner rays).
+        assert!(area(1e-13, 1.0) < 1e-6, "{}", area(1e-13, 1.0));
+    }
+
+    #[test]
+    fn a_narrow_view_near_the_horizon_shrinks_with_its_fov() {
+        // Nearly level, the case where the corner rays' cross products flipped the order.
+        let area = |fov_deg: f64| {
+            let cam = Camera {
+                eye: DVec3::new(0.0, 0.0, 10.0),
+                target: DVec3::new(1000.0, 0.0, 0.0),
+                fov_deg,
+                aspect: 1.0,
+            };
+            polygon_area(&footprint(&cam, 5000.0).unwrap())
+        };
+        let fovs = [1e-300, 1e-12, 1e-10, 1e-8, 1e-4, 0.1, 1.0, 5.0];
+        for w in fovs.windows(2) {
+            assert!(
+                area(w[0]) <= area(w[1]),
+                "fov {w:?}: {} > {}",
+                area(w[0]),
+                area(w[1])
+            );
+        }
+        assert!(area(1e-10) < 1e-6, "{}", area(1e-10));
     }
 
     #[test]
