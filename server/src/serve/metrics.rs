@@ -154,12 +154,37 @@ pub async fn track(State(state): State<AppState>, req: Request, next: Next) -> R
         .get::<MatchedPath>()
         .map_or_else(|| "unmatched".to_string(), |p| p.as_str().to_string());
     let res = next.run(req).await;
-    let bytes = axum::body::HttpBody::size_hint(res.body())
-        .exact()
-        .unwrap_or(0);
+    // The handler's body size, noted before compression; an answer a layer made instead (a
+    // timeout's 503, a 406 for the coding) is counted as it goes out.
+    let bytes = res.extensions().get::<BodyBytes>().map_or_else(
+        || {
+            axum::body::HttpBody::size_hint(res.body())
+                .exact()
+                .unwrap_or(0)
+        },
+        |b| b.0,
+    );
     state
         .metrics
         .observe(&route, res.status().as_u16(), started.elapsed(), bytes);
+    res
+}
+
+/// A response body's size as its handler made it: compressed on the fly, its size is not
+/// known by the time [`track`] sees it.
+#[derive(Clone, Copy, Debug)]
+struct BodyBytes(u64);
+
+/// Middleware inside the compression layer: notes the body's size for [`track`], which sits
+/// outside the compression and timeout layers so that it counts the status that goes out
+/// (a 406 from the compression layer was counted as the handler's 200, and a request the
+/// timeout ended was not counted at all).
+pub async fn note_body_bytes(req: Request, next: Next) -> Response {
+    let mut res = next.run(req).await;
+    let bytes = axum::body::HttpBody::size_hint(res.body())
+        .exact()
+        .unwrap_or(0);
+    res.extensions_mut().insert(BodyBytes(bytes));
     res
 }
 

@@ -136,16 +136,18 @@ pub fn app(state: AppState) -> Router {
             header::ACCEPT_ENCODING,
         ]);
     routes
-        .layer(axum::middleware::from_fn_with_state(
-            state.clone(),
-            metrics::track,
-        ))
+        .layer(axum::middleware::from_fn(metrics::note_body_bytes))
         .layer(CompressionLayer::new().compress_when(compress))
         .layer(TimeoutLayer::with_status_code(
             StatusCode::SERVICE_UNAVAILABLE,
             REQUEST_TIMEOUT,
         ))
         .layer(axum::middleware::from_fn(error::json_errors))
+        // Outside the layers that change the status (compression's 406, the timeout's 503).
+        .layer(axum::middleware::from_fn_with_state(
+            state.clone(),
+            metrics::track,
+        ))
         // One span per request (method, URI, status, latency) at DEBUG: `RUST_LOG=debug`.
         // Failures too: a 500 has logged its cause at ERROR already (`ApiError::internal`),
         // and the default, an ERROR line per 5xx without its URI, turned every request shed

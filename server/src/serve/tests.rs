@@ -1526,6 +1526,16 @@ async fn refusing_every_coding_is_a_406_error_not_a_tile() {
         }
         assert!(h.get("x-threshold").is_none(), "{uri}");
     }
+    // Counted as what went out: the compression layer's 406 was counted as the handler's 200.
+    let (_, _, body) = get(&app, "/metrics").await;
+    let text = String::from_utf8(body).unwrap();
+    for route in ["/v1/datasets/{name}/tiles/{z}/{x}/{y}", "/healthz"] {
+        let series = |status: u16| {
+            format!("zerotile_requests_total{{route=\"{route}\",status=\"{status}\"}} 1")
+        };
+        assert!(text.contains(&series(406)), "{route}: {text}");
+        assert!(!text.contains(&series(200)), "{route}: {text}");
+    }
 }
 
 /// Meshes and quantized-mesh are gzipped once, when the client accepts it, and say so; the
