@@ -21,13 +21,19 @@ pub struct Cli {
     pub command: Command,
 }
 
+/// Commands taking numbers allow negative ones as values (`allow_negative_numbers`): `--step
+/// -1` is then refused by the option's own check instead of clap's "unexpected argument '-1'"
+/// and its wrong tip to write `-- -1`.
 #[derive(Subcommand, Debug)]
 pub enum Command {
     /// Build a dataset (an EZW tile pyramid in one container file) from a heightmap.
+    #[command(allow_negative_numbers = true)]
     Ingest(IngestArgs),
     /// Serve every dataset of a folder over HTTP (routes: docs/api.md).
+    #[command(allow_negative_numbers = true)]
     Serve(ServeArgs),
     /// Write a dataset as a static tile tree (z/x/y files, and layer.json for terrain) for a CDN.
+    #[command(allow_negative_numbers = true)]
     Export(ExportArgs),
     /// Describe a dataset file (tiling, zooms, bytes per zoom); with --verify, read and
     /// decode every tile (check a copy before serving it). Exit 0 when every check passes,
@@ -42,6 +48,7 @@ pub enum Command {
     DemoData(DemoArgs),
     /// Loop-subdivide a mesh (4× the faces a step) into a large smooth test mesh, e.g. the
     /// 1.1M-face bunny the QEM figures use: `subdivide stanford-bunny.obj bunny-x16.obj`.
+    #[command(allow_negative_numbers = true)]
     Subdivide(SubdivideArgs),
     /// Exit 0 if a server answers GET /healthz with 200 (for container health checks, where
     /// there is no curl).
@@ -109,7 +116,7 @@ pub struct HealthArgs {
 pub struct SubdivideArgs {
     /// Mesh: .obj, .ply or .stl.
     pub input: PathBuf,
-    /// Output mesh (.obj, .ply, .glb or .json), written atomically.
+    /// Output mesh (.obj, .ply, .glb or .json), written atomically; never the input.
     pub output: PathBuf,
     /// Loop steps, each 4× the faces: 1–4.
     #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=4))]
@@ -231,8 +238,10 @@ pub struct ServeArgs {
 #[derive(Subcommand, Debug)]
 pub enum EvalCommand {
     /// Rate, distortion and mesh figures of the terrain codec on one heightmap.
+    #[command(allow_negative_numbers = true)]
     Terrain(TerrainArgs),
     /// Simplify one object mesh: counts, time and Metro distances to the input.
+    #[command(allow_negative_numbers = true)]
     Mesh(eval::mesh::MeshArgs),
 }
 

@@ -319,3 +319,38 @@ fn healthcheck_passes_on_200_only_and_names_the_address() {
     let msg = refusal(healthcheck("no-port"));
     assert!(msg.contains("--addr no-port"), "{msg}");
 }
+
+/// A negative number is a value, refused by its option's own check, not an unknown flag
+/// with clap's tip to write `-- -1` (which would make it a positional argument).
+#[test]
+fn negative_numbers_are_values_refused_by_their_range() {
+    use clap::error::ErrorKind;
+    for args in [
+        &["serve", "--cache-mb", "-1"][..],
+        &["ingest", "in.hgt", "--name", "x", "--max-zoom", "-1"],
+        &["subdivide", "a.obj", "b.obj", "--times", "-1"],
+        &["eval", "mesh", "a.obj", "--method", "qem", "--faces", "-1"],
+    ] {
+        let kind = Cli::try_parse_from(std::iter::once("zerotile").chain(args.iter().copied()))
+            .map(|_| ())
+            .unwrap_err()
+            .kind();
+        assert!(
+            matches!(kind, ErrorKind::ValueValidation | ErrorKind::InvalidValue),
+            "{args:?}: {kind:?}"
+        );
+    }
+    // Parsed, then refused by the command's own check before any work.
+    let Command::Eval(EvalCommand::Terrain(t)) = parse(&[
+        "eval",
+        "terrain",
+        "in.hgt",
+        "--threshold",
+        "4",
+        "--step",
+        "-1",
+    ]) else {
+        panic!("not eval terrain")
+    };
+    assert_eq!(t.step, Some(-1.0));
+}

@@ -56,7 +56,7 @@ pub struct MeshArgs {
     /// Target face count.
     #[arg(long, value_name = "N")]
     pub faces: Option<usize>,
-    /// Write the result here (.obj, .ply, .glb or .json; replaced atomically).
+    /// Write the result here (.obj, .ply, .glb or .json; replaced atomically; never the input).
     #[arg(long, value_name = "OUT")]
     pub out: Option<PathBuf>,
     /// Print one JSON object instead of a table.
@@ -141,6 +141,9 @@ pub fn budget_note(p: &MeshPoint) -> Option<String> {
 /// The evaluation without the printing (and `--out` written), so tests can read the point.
 pub fn evaluate(args: &MeshArgs) -> Result<MeshPoint> {
     let param = param(args)?;
+    if let Some(out) = &args.out {
+        not_the_input(&args.input, out)?;
+    }
     // Read and repair: the simplifiers take a clean manifold.
     let input = load(&args.input, args.weld)?;
     // Simplify, timed over a few runs.
@@ -190,6 +193,37 @@ fn param(args: &MeshArgs) -> Result<Param> {
     }
 }
 
+/// Refuses an output that is the input file itself (by another name too: a symlink, a
+/// hard link, `./`): the atomic write would replace the mesh the user gave with its result.
+fn not_the_input(input: &Path, output: &Path) -> Result<()> {
+    let same = match (std::fs::metadata(input), std::fs::metadata(output)) {
+        (Ok(a), Ok(b)) => same_file(&a, &b),
+        _ => false,
+    } || matches!(
+        (std::fs::canonicalize(input), std::fs::canonicalize(output)),
+        (Ok(a), Ok(b)) if a == b
+    );
+    if same {
+        bail!(
+            "{} is the input {}: writing the result there would replace it; choose another output",
+            output.display(),
+            input.display()
+        );
+    }
+    Ok(())
+}
+
+#[cfg(unix)]
+fn same_file(a: &std::fs::Metadata, b: &std::fs::Metadata) -> bool {
+    use std::os::unix::fs::MetadataExt;
+    (a.dev(), a.ino()) == (b.dev(), b.ino())
+}
+
+#[cfg(not(unix))]
+fn same_file(_: &std::fs::Metadata, _: &std::fs::Metadata) -> bool {
+    false
+}
+
 /// `zerotile subdivide`: the input, repaired as `eval mesh` reads it, Loop-subdivided.
 pub fn subdivide(args: &crate::cli::SubdivideArgs) -> Result<()> {
     // Before the work, which takes minutes for the large meshes this is for.
@@ -199,6 +233,7 @@ pub fn subdivide(args: &crate::cli::SubdivideArgs) -> Result<()> {
             args.output.display()
         );
     }
+    not_the_input(&args.input, &args.output)?;
     let mut mesh = load(&args.input, false)?;
     let limit = MeshLimits::default();
     // Checked before the first step, so a run that would pass the limit is refused

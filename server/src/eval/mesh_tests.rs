@@ -470,3 +470,44 @@ fn a_mesh_without_area_is_refused() {
     let err = format!("{:#}", load(&path, false).unwrap_err());
     assert!(err.contains("beyond the f64 range"), "{err}");
 }
+
+/// An output that is the input, by any name, is refused and the input is left as it was:
+/// `subdivide cow.obj cow.obj` replaced the cow with its subdivision.
+#[test]
+fn an_output_that_is_the_input_is_refused_and_the_input_kept() {
+    let dir = scratch("evalmesh-same-file");
+    let input = dir.join("cow.obj");
+    std::fs::copy(shared_mesh("cow.obj"), &input).unwrap();
+    let before = std::fs::read(&input).unwrap();
+    let link = dir.join("link.obj");
+    std::os::unix::fs::symlink(&input, &link).unwrap();
+    let hard = dir.join("hard.obj");
+    std::fs::hard_link(&input, &hard).unwrap();
+    let dotted = dir.join(".").join("cow.obj");
+    for out in [&input, &link, &hard, &dotted] {
+        let err = subdivide(&SubdivideArgs {
+            input: input.clone(),
+            output: out.clone(),
+            times: 1,
+        })
+        .expect_err("the input as output");
+        assert!(format!("{err:#}").contains("is the input"), "{err:#}");
+        let msg = error_of(&MeshArgs {
+            input: input.clone(),
+            out: Some(out.clone()),
+            ..faces("cow.obj", Method::Qem, 1000)
+        });
+        assert!(msg.contains("is the input"), "{msg}");
+        assert_eq!(std::fs::read(&input).unwrap(), before, "{}", out.display());
+    }
+    // Another file is written as before.
+    let other = dir.join("fine.obj");
+    subdivide(&SubdivideArgs {
+        input: input.clone(),
+        output: other.clone(),
+        times: 1,
+    })
+    .unwrap();
+    assert!(other.exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
