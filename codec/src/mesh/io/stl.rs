@@ -99,7 +99,8 @@ fn read_binary(bytes: &[u8], limits: &MeshLimits) -> Result<stl_io::IndexedMesh,
             format!("truncated: {} bytes, no header", bytes.len()),
         )
     })?;
-    limits.faces(n)?;
+    // The bytes first: another format sent as STL "claims" hundreds of millions of
+    // triangles, and a limit error for those would hide what is wrong.
     let need = HEADER as u64 + RECORD * n;
     let records = usize::try_from(need)
         .ok()
@@ -108,11 +109,13 @@ fn read_binary(bytes: &[u8], limits: &MeshLimits) -> Result<stl_io::IndexedMesh,
             MeshError::decode(
                 FORMAT,
                 format!(
-                    "truncated: the header claims {n} triangles ({need} bytes), the file has {}",
+                    "truncated, or not STL (text STL starts with \"solid\"): the binary header \
+                     claims {n} triangles ({need} bytes), the file has {}",
                     bytes.len()
                 ),
             )
         })?;
+    limits.faces(n)?;
     let mut index: HashMap<[u32; 3], usize> = HashMap::new();
     let mut vertices = Vec::new();
     let mut faces = Vec::with_capacity(records.len() / RECORD as usize);

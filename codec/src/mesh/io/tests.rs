@@ -634,8 +634,21 @@ end_header\n"
     assert!(read_bytes(&list, None, &generous).is_err());
     let mut stl = vec![0u8; 80];
     stl.extend_from_slice(&u32::MAX.to_le_bytes());
+    // Claimed past the bytes present: what is wrong is the file (an OBJ sent as STL reads
+    // as a header claiming ~5e8 triangles), not the limit.
+    let err = read_bytes(&stl, Some(Format::Stl), &limits()).unwrap_err();
+    assert!(matches!(err, MeshError::Decode { .. }), "{err:?}");
+    assert!(err.to_string().contains("or not STL"), "{err}");
+    let obj = b"# OBJ\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n".repeat(3);
+    let err = read_bytes(&obj, Some(Format::Stl), &limits()).unwrap_err();
+    assert!(err.to_string().contains("or not STL"), "{err}");
+    // All there but over the limit: the limit's error.
+    let one = MeshLimits {
+        max_faces: 1,
+        ..MeshLimits::default()
+    };
     assert!(matches!(
-        read_bytes(&stl, Some(Format::Stl), &limits()),
+        read_bytes(&binary_stl(&quad(), b"x"), Some(Format::Stl), &one),
         Err(MeshError::Limit { what: "faces", .. })
     ));
     let small = MeshLimits {
