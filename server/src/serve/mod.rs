@@ -16,6 +16,7 @@ pub mod built_once;
 pub mod catalog;
 pub mod dataset;
 pub mod error;
+pub mod listen;
 pub mod meshes;
 pub mod metrics;
 pub mod negotiate;
@@ -222,10 +223,7 @@ pub fn run(opts: ServeOptions) -> Result<()> {
         );
         use std::io::Write;
         let _ = std::io::stdout().flush();
-        axum::serve(listener, app(state))
-            .with_graceful_shutdown(shutdown_signal())
-            .await
-            .context("serving")?;
+        listen::serve(listener, app(state), shutdown_signal()).await;
         tracing::info!("shut down cleanly");
         Ok(())
     })

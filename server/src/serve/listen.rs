@@ -1,0 +1,126 @@
+//! The accept loop: hyper's HTTP/1 and HTTP/2 server with a header-read timeout, and a
+//! graceful stop.
+//!
+//! `axum::serve` runs hyper without a timer, which leaves hyper's header-read timeout off: a
+//! client that never finished its request headers held its connection (and a task) for as
+//! long as it liked. Here a connection whose request headers have not all arrived within
+//! [`HEADER_READ_TIMEOUT`] is closed.
+
+use std::future::Future;
+use std::time::Duration;
+
+use axum::Router;
+use hyper_util::rt::{TokioExecutor, TokioIo, TokioTimer};
+use hyper_util::server::conn::auto::Builder;
+use hyper_util::server::graceful::GracefulShutdown;
+use hyper_util::service::TowerToHyperService;
+use tokio::net::TcpListener;
+
+/// How long a client may take to send a request's headers (hyper's own default, which it
+/// applies only with a timer). Bodies have their own limit (`408` after 20 s).
+pub const HEADER_READ_TIMEOUT: Duration = Duration::from_secs(30);
+
+/// Serves `app` on `listener` until `stop` resolves, then stops accepting and waits for the
+/// connections' in-flight requests to finish.
+pub async fn serve(listener: TcpListener, app: Router, stop: impl Future<Output = ()>) {
+    serve_with(listener, app, stop, HEADER_READ_TIMEOUT).await;
+}
+
+/// [`serve`] with another header-read timeout (the tests').
+pub async fn serve_with(
+    listener: TcpListener,
+    app: Router,
+    stop: impl Future<Output = ()>,
+    header_timeout: Duration,
+) {
+    let mut builder = Builder::new(TokioExecutor::new());
+    builder
+        .http1()
+        .timer(TokioTimer::new())
+        .header_read_timeout(header_timeout);
+    let graceful = GracefulShutdown::new();
+    let mut stop = std::pin::pin!(stop);
+    loop {
+        let stream = tokio::select! {
+            accepted = listener.accept() => match accepted {
+                Ok((stream, _)) => stream,
+                Err(e) => {
+                    // Out of file descriptors and the like: pause rather than spin.
+                    tracing::warn!("accepting a connection: {e}");
+                    tokio::time::sleep(Duration::from_millis(100)).await;
+                    continue;
+                }
+            },
+            () = &mut stop => break,
+        };
+        let service = TowerToHyperService::new(app.clone());
+        let conn = builder
+            .serve_connection_with_upgrades(TokioIo::new(stream), service)
+            .into_owned();
+        let conn = graceful.watch(conn);
+        tokio::spawn(async move {
+            if let Err(e) = conn.await {
+                tracing::debug!("connection: {e}");
+            }
+        });
+    }
+    drop(listener);
+    graceful.shutdown().await;
+}
+
+#[cfg(test)]
+mod tests {
+    use std::io::{Read, Write};
+    use std::time::Instant;
+
+    use axum::routing::get;
+
+    use super::*;
+
+    /// A client that stops sending halfway through its headers is cut off at the timeout;
+    /// one that sends a whole request is answered; the stop ends the loop.
+    #[test]
+    fn unfinished_headers_are_cut_off_and_whole_requests_answered() {
+        let rt = tokio::runtime::Runtime::new().unwrap();
+        let listener = rt.block_on(TcpListener::bind("127.0.0.1:0")).unwrap();
+        let addr = listener.local_addr().unwrap();
+        let (tx, rx) = tokio::sync::oneshot::channel::<()>();
+        let app = Router::new().route("/", get(|| async { "hi" }));
+        let server = rt.spawn(serve_with(
+            listener,
+            app,
+            async {
+                let _ = rx.await;
+            },
+            Duration::from_millis(500),
+        ));
+
+        let mut whole = std::net::TcpStream::connect(addr).unwrap();
+        whole
+            .write_all(b"GET / HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")
+            .unwrap();
+        let mut answer = String::new();
+        whole.read_to_string(&mut answer).unwrap();
+        assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
+        assert!(answer.ends_with("hi"), "{answer}");
+
+        let mut slow = std::net::TcpStream::connect(addr).unwrap();
+        slow.set_read_timeout(Some(Duration::from_secs(20)))
+            .unwrap();
+        slow.write_all(b"GET / HTTP/1.1\r\nHost: x\r\n").unwrap();
+        let started = Instant::now();
+        let mut rest = Vec::new();
+        // Closed by the server (hyper may answer 408 first): not the read timeout's error.
+        slow.read_to_end(&mut rest).expect("closed, not left open");
+        let waited = started.elapsed();
+        assert!(waited < Duration::from_secs(10), "{waited:?}");
+        assert!(
+            rest.is_empty() || rest.starts_with(b"HTTP/1.1 408"),
+            "{}",
+            String::from_utf8_lossy(&rest)
+        );
+
+        tx.send(()).unwrap();
+        rt.block_on(server).unwrap();
+    }
+}
