@@ -196,14 +196,7 @@ fn param(args: &MeshArgs) -> Result<Param> {
 /// Refuses an output that is the input file itself (by another name too: a symlink, a
 /// hard link, `./`): the atomic write would replace the mesh the user gave with its result.
 fn not_the_input(input: &Path, output: &Path) -> Result<()> {
-    let same = match (std::fs::metadata(input), std::fs::metadata(output)) {
-        (Ok(a), Ok(b)) => same_file(&a, &b),
-        _ => false,
-    } || matches!(
-        (std::fs::canonicalize(input), std::fs::canonicalize(output)),
-        (Ok(a), Ok(b)) if a == b
-    );
-    if same {
+    if same_file(input, output) {
         bail!(
             "{} is the input {}: writing the result there would replace it; choose another output",
             output.display(),
@@ -213,15 +206,20 @@ fn not_the_input(input: &Path, output: &Path) -> Result<()> {
     Ok(())
 }
 
+/// Whether two paths name one existing file: by device and inode, which a symlink, a hard
+/// link or `./` all share.
 #[cfg(unix)]
-fn same_file(a: &std::fs::Metadata, b: &std::fs::Metadata) -> bool {
+fn same_file(a: &Path, b: &Path) -> bool {
     use std::os::unix::fs::MetadataExt;
-    (a.dev(), a.ino()) == (b.dev(), b.ino())
+    let id = |p: &Path| std::fs::metadata(p).map(|m| (m.dev(), m.ino())).ok();
+    id(a).is_some_and(|a| Some(a) == id(b))
 }
 
+/// Whether two paths name one existing file, by their canonical paths (hard links apart).
 #[cfg(not(unix))]
-fn same_file(_: &std::fs::Metadata, _: &std::fs::Metadata) -> bool {
-    false
+fn same_file(a: &Path, b: &Path) -> bool {
+    let id = |p: &Path| std::fs::canonicalize(p).ok();
+    id(a).is_some_and(|a| Some(a) == id(b))
 }
 
 /// `zerotile subdivide`: the input, repaired as `eval mesh` reads it, Loop-subdivided.

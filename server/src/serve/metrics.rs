@@ -181,11 +181,16 @@ struct BodyBytes(u64);
 /// timeout ended was not counted at all).
 pub async fn note_body_bytes(req: Request, next: Next) -> Response {
     let mut res = next.run(req).await;
-    let bytes = axum::body::HttpBody::size_hint(res.body())
-        .exact()
-        .unwrap_or(0);
+    let bytes = body_len(&res);
     res.extensions_mut().insert(BodyBytes(bytes));
     res
+}
+
+/// The body's length when it is known before it is sent (0 for a stream).
+fn body_len(res: &Response) -> u64 {
+    axum::body::HttpBody::size_hint(res.body())
+        .exact()
+        .unwrap_or(0)
 }
 
 #[cfg(test)]
