@@ -125,17 +125,31 @@ pub fn run(args: &MeshArgs) -> Result<()> {
     Ok(())
 }
 
-/// The octree answers a budget below its coarsest level with that level (the benchmark
-/// compares it at such targets): say so, or --faces would look ignored.
+/// A budget no method can meet is answered with the fewest faces it reaches (the
+/// benchmark compares the octree at such targets): say so, or --faces would look ignored.
 pub fn budget_note(p: &MeshPoint) -> Option<String> {
-    match (p.method, p.param) {
-        (Method::Octree, Param::Faces(n)) if p.faces > n => Some(format!(
-            "--faces {n}: the coarsest octree level of this mesh has {} faces; measuring that \
-             level",
-            p.faces
-        )),
-        _ => None,
+    let Param::Faces(n) = p.param else {
+        return None;
+    };
+    if p.faces <= n {
+        return None;
     }
+    let f = p.faces;
+    Some(match p.method {
+        Method::Octree | Method::Silhouette => {
+            let name = format!("{:?}", p.method).to_lowercase();
+            format!("--faces {n}: the coarsest {name} level of this mesh has {f} faces; measuring that level")
+        }
+        Method::Curvature => format!(
+            "--faces {n}: curvature decimation stops at {f} faces on this mesh (no vertex \
+             left whose removal keeps the surface manifold within its largest ε); measuring \
+             that"
+        ),
+        Method::Qem => format!(
+            "--faces {n}: quadric collapses stop at {f} faces on this mesh (no edge left \
+             whose collapse keeps it manifold); measuring that"
+        ),
+    })
 }
 
 /// The evaluation without the printing (and `--out` written), so tests can read the point.
