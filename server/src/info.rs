@@ -689,6 +689,15 @@ mod tests {
         assert!(e.contains("a folder; give a .ztd file"), "{e}");
         let e = run(&job("nothing".into())).unwrap_err().to_string();
         assert!(e.contains("no such dataset file"), "{e}");
+        // Neither a file nor a name: said as a missing file first, the name rule after.
+        let e = run(&job("missing/README.md".into()))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("missing/README.md: no such file, and not a dataset name")
+                && e.contains("use 1–64 characters"),
+            "{e}"
+        );
         // A dataset of that name in --data wins over a file or folder of the name in the
         // current folder (`info n44` once read a stray ./n44).
         let cwd = std::env::current_dir().unwrap();

@@ -85,7 +85,14 @@ pub fn dataset_path(dataset: &str, data: &Path) -> Result<PathBuf> {
 /// [`dataset_path`] for a dataset that must exist (info, export): a folder or a missing
 /// file is refused with what to give instead, not an OS error.
 pub fn existing_dataset_path(dataset: &str, data: &Path) -> Result<PathBuf> {
-    let path = dataset_path(dataset, data)?;
+    // Neither a path that exists nor a name: `info README.md` run elsewhere was a mistyped
+    // or missing file, which "use 1–64 characters from …" alone did not say.
+    let path = dataset_path(dataset, data).map_err(|e| {
+        anyhow::anyhow!(
+            "{dataset}: no such file, and not a dataset name in --data {} ({e:#})",
+            data.display()
+        )
+    })?;
     if path.is_dir() {
         bail!(
             "{}: a folder; give a .ztd file, or a dataset name with --data FOLDER",
