@@ -303,9 +303,9 @@ fn uploads_stop_at_the_mesh_quota() {
     );
     assert!(!data.join("meshes/cow2.obj").exists());
     assert_eq!(s.get("/v1/meshes/cow2/original", &[]).status, 404);
-    // Replacing a mesh is charged for the difference only.
-    assert_eq!(s.post("/v1/meshes/cow", "model/obj", &cow).status, 201);
-    assert_eq!(s.post("/v1/meshes/fandisk", "model/obj", &cow).status, 201);
+    // Replacing a mesh is charged for the difference only (and is a 200: nothing new).
+    assert_eq!(s.post("/v1/meshes/cow", "model/obj", &cow).status, 200);
+    assert_eq!(s.post("/v1/meshes/fandisk", "model/obj", &cow).status, 200);
     s.post("/v1/meshes/cow2", "model/obj", &cow)
         .error(507, "mesh_quota");
     let _ = std::fs::remove_dir_all(&data);
@@ -318,6 +318,8 @@ fn uploads_are_validated_limited_and_never_replace_a_mesh_with_a_bad_one() {
     let cow = std::fs::read(shared_data().join("meshes/cow.obj")).unwrap();
     let r = s.post("/v1/meshes/cow", "model/obj", &cow);
     assert_eq!(r.status, 201, "{}", String::from_utf8_lossy(&r.body));
+    // Relative to the URL posted to: the mesh is there.
+    assert_eq!(r.header("location"), Some("cow"));
     assert!(data.join("meshes/cow.obj").exists());
     assert_eq!(s.get("/v1/meshes/cow/original?format=obj", &[]).status, 200);
 
@@ -350,7 +352,9 @@ fn uploads_are_validated_limited_and_never_replace_a_mesh_with_a_bad_one() {
     let old = s.get("/v1/meshes/plain/original?format=obj", &[]);
     let old_faces = obj_counts(&old.body).1;
     let tri = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
-    assert_eq!(s.post("/v1/meshes/plain", "model/obj", tri).status, 201);
+    let r = s.post("/v1/meshes/plain", "model/obj", tri);
+    assert_eq!((r.status, r.header("location")), (200, None));
+    assert_eq!(r.json()["faces"], 1);
     let new = s.get("/v1/meshes/plain/original?format=obj", &[]);
     assert_eq!((old_faces > 1, obj_counts(&new.body).1), (true, 1));
     assert_ne!(new.header("etag"), old.header("etag"));

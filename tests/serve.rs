@@ -520,10 +520,11 @@ fn bad_requests_are_4xx_json() {
     for (path, status, code) in [
         ("/v1/datasets/nope", 404, "unknown_dataset"),
         ("/v1/datasets/nope/tiles/0/0/0.png", 404, "unknown_dataset"),
+        // Names are never percent-encoded (all their characters are unreserved).
         (
             "/v1/datasets/..%2F..%2Fetc%2Fpasswd/tiles/0/0/0.png",
-            404,
-            "unknown_dataset",
+            400,
+            "bad_name",
         ),
         ("/nope", 404, "not_found"),
         (&format!("{t}/9/0/0.png"), 404, "tile_not_found"),

@@ -269,12 +269,13 @@ impl MeshCatalog {
 
     /// Validates `bytes` as a mesh, writes it atomically as `meshes/NAME.EXT` (replacing an
     /// older file of that name only once the new one is whole) and serves it from now on.
+    /// Also says whether a mesh of that name was replaced (HTTP tells 200 from 201 by it).
     pub fn upload(
         &self,
         name: &str,
         bytes: &[u8],
         format: Option<Format>,
-    ) -> Result<Arc<MeshEntry>, UploadError> {
+    ) -> Result<(Arc<MeshEntry>, bool), UploadError> {
         self.takes_uploads()?;
         let read = io::read_bytes(bytes, format, &limits()).map_err(anyhow::Error::from);
         let mesh = read
@@ -316,8 +317,8 @@ impl MeshCatalog {
             .entries
             .write()
             .map_err(|_| UploadError::Store(anyhow::anyhow!("mesh catalog lock poisoned")))?;
-        map.insert(name.to_string(), entry.clone());
-        Ok(entry)
+        let replaced = map.insert(name.to_string(), entry.clone()).is_some();
+        Ok((entry, replaced))
     }
 }
 
@@ -470,7 +471,8 @@ mod tests {
         assert_eq!(cat.get("a").unwrap().mesh.face_count(), 1);
 
         std::fs::remove_file(meshes.join("a.ply")).unwrap();
-        let e = cat.upload("a", QUAD_PLY, Some(Format::Ply)).unwrap();
+        let (e, replaced) = cat.upload("a", QUAD_PLY, Some(Format::Ply)).unwrap();
+        assert!(replaced);
         assert_eq!(e.source, meshes.join("a.ply"));
         assert!(!meshes.join("a.obj").exists());
         let reopened = MeshCatalog::open(&dir, 1 << 20);
@@ -488,7 +490,7 @@ mod tests {
         std::fs::write(meshes.join("a.obj"), TRI).unwrap();
         let cat = MeshCatalog::open(&dir, 1 << 20);
         let quad = br#"{"positions": [0,0,0, 1,0,0, 1,1,0, 0,1,0], "indices": [0,1,2, 0,2,3]}"#;
-        let e = cat.upload("a", quad, None).unwrap();
+        let (e, _) = cat.upload("a", quad, None).unwrap();
         assert_eq!(e.source, meshes.join("a.json"));
         assert_eq!(std::fs::read(meshes.join("a.json")).unwrap(), quad);
         assert!(!meshes.join("a.obj").exists());
@@ -510,7 +512,7 @@ mod tests {
         assert_eq!(before[0], before[1], "one mesh, one tag");
         let quad = b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3\nf 1 3 4\n";
         for name in ["b", "a"] {
-            let e = cat.upload(name, quad, Some(Format::Obj)).unwrap();
+            let (e, _) = cat.upload(name, quad, Some(Format::Obj)).unwrap();
             assert!(!before.contains(&e.content), "{name}: {} reused", e.content);
             assert_eq!(cat.get(name).unwrap().mesh.face_count(), 2);
         }

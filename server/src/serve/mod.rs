@@ -21,6 +21,7 @@ pub mod meshes;
 pub mod metrics;
 pub mod negotiate;
 pub mod pipeline;
+pub mod plain_names;
 pub mod public_url;
 pub mod render;
 pub mod render_slots;
@@ -137,6 +138,7 @@ pub fn app(state: AppState) -> Router {
             header::ACCEPT_ENCODING,
         ]);
     routes
+        .layer(axum::middleware::from_fn(plain_names::plain_names))
         .layer(axum::middleware::from_fn(metrics::note_body_bytes))
         .layer(CompressionLayer::new().compress_when(compress))
         .layer(TimeoutLayer::with_status_code(

@@ -368,6 +368,15 @@ async fn a_world_datasets_cameras_stay_on_the_globe() {
             "/v1/datasets/hill/tiles/0/0/0.json?eye=-90,44,1000&target=-181,44,0&fov=60",
             "target's longitude",
         ),
+        // Not a number: the range quoted is the globe's, not the ±1e8 of a local dataset.
+        (
+            "/v1/datasets/hill/view?eye=nan,44,1000&target=-90,44,0&fov=60",
+            "eye's longitude (degrees, on a world dataset) must be in [-180, 180], got nan",
+        ),
+        (
+            "/v1/datasets/hill/view?eye=-90,44,1000&target=-90,inf,0&fov=60",
+            "target's latitude (degrees, on a world dataset) must be in [-90, 90], got inf",
+        ),
     ] {
         let v = refused(&app, uri, StatusCode::BAD_REQUEST, "out_of_range").await;
         assert!(v["message"].as_str().unwrap().contains(what), "{uri}: {v}");
@@ -406,6 +415,16 @@ async fn tile_addresses_are_canonical_and_zooms_checked_against_the_dataset() {
     let uri = "/v1/datasets/hill/tiles/1/0/0.png";
     let v = refused(&app, uri, StatusCode::NOT_FOUND, "tile_not_found").await;
     assert_eq!(v["message"], "zoom 1 is outside 0..=0 of hill");
+    // The name too: `%68ill` is hill under a second URL (it was served as hill).
+    for uri in [
+        "/v1/datasets/%68ill",
+        "/v1/datasets/h%69ll/tiles/0/0/0.png",
+        "/v1/datasets/hill%2Dx/view?ratio=1",
+    ] {
+        refused(&app, uri, StatusCode::BAD_REQUEST, "bad_name").await;
+    }
+    let (s, _, _) = get(&app, "/v1/datasets/hill/tiles/0/0/0.png").await;
+    assert_eq!(s, StatusCode::OK);
 }
 
 #[tokio::test]
@@ -1184,6 +1203,30 @@ async fn a_bad_mesh_name_is_called_a_mesh_name() {
             .starts_with("mesh name \"a.b\""),
         "{v}"
     );
+    // Percent-encoded, a name or a method is a second URL for one mesh: refused by name.
+    for (method, uri, status, code) in [
+        (
+            Method::GET,
+            "/v1/meshes/%63ow",
+            StatusCode::BAD_REQUEST,
+            "bad_name",
+        ),
+        (
+            Method::POST,
+            "/v1/meshes/c%6Fw",
+            StatusCode::BAD_REQUEST,
+            "bad_name",
+        ),
+        (
+            Method::GET,
+            "/v1/meshes/cow/%63urvature",
+            StatusCode::NOT_FOUND,
+            "unknown_method",
+        ),
+    ] {
+        let (s, _, body) = send(&app, method, uri, &[]).await;
+        assert_eq!((s, error_code(&body).as_str()), (status, code), "{uri}");
+    }
 }
 
 /// tiles.json's tile URLs by the server's setting: the request's Host by default (proxy

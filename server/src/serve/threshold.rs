@@ -191,21 +191,24 @@ pub fn view_plane(d: &Dataset, q: &HashMap<String, String>) -> Result<ViewPlane,
             )
         })
     };
-    let eye = vec3("eye", get("eye")?)?;
-    let target = vec3("target", get("target")?)?;
+    let m = d.metadata();
+    let [west, south, east, north] = m.bounds;
+    let local = matches!(d.tiling.scheme(), Scheme::Local { .. });
+    let point = |name: &str| -> Result<DVec3, ApiError> {
+        let s = get(name)?;
+        if local {
+            vec3(name, s)
+        } else {
+            lon_lat_height(name, s)
+        }
+    };
+    let eye = point("eye")?;
+    let target = point("target")?;
     let fov_deg = number("fov", get("fov")?, f64::MIN_POSITIVE, 179.0)?;
     let aspect = q.get("aspect").map_or(Ok(1.0), |s| aspect(s, 1e-3, 1e3))?;
 
     // Horizontal metres around the target (degrees scaled at the target's latitude; grid
     // samples as they are, rows flipped so y points north), and back.
-    let m = d.metadata();
-    let [west, south, east, north] = m.bounds;
-    let local = matches!(d.tiling.scheme(), Scheme::Local { .. });
-    if !local {
-        for (name, p) in [("eye", eye), ("target", target)] {
-            on_the_globe(name, p)?;
-        }
-    }
     let (lon0, lat0) = (target.x, target.y);
     let k = lat0.to_radians().cos().max(1e-6);
     let to_plane = |p: DVec3| {
@@ -263,20 +266,20 @@ pub fn view_plane(d: &Dataset, q: &HashMap<String, String>) -> Result<ViewPlane,
 }
 
 /// A world dataset's `eye` and `target` are longitude, latitude (degrees) and height: a
-/// point past the poles or the antimeridian is a mistake, not a view.
-fn on_the_globe(name: &str, p: DVec3) -> Result<(), ApiError> {
-    for (what, v, limit) in [("longitude", p.x, 180.0), ("latitude", p.y, 90.0)] {
-        if v.abs() > limit {
-            return Err(ApiError::bad_request(
-                "out_of_range",
-                format!(
-                    "{name}'s {what} must be in [-{limit}, {limit}] degrees on a world \
-                     dataset, got {v}"
-                ),
-            ));
-        }
-    }
-    Ok(())
+/// point past the poles or the antimeridian is a mistake, not a view, and the range an
+/// error quotes is the globe's, not [`MAX_COORDINATE`].
+fn lon_lat_height(name: &str, s: &str) -> Result<DVec3, ApiError> {
+    vec3_within(name, s, |i| match i {
+        0 => (
+            format!("{name}'s longitude (degrees, on a world dataset)"),
+            180.0,
+        ),
+        1 => (
+            format!("{name}'s latitude (degrees, on a world dataset)"),
+            90.0,
+        ),
+        _ => (format!("{name}'s height"), MAX_COORDINATE),
+    })
 }
 
 /// `aspect` in [lo, hi], as a number (`1.78`) or as width/height (`16/9`), the way
@@ -352,6 +355,15 @@ pub use zerotile_codec::error::short;
 
 /// `x,y,z`, each finite and within [`MAX_COORDINATE`].
 pub fn vec3(name: &str, s: &str) -> Result<DVec3, ApiError> {
+    vec3_within(name, s, |_| (name.to_owned(), MAX_COORDINATE))
+}
+
+/// `x,y,z`, component `i` finite and within ±`bound(i).1`, named `bound(i).0` in errors.
+fn vec3_within(
+    name: &str,
+    s: &str,
+    bound: impl Fn(usize) -> (String, f64),
+) -> Result<DVec3, ApiError> {
     let parts: Vec<&str> = s.split(',').collect();
     if parts.len() != 3 {
         return Err(ApiError::bad_request(
@@ -360,8 +372,9 @@ pub fn vec3(name: &str, s: &str) -> Result<DVec3, ApiError> {
         ));
     }
     let mut v = [0.0; 3];
-    for (slot, p) in v.iter_mut().zip(&parts) {
-        *slot = number(name, p, -MAX_COORDINATE, MAX_COORDINATE)?;
+    for (i, (slot, p)) in v.iter_mut().zip(&parts).enumerate() {
+        let (what, limit) = bound(i);
+        *slot = number(&what, p, -limit, limit)?;
     }
     Ok(DVec3::from_array(v))
 }

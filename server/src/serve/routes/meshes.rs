@@ -17,10 +17,10 @@ use axum::body::{Body, Bytes};
 use axum::extract::rejection::{PathRejection, QueryRejection};
 use axum::extract::{Path, Query, State};
 use axum::http::header::{
-    ACCEPT_ENCODING, CONTENT_ENCODING, CONTENT_LENGTH, CONTENT_TYPE, RETRY_AFTER,
+    ACCEPT_ENCODING, CONTENT_ENCODING, CONTENT_LENGTH, CONTENT_TYPE, LOCATION, RETRY_AFTER,
 };
 use axum::http::{HeaderMap, HeaderValue, StatusCode};
-use axum::response::Response;
+use axum::response::{IntoResponse, Response};
 use axum::Json;
 use glam::DVec3;
 use http_body_util::BodyExt;
@@ -543,7 +543,7 @@ async fn next_frame(body: &mut Body) -> Option<Result<Option<Bytes>, axum::Error
 /// Reads and drops what is left of a refused body, for at most [`UPLOAD_READ_TIMEOUT`], after
 /// the answer has gone: hyper closes a connection whose request body nobody reads, and a
 /// client still sending would get a broken pipe instead of the answer.
-fn drain(mut body: Body) {
+pub(crate) fn drain(mut body: Body) {
     tokio::spawn(async move {
         let _ = tokio::time::timeout(UPLOAD_READ_TIMEOUT, async {
             while let Some(Ok(_)) = next_frame(&mut body).await {}
@@ -629,7 +629,7 @@ pub async fn upload(
     query: Result<Query<HashMap<String, String>>, QueryRejection>,
     headers: HeaderMap,
     body: Body,
-) -> ApiResult<(StatusCode, Json<Value>)> {
+) -> ApiResult<Response> {
     // A server that keeps no uploads says so before it reads one (up to 64 MiB).
     let target = upload_target(path, query, &headers).and_then(|t| {
         state
@@ -653,11 +653,28 @@ pub async fn upload(
         ));
     }
     let job_state = state.clone();
-    let entry = tokio::task::spawn_blocking(move || job_state.meshes.upload(&name, &body, format))
-        .await
-        .map_err(ApiError::internal)?
-        .map_err(upload_error)?;
-    Ok((StatusCode::CREATED, Json(summary(&entry))))
+    let (entry, replaced) =
+        tokio::task::spawn_blocking(move || job_state.meshes.upload(&name, &body, format))
+            .await
+            .map_err(ApiError::internal)?
+            .map_err(upload_error)?;
+    // RFC 9110 §15.3.2: a 201 names what it made. The mesh lives at the URL posted to, so the
+    // reference is its last segment (relative: right behind a proxy's prefix too). A mesh
+    // replaced was not created: 200.
+    let mut res = (
+        if replaced {
+            StatusCode::OK
+        } else {
+            StatusCode::CREATED
+        },
+        Json(summary(&entry)),
+    )
+        .into_response();
+    if !replaced {
+        let location = HeaderValue::from_str(&entry.name).map_err(ApiError::internal)?;
+        res.headers_mut().insert(LOCATION, location);
+    }
+    Ok(res)
 }
 
 /// The client's mesh is a 422 with what was wrong with it; a server that cannot store it is
