@@ -188,7 +188,8 @@ struct ErrorBody(StatusCode);
 /// extractor's plain-text rejection) is rewritten into the same JSON shape. So is an answer
 /// a layer turned into an error after the handler made it: the compression layer's 406 for
 /// `Accept-Encoding: identity;q=0` keeps the handler's body and headers (a tile, its ETag
-/// and Cache-Control), which must not go out as the error.
+/// and Cache-Control), which must not go out as the error. ([`super::codings`] answers
+/// those before the handler runs; this stays the backstop.)
 pub async fn json_errors(req: axum::extract::Request, next: axum::middleware::Next) -> Response {
     use axum::http::header;
     let res = next.run(req).await;
@@ -207,7 +208,7 @@ pub async fn json_errors(req: axum::extract::Request, next: axum::middleware::Ne
         StatusCode::PAYLOAD_TOO_LARGE => ("too_large", None),
         StatusCode::NOT_ACCEPTABLE => (
             "not_acceptable",
-            Some("no content coding the client accepts: this server sends gzip, br or identity"),
+            Some(super::codings::NOT_ACCEPTABLE_MESSAGE),
         ),
         s if s.is_server_error() => ("internal", None),
         _ => ("bad_request", None),

@@ -14,6 +14,7 @@
 
 pub mod built_once;
 pub mod catalog;
+pub mod codings;
 pub mod dataset;
 pub mod error;
 pub mod listen;
@@ -47,7 +48,6 @@ use axum::http::{header, Method, StatusCode};
 use axum::routing::get;
 use axum::Router;
 use tower_http::compression::predicate::{DefaultPredicate, NotForContentType, Predicate};
-use tower_http::compression::CompressionLayer;
 use tower_http::cors::{AllowOrigin, Any, CorsLayer};
 use tower_http::timeout::TimeoutLayer;
 use tower_http::trace::TraceLayer;
@@ -140,7 +140,8 @@ pub fn app(state: AppState) -> Router {
     routes
         .layer(axum::middleware::from_fn(plain_names::plain_names))
         .layer(axum::middleware::from_fn(metrics::note_body_bytes))
-        .layer(CompressionLayer::new().compress_when(compress))
+        .layer(axum::middleware::from_fn(codings::refuse_unacceptable))
+        .layer(codings::layer().compress_when(compress))
         .layer(TimeoutLayer::with_status_code(
             StatusCode::SERVICE_UNAVAILABLE,
             REQUEST_TIMEOUT,

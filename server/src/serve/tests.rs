@@ -1579,6 +1579,8 @@ async fn refusing_every_coding_is_a_406_error_not_a_tile() {
         assert!(text.contains(&series(406)), "{route}: {text}");
         assert!(!text.contains(&series(200)), "{route}: {text}");
     }
+    // Refused before the handler: no tile was decoded to be dropped.
+    assert!(text.contains("zerotile_tiles_decoded_total 0"), "{text}");
 }
 
 /// Meshes and quantized-mesh are gzipped once, when the client accepts it, and say so; the
