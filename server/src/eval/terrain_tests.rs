@@ -280,18 +280,37 @@ fn the_table_gives_each_meshs_share_of_the_full_mesh() {
         Some("remain"),
         "{text}"
     );
+    // The mesher is named, with what T bounds under it.
     assert!(
-        text.starts_with(&format!("{} (65×65, cdf97)", points[0].input)),
+        text.starts_with(&format!(
+            "{} (65×65, cdf97, bintree mesher: mesh err ≤ T)",
+            points[0].input
+        )),
         "{text}"
     );
-    assert_eq!(column(&text, 9), "25.0%", "{text}");
-    assert_eq!(column(&text, 8), "2048", "{text}");
+    assert_eq!(column(&text, 10), "25.0%", "{text}");
+    assert_eq!(column(&text, 9), "2048", "{text}");
+    assert_eq!(
+        column(&text, 8).parse::<f64>().unwrap(),
+        (points[0].mesh_max_abs_err * 1e3).round() / 1e3,
+        "{text}"
+    );
     points[0].cols = 33;
-    assert_eq!(column(&table(&points), 9), "50.0%");
+    assert_eq!(column(&table(&points), 10), "50.0%");
     points[0].rows = 1;
-    assert_eq!(column(&table(&points), 9), "-");
+    assert_eq!(column(&table(&points), 10), "-");
     points[0].psnr_db = None;
     assert_eq!(column(&table(&points), 4), "inf");
+    // A 64² window is no (2^k + 1)² grid: the zerotree mesher, whose error T does not bound.
+    let p = run(&n44(64, Sweep::Threshold(vec![4.0]))).unwrap();
+    assert_eq!(p[0].mesher, "zerotree");
+    assert!(
+        table(&p).lines().next().unwrap().ends_with(
+            "(64×64, cdf97, zerotree mesher: T stops the zerotree; mesh err not bounded by T)"
+        ),
+        "{}",
+        table(&p)
+    );
 }
 
 /// Numbers far from a column's usual size keep the column and their size: a 1e12 threshold
