@@ -200,6 +200,8 @@ pub fn build(job: &Ingest, map: &Heightmap) -> Result<(PathBuf, Metadata)> {
         let (rows, cols) = (map.heights.rows(), map.heights.cols());
         Tiling::new(Scheme::Local { rows, cols }, TILE_SIDE as u32)
             .with_context(|| format!("{}: cannot be tiled", job.input.display()))?;
+        check_local_lattice(rows, cols)
+            .with_context(|| format!("{}: cannot be tiled", job.input.display()))?;
         let fill = job.fill.unwrap_or(lo);
         let heights = map.heights.map(|&h| if h.is_finite() { h } else { fill });
         (local_plan(&heights), fill)
@@ -383,15 +385,36 @@ fn local_plan(heights: &Grid<f64>) -> Plan {
     }
 }
 
+/// Samples a local grid's padded lattice may hold: the input limit, with room for a square
+/// input's padding to whole tiles. The input limit alone does not bound it: a 2 × 30,000,000
+/// grid (60 M samples) pads to 257 rows, 7.7 G samples, and the ingest aborted out of memory.
+const MAX_LOCAL_LATTICE: u64 = raster::DEFAULT_MAX_SAMPLES as u64 / 4 * 5;
+
+/// A side of `n` samples padded to whole tiles.
+fn padded(n: usize) -> usize {
+    let step = TILE_SIDE - 1;
+    n.saturating_sub(1).div_ceil(step).max(1) * step + 1
+}
+
+/// Refuses a grid whose lattice, padded to whole tiles, would pass [`MAX_LOCAL_LATTICE`],
+/// before any of it is built.
+fn check_local_lattice(rows: usize, cols: usize) -> Result<()> {
+    let (r, c) = (padded(rows), padded(cols));
+    let samples = r as u64 * c as u64;
+    if samples > MAX_LOCAL_LATTICE {
+        bail!(
+            "a {rows}×{cols} grid pads to whole {TILE_SIDE}-sample tiles as a {r}×{c} lattice \
+             ({samples} samples, more than the {MAX_LOCAL_LATTICE} an ingest holds): a long, \
+             thin grid pads most; crop it, or split it into datasets"
+        );
+    }
+    Ok(())
+}
+
 /// The full-resolution lattice: the source padded to whole tiles by repeating its last row
 /// and column.
 fn full_resolution(heights: &Grid<f64>) -> Level {
-    let step = TILE_SIDE - 1;
-    let tiles = |n: usize| n.saturating_sub(1).div_ceil(step).max(1);
-    let (rows, cols) = (
-        tiles(heights.rows()) * step + 1,
-        tiles(heights.cols()) * step + 1,
-    );
+    let (rows, cols) = (padded(heights.rows()), padded(heights.cols()));
     let data = (0..rows * cols)
         .map(|k| {
             let r = (k / cols).min(heights.rows() - 1);
@@ -498,6 +521,34 @@ mod tests {
         for bad in ["", "../etc", "a/b", "x y", "é", &"x".repeat(65)] {
             assert!(check_name(bad).is_err(), "{bad:?}");
         }
+    }
+
+    /// The padded lattice is bounded, not only the input: a long, thin grid is refused before
+    /// its lattice is built, a square one at the input limit is not.
+    #[test]
+    fn a_grid_whose_padded_lattice_is_too_large_is_refused_up_front() {
+        assert!(check_local_lattice(16_384, 16_384).is_ok());
+        assert!(check_local_lattice(2, 400_000).is_ok());
+        let e = check_local_lattice(2, 30_000_000).unwrap_err().to_string();
+        assert!(
+            e.starts_with("a 2×30000000 grid pads to whole 257-sample tiles as a 257×30000129"),
+            "{e}"
+        );
+        // Through the ingest: refused before any lattice (514 M samples here) is built.
+        let data = scratch("thin");
+        let cols = 2_000_000;
+        let map = Heightmap::new(
+            Grid::new(2, cols, vec![1.0; 2 * cols]).unwrap(),
+            Some(1.0),
+            None,
+        );
+        let e = format!(
+            "{:#}",
+            build(&job("thin", "local", &data), &map).unwrap_err()
+        );
+        assert!(e.contains("cannot be tiled: a 2×2000000 grid pads"), "{e}");
+        assert!(!data.join("thin.ztd").exists());
+        let _ = std::fs::remove_dir_all(&data);
     }
 
     #[test]
