@@ -456,6 +456,9 @@ impl Decimator {
         self.removed[v as usize] = true;
         self.live_vertices -= 1;
         self.worst = self.worst.max(error);
+        // A guard only: `evaluate` refuses a removal that would leave a ring vertex without
+        // faces, so this never fires. Its `!` deleted and `-= 1` as `+=` or `/=` are
+        // equivalent mutants (`&&` as `||` removes every ring vertex and is caught).
         for &u in &ring {
             if self.vf[u as usize].is_empty() && !self.removed[u as usize] {
                 self.removed[u as usize] = true;
@@ -504,7 +507,9 @@ pub(crate) fn alive_mesh(positions: &[DVec3], faces: &[[u32; 3]], alive: &[bool]
 
 #[cfg(test)]
 mod tests {
-    use super::{epsilon, passes_below};
+    use super::super::tests::uv_sphere;
+    use super::super::DEFAULT_LAMBDA_C;
+    use super::*;
 
     #[test]
     fn epsilon_is_the_largest_ring_drift_at_the_scale() {
@@ -528,5 +533,123 @@ mod tests {
         assert_eq!(passes_below(&[(0.0, 1.0)], 1.0), Some(f64::INFINITY));
         assert_eq!(passes_below(&[(0.0, -3.0)], 1.0), None);
         assert_eq!(passes_below(&[(2.0, -1.0), (0.0, 3.0)], 1.0), None);
+    }
+
+    #[test]
+    fn quantile_is_the_nearest_rank_in_sorted_order() {
+        // 0 … 100 reversed: the q-quantile is the value at rank round(100 q) of the sorted
+        // list, here the value q·100 itself.
+        let v: Vec<f64> = (0..=100).rev().map(f64::from).collect();
+        assert_eq!(quantile(v.clone(), 0.97), 97.0);
+        assert_eq!(quantile(v.clone(), 0.5), 50.0);
+        assert_eq!(quantile(v.clone(), 0.004), 0.0);
+        assert_eq!(quantile(v.clone(), 0.006), 1.0);
+        assert_eq!(quantile(v.clone(), 1.0), 100.0);
+        // q is clamped to [0, 1]; an empty list has quantile 0.
+        assert_eq!(quantile(v.clone(), 2.0), 100.0);
+        assert_eq!(quantile(v, -1.0), 0.0);
+        assert_eq!(quantile(vec![-3.0, -7.0], 0.97), -3.0);
+        assert_eq!(quantile(Vec::new(), 0.5), 0.0);
+    }
+
+    #[test]
+    fn one_run_removes_in_order_of_w_as_one_run_per_removal_does() {
+        // With no area part (λ_a = 0) W does not move with the scale, and at an unbounded ε
+        // nothing is parked: one run taking k removals must take the same ones as k runs
+        // of one removal, each of which starts from a fresh queue of every vertex's W now.
+        // A queue entry left from before a removal changed its vertex's W must be skipped:
+        // taken at its old W, it removes out of order.
+        let sphere = uv_sphere(10, 20, 1.0);
+        let n = sphere.faces.len();
+        let w = Weights {
+            area: 0.0,
+            ..Weights::default()
+        };
+        let k = 10;
+        let mut one = Decimator::new(&sphere, w, DEFAULT_LAMBDA_C);
+        one.run_to_error_until(f64::INFINITY, n - 2 * k);
+        // Nothing refused: the one run had nothing it would not try again.
+        assert!(one.refused.iter().all(Option::is_none));
+        let mut each = Decimator::new(&sphere, w, DEFAULT_LAMBDA_C);
+        for i in 1..=k {
+            each.run_to_error_until(f64::INFINITY, n - 2 * i);
+            assert_eq!(each.faces(), n - 2 * i);
+        }
+        assert_eq!(one.faces(), n - 2 * k);
+        assert_eq!(one.mesh(), each.mesh());
+    }
+
+    #[test]
+    fn a_removals_epsilon_is_its_rings_w_change_at_the_scale_after_it() {
+        // Eq. 9 on the mesh the removal leaves: the ring's W there, its area part scaled by
+        // the input's area scale × N_input / N_now with N_now the vertices left, against W
+        // on the input.
+        let sphere = uv_sphere(10, 20, 1.0);
+        let n = sphere.faces.len();
+        let mut d = Decimator::new(&sphere, Weights::default(), DEFAULT_LAMBDA_C);
+        d.run_to_error_until(f64::INFINITY, n - 2);
+        assert_eq!(d.vertices(), sphere.positions.len() - 1);
+        let gone = d.removed.iter().position(|&r| r).unwrap() as u32;
+        let mut ring: Vec<u32> = sphere
+            .faces
+            .iter()
+            .filter(|f| f.contains(&gone))
+            .flatten()
+            .copied()
+            .filter(|&u| u != gone)
+            .collect();
+        ring.sort_unstable();
+        ring.dedup();
+        assert!(ring.len() >= 3, "{ring:?}");
+        let scale = d.area_max * sphere.positions.len() as f64 / d.vertices() as f64;
+        let eps = ring
+            .iter()
+            .map(|&u| {
+                let w = discrete_curvature(&d.measure_now(u), scale, d.weighted_max, &d.weights);
+                (w - d.w_orig[u as usize]).abs()
+            })
+            .fold(0.0, f64::max);
+        assert!(eps > 0.0);
+        assert!(
+            (d.worst_error() - eps).abs() <= 1e-12 * eps,
+            "ε {} against {eps}",
+            d.worst_error()
+        );
+    }
+
+    #[test]
+    fn a_removal_may_leave_no_ring_vertex_without_faces() {
+        // The centre of a flat 3 × 3 grid: two of its ring's corners have no face but the
+        // centre's, and keep faces of the refill, so the centre may go.
+        let mut positions = Vec::new();
+        for y in 0..3 {
+            for x in 0..3 {
+                positions.push(DVec3::new(f64::from(x), f64::from(y), 0.0));
+            }
+        }
+        let mut faces = Vec::new();
+        for y in 0..2u32 {
+            for x in 0..2u32 {
+                let a = y * 3 + x;
+                faces.push([a, a + 1, a + 4]);
+                faces.push([a, a + 4, a + 3]);
+            }
+        }
+        let grid = TriMesh { positions, faces };
+        let d = Decimator::new(&grid, Weights::default(), DEFAULT_LAMBDA_C);
+        assert!(d.vf[0].iter().all(|&f| d.faces[f as usize].contains(&4)));
+        let r = d.evaluate(4).expect("the centre may go");
+        assert!(r.faces.iter().any(|f| f.contains(&0)), "{:?}", r.faces);
+        // A lone triangle's corner: the refill has no face and lets it go, but the other
+        // two corners would be left with none.
+        let lone = TriMesh {
+            positions: vec![DVec3::ZERO, DVec3::X, DVec3::Y],
+            faces: vec![[0, 1, 2]],
+        };
+        let d = Decimator::new(&lone, Weights::default(), DEFAULT_LAMBDA_C);
+        assert!(!d.locked[0]);
+        let fill = refill(0, &d.vf, &d.faces, |i| d.pos[i as usize], 0.5, None);
+        assert_eq!(fill.map(|(_, new)| new.len()), Some(0));
+        assert!(d.evaluate(0).is_none());
     }
 }

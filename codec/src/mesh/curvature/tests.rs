@@ -4,7 +4,7 @@ use super::measure::{measure, Weights};
 use super::*;
 
 /// A UV sphere of radius `r`: `rings` latitudes between the poles, `segments` around.
-fn uv_sphere(rings: usize, segments: usize, r: f64) -> TriMesh {
+pub(super) fn uv_sphere(rings: usize, segments: usize, r: f64) -> TriMesh {
     let mut positions = vec![DVec3::Z * r];
     for i in 1..=rings {
         let t = std::f64::consts::PI * i as f64 / (rings + 1) as f64;
