@@ -47,8 +47,23 @@ impl From<std::io::Error> for MeshError {
 #[derive(Debug, Error, Clone, PartialEq)]
 #[non_exhaustive]
 pub enum InvalidMesh {
-    #[error("{count} vertices have NaN or infinite coordinates (first: vertex {first})")]
+    /// `first` counts from 0 in the mesh as read (PLY's and JSON's own order).
+    #[error(
+        "{count} {} NaN or infinite coordinates (first: vertex index {first}, from 0)",
+        if *count == 1 { "vertex has" } else { "vertices have" }
+    )]
     NonFiniteCoordinates { count: usize, first: usize },
+    /// The same in an OBJ, named as the file numbers it: tobj renumbers the vertices the faces
+    /// use, so an index in its order named a vertex the file did not have there.
+    #[error(
+        "{count} {} NaN or infinite coordinates (first: `v` statement {vertex}, line {line})",
+        if *count == 1 { "vertex has" } else { "vertices have" }
+    )]
+    NonFiniteObjVertex {
+        count: usize,
+        vertex: usize,
+        line: usize,
+    },
     #[error(
         "{count} face indices are out of range for {vertices} vertices (first: face {face}, \
          index {index})"

@@ -7,7 +7,7 @@ use std::io::Write;
 use glam::DVec3;
 
 use super::{push_fan, MeshLimits};
-use crate::mesh::error::MeshError;
+use crate::mesh::error::{InvalidMesh, MeshError};
 use crate::mesh::indexed::TriMesh;
 
 const FORMAT: &str = "OBJ";
@@ -61,11 +61,42 @@ pub(super) fn read(bytes: &[u8], limits: &MeshLimits) -> Result<TriMesh, MeshErr
             }
         }
     }
+    let count = positions.iter().filter(|p| !p.is_finite()).count();
+    if count > 0 {
+        if let Some((vertex, line)) = first_non_finite_v(&text) {
+            return Err(InvalidMesh::NonFiniteObjVertex {
+                count,
+                vertex,
+                line,
+            }
+            .into());
+        }
+    }
     let mut out = TriMesh::new(positions, faces);
     if models.len() > 1 {
         rejoin_models(&mut out, &model_of);
     }
     Ok(out)
+}
+
+/// The first `v` statement with a coordinate that reads as NaN or infinite: its number, as
+/// faces count them (from 1), and its line.
+fn first_non_finite_v(text: &str) -> Option<(usize, usize)> {
+    let mut vertex = 0;
+    for (k, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        if words.next() != Some("v") {
+            continue;
+        }
+        vertex += 1;
+        let bad = words
+            .take(3)
+            .any(|w| w.parse::<f64>().is_ok_and(|x| !x.is_finite()));
+        if bad {
+            return Some((vertex, k + 1));
+        }
+    }
+    None
 }
 
 /// The text without its polyline statements (`l a b c …`). tobj parses `l` like `f`, so a

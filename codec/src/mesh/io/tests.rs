@@ -553,11 +553,26 @@ fn nan_coordinates_are_rejected() {
     let obj = b"v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n";
     assert!(matches!(
         read_bytes(obj, None, &limits()),
-        Err(MeshError::Invalid(InvalidMesh::NonFiniteCoordinates {
+        Err(MeshError::Invalid(InvalidMesh::NonFiniteObjVertex {
             count: 1,
-            first: 1
+            vertex: 2,
+            line: 2
         }))
     ));
+    // Named as the file numbers it, not as tobj renumbers the vertices faces use (this NaN
+    // vertex is used last, so it was "vertex 3").
+    let obj = b"# nan\nv nan 0 0\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 2 3 4\nf 2 3 1\n";
+    let e = read_bytes(obj, None, &limits()).unwrap_err().to_string();
+    assert!(
+        e.ends_with("1 vertex has NaN or infinite coordinates (first: `v` statement 1, line 2)"),
+        "{e}"
+    );
+    // Other formats count from 0, in their own order, and say so.
+    let e = InvalidMesh::NonFiniteCoordinates { count: 2, first: 2 }.to_string();
+    assert_eq!(
+        e,
+        "2 vertices have NaN or infinite coordinates (first: vertex index 2, from 0)"
+    );
     let json = br#"{"positions": [0,0,0, 1,0,0, 0,1,0], "indices": [0,1,7]}"#;
     assert!(matches!(
         read_bytes(json, None, &limits()),
