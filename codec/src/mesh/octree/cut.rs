@@ -72,6 +72,8 @@ pub fn vertex_map(
             continue;
         };
         let rep = classes.representative[b as usize];
+        // With `&&` for `||` the same: a leaf never has a representative, and an internal box
+        // has none only when none of its vertices is interior, so the loop maps nothing.
         if node.is_leaf() || rep == u32::MAX {
             continue;
         }

@@ -529,3 +529,110 @@ fn any_view_and_base_level_gives_a_closed_mixed_mesh() {
         }
     }
 }
+
+#[test]
+fn boxes_are_octants_of_the_bounding_cube_and_are_counted_per_depth() {
+    // The tree against its definition (§II.1), box by box: the root is the mesh's bounding
+    // cube, each child an octant of its parent (half its side, centred a quarter side off the
+    // parent's centre on every axis), and the per-depth counts are what the node list holds.
+    // (The box-in-box test above cannot see boxes too large: they still hold their vertices.)
+    let mesh = shared("fandisk.obj");
+    let lod = build(&mesh);
+    let tree = &lod.tree;
+    let (lo, hi) = mesh
+        .positions
+        .iter()
+        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &p| {
+            (lo.min(p), hi.max(p))
+        });
+    // fandisk's bounding box is not a cube: the root is wider on its short axes.
+    assert!((hi - lo).min_element() < (hi - lo).max_element());
+    let root = &tree.nodes[0];
+    assert_eq!(root.centre, (lo + hi) / 2.0);
+    assert_eq!(root.half * 2.0, (hi - lo).max_element());
+    let eps = root.half * 1e-12;
+    for (i, node) in tree.nodes.iter().enumerate().skip(1) {
+        let parent = &tree.nodes[node.parent as usize];
+        assert!(parent.child_range().contains(&i), "box {i}");
+        assert_eq!(node.depth, parent.depth + 1, "box {i}");
+        assert_eq!(node.half, parent.half / 2.0, "box {i}");
+        let off = (node.centre - parent.centre).abs() - DVec3::splat(node.half);
+        assert!(
+            off.abs().max_element() <= eps,
+            "box {i} is no octant: {off}"
+        );
+    }
+    // Every vertex's leaf is a leaf holding it.
+    for (v, &l) in tree.leaf_of.iter().enumerate() {
+        let leaf = &tree.nodes[l as usize];
+        assert!(leaf.is_leaf(), "vertex {v}");
+        assert!(
+            tree.order[leaf.vertex_range()].contains(&(v as u32)),
+            "vertex {v}"
+        );
+    }
+    // Counts: the modified tree's are its boxes, the plain tree's eight per box split above.
+    let depth = lod.max_level() as usize;
+    let (mut boxes, mut split) = (vec![0usize; depth + 2], vec![0usize; depth + 2]);
+    for node in &tree.nodes {
+        boxes[node.depth as usize] += 1;
+        split[node.depth as usize] += usize::from(!node.is_leaf());
+    }
+    assert!(boxes[depth] > 0 && boxes[depth + 1] == 0);
+    assert_eq!(lod.levels().len(), depth + 1);
+    for l in lod.levels() {
+        let d = l.level as usize;
+        assert_eq!(l.boxes, boxes[d], "depth {d}");
+        let plain = if d == 0 { 1 } else { 8 * split[d - 1] };
+        assert_eq!(l.plain_boxes, plain, "depth {d}");
+    }
+    let internal: usize = split.iter().sum();
+    assert_eq!(lod.box_totals(), (tree.nodes.len(), 1 + 8 * internal));
+    assert_eq!(lod.mesh(), &mesh);
+}
+
+#[test]
+fn browse_memory_is_counted_from_the_meshes() {
+    // 24 bytes a vertex (three f64) and 12 a triangle (three u32), mixed mesh and full model.
+    let mesh = shared("uv-sphere-5002.obj");
+    let lod = build(&mesh);
+    let browsed = lod
+        .browse(3, &front_view(&mesh), &centred_roi(0.1))
+        .expect("browses");
+    let m = &browsed.cut.mesh;
+    assert!(m.face_count() < mesh.face_count());
+    assert_eq!(browsed.bytes, 24 * m.positions.len() + 12 * m.faces.len());
+    assert_eq!(browsed.full_bytes, 24 * 5_002 + 12 * 10_000);
+}
+
+#[test]
+fn common_ancestor_is_the_deepest_box_holding_both() {
+    // Against the parent chains walked here: a box with itself, with each of its ancestors
+    // (either way round) and consecutive vertices' leaves. Classification asks all three
+    // kinds (a triangle's vertices can share a leaf, or the first two's ancestor can hold
+    // the third's leaf).
+    let mesh = shared("fandisk.obj");
+    let tree = Octree::build(&mesh.positions, DEFAULT_MAX_DEPTH, DEFAULT_LEAF_VERTICES);
+    let chain = |mut b: u32| {
+        let mut up = vec![b];
+        while tree.nodes[b as usize].parent != u32::MAX {
+            b = tree.nodes[b as usize].parent;
+            up.push(b);
+        }
+        up
+    };
+    for b in 0..tree.nodes.len() as u32 {
+        assert_eq!(tree.common_ancestor(b, b), b);
+        for a in chain(b) {
+            assert_eq!(tree.common_ancestor(b, a), a, "box {b}, ancestor {a}");
+            assert_eq!(tree.common_ancestor(a, b), a, "ancestor {a}, box {b}");
+        }
+    }
+    for w in tree.leaf_of.windows(2) {
+        let (x, y) = (w[0], w[1]);
+        let (up_x, up_y) = (chain(x), chain(y));
+        let expected = *up_x.iter().find(|a| up_y.contains(a)).expect("the root");
+        assert_eq!(tree.common_ancestor(x, y), expected);
+        assert_eq!(tree.common_ancestor(y, x), expected);
+    }
+}

@@ -101,6 +101,7 @@ impl Octree {
                 continue;
             }
             // Bucket the box's vertices by octant (a stable counting sort in place).
+            // The three bits are disjoint: `^` for either `|` gives the same octant.
             let octant = |v: u32| {
                 let d = positions[v as usize] - node.centre;
                 usize::from(d.x >= 0.0)
