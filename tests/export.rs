@@ -301,11 +301,16 @@ fn a_partial_export_lists_only_its_zooms() {
         ],
         &dir,
     ));
+    // What an export killed mid-render left (its process gone) is swept by the next one.
+    let leftover = dir.join(".low.export-4294967295");
+    std::fs::create_dir_all(leftover.join("3/1")).unwrap();
+    std::fs::write(leftover.join("3/1/0.terrain"), b"partial").unwrap();
     let out = zerotile(
         &["export", "n44", "--out", "low", "--zoom", "0-8", "--quiet"],
         &dir,
     );
     assert_success(&out);
+    assert!(!leftover.exists());
     assert!(
         out.stderr.is_empty(),
         "{}",

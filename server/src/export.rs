@@ -201,6 +201,7 @@ pub fn run(job: &Export) -> Result<Exported> {
         .context("--out must name a folder")?
         .to_string_lossy()
         .into_owned();
+    crate::ingest::sweep_leftovers(parent, &format!(".{name}.export-"));
     let tmp = parent.join(format!(".{name}.export-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&tmp);
     // The dataset goes into a private server state (opened once): its decode cache serves

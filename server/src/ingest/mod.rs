@@ -467,13 +467,11 @@ pub fn write_atomically(target: &Path, bytes: &[u8]) -> Result<()> {
         .filter(|d| !d.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let tmp = dir.join(format!(
-        ".{}.tmp-{}-{n}",
-        target
-            .file_name()
-            .map_or_else(String::new, |f| f.to_string_lossy().into_owned()),
-        std::process::id()
-    ));
+    let name = target
+        .file_name()
+        .map_or_else(String::new, |f| f.to_string_lossy().into_owned());
+    sweep_leftovers(dir, &format!(".{name}.tmp-"));
+    let tmp = dir.join(format!(".{name}.tmp-{}-{n}", std::process::id()));
     let result = (|| -> Result<()> {
         let mut f = std::fs::File::create(&tmp)?;
         f.write_all(bytes)?;
@@ -485,6 +483,41 @@ pub fn write_atomically(target: &Path, bytes: &[u8]) -> Result<()> {
         let _ = std::fs::remove_file(&tmp);
     }
     result.with_context(|| format!("writing {}", target.display()))
+}
+
+/// Removes the files or folders in `dir` named `PREFIX{pid}…` whose process is gone: what a
+/// run killed mid-write (Ctrl-C, SIGKILL) left of its temporary copy, which nothing else
+/// would remove. A run still going keeps its own. Only where `/proc` tells which processes
+/// live (Linux); elsewhere nothing is removed. It assumes one host writes the folder.
+pub fn sweep_leftovers(dir: &Path, prefix: &str) {
+    if !Path::new("/proc/self").exists() {
+        return;
+    }
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let file = entry.file_name();
+        let Some(rest) = file.to_str().and_then(|f| f.strip_prefix(prefix)) else {
+            continue;
+        };
+        let pid = rest.split('-').next().unwrap_or_default();
+        if pid.is_empty() || !pid.bytes().all(|b| b.is_ascii_digit()) {
+            continue;
+        }
+        if Path::new("/proc").join(pid).exists() {
+            continue;
+        }
+        let path = entry.path();
+        let removed = if path.is_dir() {
+            std::fs::remove_dir_all(&path)
+        } else {
+            std::fs::remove_file(&path)
+        };
+        if removed.is_ok() {
+            tracing::info!("removed {}, left by an interrupted run", path.display());
+        }
+    }
 }
 
 /// Seconds since the epoch as RFC 3339 UTC, without a date-time dependency.
@@ -549,6 +582,24 @@ mod tests {
         assert!(e.contains("cannot be tiled: a 2×2000000 grid pads"), "{e}");
         assert!(!data.join("thin.ztd").exists());
         let _ = std::fs::remove_dir_all(&data);
+    }
+
+    /// A temporary file an interrupted run left goes at the next write of that target; one of
+    /// a live process (this one) and those of other targets stay.
+    #[test]
+    fn a_killed_runs_temporary_file_is_swept_at_the_next_write() {
+        let dir = scratch("sweep");
+        std::fs::create_dir_all(&dir).unwrap();
+        let dead = dir.join(".a.ztd.tmp-4294967295-0");
+        let live = dir.join(format!(".a.ztd.tmp-{}-9", std::process::id()));
+        let other = dir.join(".b.ztd.tmp-4294967295-0");
+        for f in [&dead, &live, &other] {
+            std::fs::write(f, b"partial").unwrap();
+        }
+        write_atomically(&dir.join("a.ztd"), b"whole").unwrap();
+        assert_eq!(std::fs::read(dir.join("a.ztd")).unwrap(), b"whole");
+        assert!(!dead.exists() && live.exists() && other.exists());
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]
