@@ -371,23 +371,35 @@ fn ingest(a: IngestArgs) -> anyhow::Result<()> {
         progress: !a.quiet,
     };
     let started = std::time::Instant::now();
+    let existed = job
+        .data
+        .join(format!("{}.{}", job.name, crate::ingest::EXTENSION))
+        .is_file();
     let (path, m) = crate::ingest::run(&job)?;
     println!(
         "{}",
-        ingest_summary(&path, &m, started.elapsed().as_secs_f64())
+        ingest_summary(&path, &m, started.elapsed().as_secs_f64(), existed)
     );
     Ok(())
 }
 
-/// The line a finished ingest prints: what was built, its size and rate, and how long.
+/// The line a finished ingest prints: what was built, its size and rate, and how long; and
+/// whether it replaced a dataset of that name, which would otherwise go without a word.
 fn ingest_summary(
     path: &std::path::Path,
     m: &zerotile_codec::container::Metadata,
     secs: f64,
+    replaced: bool,
 ) -> String {
     let tiles: u128 = m.available.iter().flatten().map(|a| a.tile_count()).sum();
+    let replaced = if replaced {
+        " (replaced the dataset of that name; a running server serves it from its next start)"
+    } else {
+        ""
+    };
     format!(
-        "{}: {tiles} tiles, zooms {}..={}, {} stream bytes ({:.3} bits/sample), {secs:.1} s",
+        "{}: {tiles} tiles, zooms {}..={}, {} stream bytes ({:.3} bits/sample), {secs:.1} \
+         s{replaced}",
         path.display(),
         m.min_zoom,
         m.max_zoom,
@@ -614,14 +626,14 @@ fn eval_terrain(a: TerrainArgs) -> anyhow::Result<()> {
 fn terrain_eval(a: TerrainArgs) -> anyhow::Result<terrain::TerrainEval> {
     check_reader_flags(&a.input, a.encoding, a.key.as_deref())?;
     let sweep = if let Some(t) = &a.threshold {
-        terrain::Sweep::Threshold(eval::parse_list("--threshold", t).map_err(anyhow::Error::msg)?)
+        let ts = eval::parse_list("--threshold", t, true).map_err(anyhow::Error::msg)?;
+        terrain::Sweep::Threshold(ts)
     } else if let Some(b) = &a.bpp {
-        terrain::Sweep::Bpp(eval::parse_list("--bpp", b).map_err(anyhow::Error::msg)?)
+        // 0 is refused later with the smallest rate that decodes anything.
+        terrain::Sweep::Bpp(eval::parse_list("--bpp", b, true).map_err(anyhow::Error::msg)?)
     } else if let Some(e) = &a.max_error {
-        let es = eval::parse_list("--max-error", e).map_err(anyhow::Error::msg)?;
-        if es.iter().any(|&e| e <= 0.0) {
-            anyhow::bail!("--max-error: bounds must be > 0 (use --lossless for exact)");
-        }
+        let es = eval::parse_list("--max-error", e, false)
+            .map_err(|e| anyhow::anyhow!("{e} (use --lossless for exact)"))?;
         terrain::Sweep::MaxError(es)
     } else {
         terrain::Sweep::Lossless

@@ -174,8 +174,16 @@ fn eval_terrain_takes_each_sweep_with_its_defaults() {
 fn eval_terrain_refuses_values_no_run_could_use() {
     // Flags as typed, split at spaces.
     for (args, want) in [
-        ("--max-error 0", "--max-error: bounds must be > 0"),
-        ("--max-error 2,0", "--max-error: bounds must be > 0"),
+        (
+            "--max-error 0",
+            "--max-error: '0' must be finite and > 0 (use --lossless",
+        ),
+        ("--max-error 2,0", "--max-error: '0' must be finite and > 0"),
+        // Said the same way: it was "≥ 0" for -1, then "> 0" for the 0 it suggested.
+        (
+            "--max-error=-1",
+            "--max-error: '-1' must be finite and > 0 (use --lossless",
+        ),
         ("--threshold 1,x", "--threshold: 'x' is not a number"),
         ("--bpp=0.5,-1", "--bpp: '-1' must be finite"),
         ("--lossless --step 0", "--step must be finite and > 0"),
@@ -274,9 +282,11 @@ fn done_lines_say_what_was_built() {
             end_y: 3,
         }]);
     assert_eq!(
-        ingest_summary(Path::new("data/t.ztd"), &m, 2.46),
+        ingest_summary(Path::new("data/t.ztd"), &m, 2.46, false),
         "data/t.ztd: 7 tiles, zooms 0..=1, 66049 stream bytes (8.000 bits/sample), 2.5 s"
     );
+    assert!(ingest_summary(Path::new("data/t.ztd"), &m, 2.46, true)
+        .ends_with("2.5 s (replaced the dataset of that name; a running server serves it from its next start)"));
 }
 
 /// A one-connection server answering `reply` to whatever it is asked; its address.

@@ -80,6 +80,14 @@ pub fn parse_zooms(s: &str) -> Result<(u8, u8), String> {
 /// export. Refusing before any work keeps a user's files (or a file named like the folder)
 /// from being swapped away.
 fn check_out(out: &Path) -> Result<()> {
+    // `.` inside an earlier export is a folder, but one with no name to make a sibling by.
+    if out.file_name().is_none() {
+        bail!(
+            "--out {}: name the folder itself (`../tiles`, say), not `.` or `..`: the export is \
+             made beside it and swapped in",
+            out.display()
+        );
+    }
     let meta = match std::fs::symlink_metadata(out) {
         Ok(m) => m,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
@@ -198,7 +206,7 @@ pub fn run(job: &Export) -> Result<Exported> {
     let name = job
         .out
         .file_name()
-        .context("--out must name a folder")?
+        .context("--out has no name (check_out refuses that)")?
         .to_string_lossy()
         .into_owned();
     crate::ingest::sweep_leftovers(parent, &format!(".{name}.export-"));
@@ -363,6 +371,10 @@ mod tests {
         assert!(err.contains("symbolic link"), "{err}");
         assert!(check_out(&dir.join("real")).is_ok());
         assert!(check_out(&dir.join("absent")).is_ok());
+        for nameless in [".", "..", "a/.."] {
+            let err = check_out(Path::new(nameless)).unwrap_err().to_string();
+            assert!(err.contains("name the folder itself"), "{nameless}: {err}");
+        }
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -57,18 +57,19 @@ pub fn parse_repeat() -> clap::builder::RangedU64ValueParser<usize> {
     clap::builder::RangedU64ValueParser::new().range(1..=100)
 }
 
-/// Parses "a,b,c" into numbers, naming the flag in the error.
-pub fn parse_list(flag: &str, s: &str) -> Result<Vec<f64>, String> {
+/// Parses "a,b,c" into finite numbers ≥ 0, or > 0 unless `zero_ok`, naming the flag in the
+/// error (one message for -1 and 0 where both are refused).
+pub fn parse_list(flag: &str, s: &str, zero_ok: bool) -> Result<Vec<f64>, String> {
     s.split(',')
         .map(|p| {
             let v: f64 = p
                 .trim()
                 .parse()
                 .map_err(|_| format!("{flag}: '{p}' is not a number"))?;
-            if v.is_finite() && v >= 0.0 {
-                Ok(v)
-            } else {
-                Err(format!("{flag}: '{p}' must be finite and ≥ 0"))
+            match (v.is_finite() && v > 0.0, v == 0.0, zero_ok) {
+                (true, _, _) | (_, true, true) => Ok(v),
+                (_, _, true) => Err(format!("{flag}: '{p}' must be finite and ≥ 0")),
+                _ => Err(format!("{flag}: '{p}' must be finite and > 0")),
             }
         })
         .collect()

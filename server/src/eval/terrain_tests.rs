@@ -195,12 +195,21 @@ fn eight_bit_stretches_the_window_to_0_255_and_metres_peak_at_their_range() {
 
 #[test]
 fn a_parameter_list_takes_zero_and_refuses_negatives() {
-    assert_eq!(parse_list("--bpp", "0, 1.5").unwrap(), [0.0, 1.5]);
-    let e = parse_list("--bpp", "1,-1").unwrap_err();
+    assert_eq!(parse_list("--bpp", "0, 1.5", true).unwrap(), [0.0, 1.5]);
+    let e = parse_list("--bpp", "1,-1", true).unwrap_err();
     assert!(e.contains("'-1' must be finite and ≥ 0"), "{e}");
-    assert!(parse_list("--bpp", "1,x")
+    assert!(parse_list("--bpp", "1,x", true)
         .unwrap_err()
         .contains("'x' is not a number"));
+    // Where 0 is refused too, one message says so for both.
+    for bad in ["0", "-1", "inf", "nan"] {
+        let e = parse_list("--max-error", bad, false).unwrap_err();
+        assert!(
+            e.ends_with(&format!("'{bad}' must be finite and > 0")),
+            "{e}"
+        );
+    }
+    assert_eq!(parse_list("--max-error", "0.5", false).unwrap(), [0.5]);
 }
 
 /// 8-bit means integer steps with every height in 0..=255: the peak is then 255, not the
