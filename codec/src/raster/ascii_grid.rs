@@ -5,7 +5,9 @@
 //! Header keys, in any order and any case: `ncols`, `nrows`, `xllcorner` or `xllcenter`,
 //! `yllcorner` or `yllcenter`, `cellsize` (or GDAL's `dx` and `dy`), optional `nodata_value`.
 //! The `ll` position is the lower-left cell's outer corner or its centre; [`Georef`] is
-//! centre-based, so a corner moves by half a cell. The format names no CRS.
+//! centre-based, so a corner moves by half a cell. The format names no CRS; the `.prj` file
+//! GIS tools write beside it (WKT, ESRI's or OGC's) does, and is read for the two CRSs the
+//! world tilings take: WGS 84 longitude/latitude (EPSG:4326) and Web Mercator (EPSG:3857).
 //!
 //! The text is read as a stream of whitespace-separated tokens of bounded length, so a file
 //! of any size is read in memory proportional to the raster it declares.
@@ -82,7 +84,65 @@ pub(super) fn read(path: &Path, opts: &ReadOptions) -> Result<Heightmap, RasterE
     let heights = Grid::new(header.nrows, header.ncols, heights)
         .map_err(|e| RasterError::format(path, e.to_string()))?;
     let step = all_integers.then_some(1.0);
-    Ok(Heightmap::new(heights, step, header.georef()))
+    let georef = header.georef().map(|g| Georef {
+        crs: sidecar_crs(path),
+        ..g
+    });
+    Ok(Heightmap::new(heights, step, georef))
+}
+
+/// The longest `.prj` read: a WKT CRS is a few kilobytes.
+const MAX_PRJ_BYTES: u64 = 64 * 1024;
+
+/// The CRS the `.prj` beside `path` names, [`Crs::Unknown`] when there is none or it names
+/// another.
+fn sidecar_crs(path: &Path) -> Crs {
+    use std::io::Read as _;
+    let mut text = String::new();
+    let read = ["prj", "PRJ"].iter().find_map(|ext| {
+        let f = std::fs::File::open(path.with_extension(ext)).ok()?;
+        f.take(MAX_PRJ_BYTES).read_to_string(&mut text).ok()
+    });
+    match read {
+        Some(_) => crs_of_wkt(&text),
+        None => Crs::Unknown,
+    }
+}
+
+/// Recognises WGS 84 geographic and Web Mercator in WKT 1 (OGC's or ESRI's) or WKT 2, by the
+/// names those CRSs go by; anything else is [`Crs::Unknown`] (ingest then says to reproject).
+fn crs_of_wkt(wkt: &str) -> Crs {
+    let w: String = wkt
+        .to_ascii_uppercase()
+        .chars()
+        .filter(|c| !c.is_whitespace())
+        .collect();
+    let projected = ["PROJCS[", "PROJCRS[", "PROJECTEDCRS["]
+        .iter()
+        .any(|k| w.starts_with(k));
+    let geographic = ["GEOGCS[", "GEOGCRS[", "GEOGRAPHICCRS[", "GEODCRS["]
+        .iter()
+        .any(|k| w.starts_with(k));
+    let wgs84 = ["WGS84", "WGS_84", "WGS_1984"]
+        .iter()
+        .any(|k| w.contains(k));
+    if projected {
+        let mercator = [
+            "PSEUDO-MERCATOR",
+            "PSEUDO_MERCATOR",
+            "WEB_MERCATOR",
+            "MERCATOR_AUXILIARY_SPHERE",
+            "POPULAR_VISUALISATION",
+        ]
+        .iter()
+        .any(|k| w.contains(k));
+        if mercator && wgs84 {
+            return Crs::WebMercator;
+        }
+    } else if geographic && wgs84 {
+        return Crs::Geographic;
+    }
+    Crs::Unknown
 }
 
 /// The header's values.
@@ -280,6 +340,47 @@ mod tests {
         assert_eq!(g.crs, Crs::Unknown);
         assert_eq!(g.position(0.0, 0.0), (105.0, 215.0));
         assert_eq!(g.position(1.0, 2.0), (125.0, 205.0));
+    }
+
+    /// The CRS comes from a `.prj` beside the grid, as GIS tools write it (ESRI's WKT here,
+    /// OGC's and WKT 2 below); without one, or naming another CRS, it stays unknown.
+    #[test]
+    fn a_prj_beside_the_grid_names_its_crs() {
+        let text = "ncols 2\nnrows 2\nxllcorner -72\nyllcorner 44\ncellsize 0.001\n1 2\n3 4\n";
+        let crs = |name: &str, prj: Option<&str>| {
+            let dir = scratch_dir(&format!("asc_prj_{name}"));
+            let path = dir.join("g.asc");
+            std::fs::write(&path, text).unwrap();
+            let _ = std::fs::remove_file(dir.join("g.prj"));
+            if let Some(p) = prj {
+                std::fs::write(dir.join("g.prj"), p).unwrap();
+            }
+            read(&path, &ReadOptions::default())
+                .unwrap()
+                .georef
+                .unwrap()
+                .crs
+        };
+        const ESRI_WGS84: &str = r#"GEOGCS["GCS_WGS_1984",DATUM["D_WGS_1984",SPHEROID["WGS_1984",6378137.0,298.257223563]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]]"#;
+        const OGC_WGS84: &str = r#"GEOGCS["WGS 84",DATUM["WGS_1984",SPHEROID["WGS 84",6378137,298.257223563,AUTHORITY["EPSG","7030"]],AUTHORITY["EPSG","6326"]],PRIMEM["Greenwich",0],UNIT["degree",0.0174532925199433],AUTHORITY["EPSG","4326"]]"#;
+        const WKT2_WGS84: &str = "GEOGCRS[\"WGS 84\",\n  DATUM[\"World Geodetic System 1984\",\n    ELLIPSOID[\"WGS 84\",6378137,298.257223563]],\n  CS[ellipsoidal,2],\n  ID[\"EPSG\",4326]]";
+        const ESRI_WEB: &str = r#"PROJCS["WGS_1984_Web_Mercator_Auxiliary_Sphere",GEOGCS["GCS_WGS_1984",DATUM["D_WGS_1984",SPHEROID["WGS_1984",6378137.0,298.257223563]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]],PROJECTION["Mercator_Auxiliary_Sphere"],UNIT["Meter",1.0]]"#;
+        const OGC_WEB: &str = r#"PROJCS["WGS 84 / Pseudo-Mercator",GEOGCS["WGS 84",DATUM["WGS_1984",SPHEROID["WGS 84",6378137,298.257223563]]],PROJECTION["Mercator_1SP"],AUTHORITY["EPSG","3857"]]"#;
+        const UTM: &str = r#"PROJCS["WGS 84 / UTM zone 32N",GEOGCS["WGS 84",DATUM["WGS_1984",SPHEROID["WGS 84",6378137,298.257223563]]],PROJECTION["Transverse_Mercator"],AUTHORITY["EPSG","32632"]]"#;
+        const NAD83: &str = r#"GEOGCS["NAD83",DATUM["North_American_Datum_1983",SPHEROID["GRS 1980",6378137,298.257222101]],UNIT["degree",0.0174532925199433]]"#;
+        assert_eq!(crs("none", None), Crs::Unknown);
+        for (name, prj, want) in [
+            ("esri_wgs84", ESRI_WGS84, Crs::Geographic),
+            ("ogc_wgs84", OGC_WGS84, Crs::Geographic),
+            ("wkt2_wgs84", WKT2_WGS84, Crs::Geographic),
+            ("esri_web", ESRI_WEB, Crs::WebMercator),
+            ("ogc_web", OGC_WEB, Crs::WebMercator),
+            ("utm", UTM, Crs::Unknown),
+            ("nad83", NAD83, Crs::Unknown),
+            ("junk", "not a CRS", Crs::Unknown),
+        ] {
+            assert_eq!(crs(name, Some(prj)), want, "{name}");
+        }
     }
 
     #[test]

@@ -215,11 +215,17 @@ pub fn build(job: &Ingest, map: &Heightmap) -> Result<(PathBuf, Metadata)> {
             )
         })?;
         if !matches!(georef.crs, Crs::Geographic | Crs::WebMercator) {
+            let what = match georef.crs {
+                Crs::Unknown => "not known (an ESRI ASCII grid's is read from the .prj beside \
+                                 it, when that names WGS 84 or Web Mercator)"
+                    .to_string(),
+                crs => crs.to_string(),
+            };
             bail!(
-                "{}: its CRS is {}; geodetic and mercator ingest read EPSG:4326 or EPSG:3857 \
-                 (reproject first, e.g. `gdalwarp -t_srs EPSG:4326`), or use --scheme local",
+                "{}: its CRS is {what}; geodetic and mercator ingest read EPSG:4326 or EPSG:3857 \
+                 (reproject first, e.g. `gdalwarp -t_srs EPSG:4326 IN OUT.tif`), or use \
+                 --scheme local",
                 job.input.display(),
-                georef.crs
             );
         }
         let source = resample::Source::new(&map.heights, &georef, fill)?;
@@ -681,6 +687,63 @@ mod tests {
     /// A data folder not made yet: ingest makes it.
     fn scratch(tag: &str) -> PathBuf {
         crate::fixtures::scratch(&format!("ingest-{tag}")).join("data")
+    }
+
+    /// An ESRI ASCII grid goes on the globe when the `.prj` beside it names WGS 84: it was
+    /// refused as "its CRS is unknown CRS" with or without one.
+    #[test]
+    fn an_ascii_grid_with_a_wgs84_prj_ingests_as_geodetic() {
+        let data = scratch("asc-prj");
+        let dir = data.parent().unwrap().to_path_buf();
+        std::fs::create_dir_all(&dir).unwrap();
+        // N44W072's north-west 60 × 60 samples, 3 arc-seconds apart.
+        let n = 1201;
+        let hgt = std::fs::read(crate::fixtures::shared_data("dem/N44W072.hgt")).unwrap();
+        let mut text = format!(
+            "ncols 60\nnrows 60\nxllcenter -72\nyllcenter {}\ncellsize {}\n",
+            45.0 - 59.0 / 1200.0,
+            1.0 / 1200.0
+        );
+        for r in 0..60 {
+            let row: Vec<String> = (0..60)
+                .map(|c| {
+                    let k = 2 * (r * n + c);
+                    i16::from_be_bytes([hgt[k], hgt[k + 1]]).to_string()
+                })
+                .collect();
+            text += &(row.join(" ") + "\n");
+        }
+        let asc = dir.join("nw.asc");
+        std::fs::write(&asc, text).unwrap();
+        let j = Ingest {
+            input: asc.clone(),
+            max_zoom: Some(9),
+            ..job("nw", "geodetic", &data)
+        };
+        let e = run(&j).unwrap_err().to_string();
+        assert!(
+            e.contains("its CRS is not known") && e.contains(".prj"),
+            "{e}"
+        );
+        std::fs::write(
+            dir.join("nw.prj"),
+            r#"GEOGCS["GCS_WGS_1984",DATUM["D_WGS_1984",SPHEROID["WGS_1984",6378137.0,298.257223563]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]]"#,
+        )
+        .unwrap();
+        let (_, m) = run(&j).unwrap();
+        let [w, s, e, n] = m.bounds;
+        assert!(
+            (w + 72.0).abs() < 1e-9 && (n - 45.0).abs() < 1e-9,
+            "{:?}",
+            m.bounds
+        );
+        assert!(
+            (e - w - 59.0 / 1200.0).abs() < 1e-9 && n > s,
+            "{:?}",
+            m.bounds
+        );
+        assert_eq!(m.source_crs, "EPSG:4326");
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     /// A fill or precision that is not a finite number would poison every tile: refused up front.
