@@ -235,6 +235,14 @@ pub fn build(job: &Ingest, map: &Heightmap) -> Result<(PathBuf, Metadata)> {
             Scheme::Mercator
         };
         let w = world::build(&source, scheme, job.max_zoom)?;
+        if let Some([south, north]) = w.clipped_lat {
+            eprintln!(
+                "zerotile: note: {} spans latitudes {south:.4}..{north:.4}; web mercator stops at \
+                 ±{:.4}°, so the rows beyond are not stored (--scheme geodetic keeps them)",
+                job.input.display(),
+                zerotile_codec::geo::MERCATOR_MAX_LATITUDE
+            );
+        }
         let plan = Plan {
             levels: w.levels,
             max_zoom: w.max_zoom,

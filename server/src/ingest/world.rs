@@ -30,8 +30,11 @@ pub struct WorldPyramid {
     /// (level index, lattice tile x, lattice tile y from the north, the tile's id).
     pub jobs: Vec<(usize, u32, u32, TileId)>,
     pub available: Vec<Vec<Availability>>,
-    /// West, south, east, north of the source, degrees.
+    /// West, south, east, north of the source as stored, degrees: on mercator, within
+    /// ±85.05°.
     pub bounds: [f64; 4],
+    /// The source's latitudes (south, north) when mercator could not store all of them.
+    pub clipped_lat: Option<[f64; 2]>,
 }
 
 /// Builds the pyramid of `source` in `scheme` down to `max_zoom` (default: the shallowest
@@ -102,6 +105,16 @@ pub fn build(source: &Source, scheme: Scheme, max_zoom: Option<u8>) -> Result<Wo
             bounds[3],
             MERCATOR_MAX_LATITUDE
         );
+    }
+    // Partly past it: the rows beyond are not stored, and the bounds say what is.
+    let mut bounds = bounds;
+    let mut clipped_lat = None;
+    if scheme == Scheme::Mercator
+        && (bounds[1] < -MERCATOR_MAX_LATITUDE || bounds[3] > MERCATOR_MAX_LATITUDE)
+    {
+        clipped_lat = Some([bounds[1], bounds[3]]);
+        bounds[1] = bounds[1].max(-MERCATOR_MAX_LATITUDE);
+        bounds[3] = bounds[3].min(MERCATOR_MAX_LATITUDE);
     }
     let bbox = Bounds {
         min_x: bounds[0],
@@ -181,6 +194,7 @@ pub fn build(source: &Source, scheme: Scheme, max_zoom: Option<u8>) -> Result<Wo
         jobs,
         available,
         bounds,
+        clipped_lat,
     })
 }
 
@@ -303,10 +317,19 @@ mod tests {
             assert!(err.to_string().contains("--scheme geodetic"), "{err}");
             assert!(build(&source, Scheme::Geodetic, Some(2)).is_ok());
         }
-        // Partly inside: built.
+        // Partly inside: built, its bounds what is stored, and the clip reported.
         let georef = Georef::north_up(Crs::Geographic, 10.0, 86.0, 1.0, 1.0);
         let source = Source::new(&g, &georef, 0.0).unwrap();
-        assert!(build(&source, Scheme::Mercator, Some(2)).is_ok());
+        let w = build(&source, Scheme::Mercator, Some(2)).unwrap();
+        assert_eq!(w.bounds[3], MERCATOR_MAX_LATITUDE);
+        assert_eq!(w.bounds[1], 84.0);
+        assert_eq!(w.clipped_lat, Some([84.0, 86.0]));
+        // Geodetic stores it all.
+        let w = build(&source, Scheme::Geodetic, Some(2)).unwrap();
+        assert_eq!(
+            (w.bounds[1], w.bounds[3], w.clipped_lat),
+            (84.0, 86.0, None)
+        );
     }
 
     /// A lattice too big for memory is refused with what to do, before it is allocated.
