@@ -171,7 +171,12 @@ pub fn run(job: &Export) -> Result<Exported> {
     let (z0, z1) = job.zooms.unwrap_or((m.min_zoom, m.max_zoom));
     if z1 > m.max_zoom || z0 < m.min_zoom {
         bail!(
-            "--zoom {z0}-{z1}: {} has zooms {}-{}",
+            "--zoom {}: {} has zooms {}-{}",
+            if z0 == z1 {
+                z0.to_string()
+            } else {
+                format!("{z0}-{z1}")
+            },
             d.name,
             m.min_zoom,
             m.max_zoom

@@ -138,7 +138,7 @@ pub fn budget_note(p: &MeshPoint) -> Option<String> {
     Some(match p.method {
         Method::Octree | Method::Silhouette => {
             let name = format!("{:?}", p.method).to_lowercase();
-            format!("--faces {n}: the coarsest {name} level of this mesh has {f} faces; measuring that level")
+            format!("--faces {n}: the coarsest {name} level with faces has {f} on this mesh; measuring that level")
         }
         Method::Curvature => format!(
             "--faces {n}: curvature decimation stops at {f} faces on this mesh (no vertex \

@@ -264,7 +264,7 @@ fn level_methods_take_the_finest_level_within_a_face_budget() {
         let note = budget_note(&p);
         let name = format!("{method:?}").to_lowercase();
         let want = format!(
-            "--faces {}: the coarsest {name} level of this mesh has {coarsest} faces",
+            "--faces {}: the coarsest {name} level with faces has {coarsest} on this mesh",
             coarsest - 1
         );
         assert!(

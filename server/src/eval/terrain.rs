@@ -146,6 +146,13 @@ pub(super) fn is_8bit(g: &Grid<f64>, step: Option<f64>) -> bool {
 
 /// Runs the sweep and returns one point per parameter.
 pub fn run(eval: &TerrainEval) -> Result<Vec<Point>> {
+    // Before any work: it was a bare "File exists (os error 17)" after the first point.
+    if let Some(out) = eval.out.as_ref().filter(|o| o.is_file()) {
+        bail!(
+            "--out {}: is a file; give a folder for the meshes",
+            out.display()
+        );
+    }
     let (heights, step, peak) = load(eval)?;
     let side = heights.rows();
     // Once per run: the hierarchy of a 257² grid takes as long as meshing it.
@@ -524,8 +531,14 @@ pub fn parse_crop(s: &str) -> Result<(usize, usize, usize), String> {
         .collect::<Result<_, _>>()
         .map_err(|_| format!("--crop '{s}': expected ROW,COL,SIZE (whole numbers)"))?;
     match v.as_slice() {
-        [r, c, n] if *n > 0 => Ok((*r, *c, *n)),
-        _ => Err(format!("--crop '{s}': expected ROW,COL,SIZE with SIZE > 0")),
+        [r, c, n] if *n >= 2 => Ok((*r, *c, *n)),
+        // One sample holds no triangle: a 1 × 1 window measured T as inf and 0 triangles.
+        [_, _, _] => Err(format!(
+            "--crop '{s}': SIZE must be at least 2 (a window needs 2 × 2 samples for a triangle)"
+        )),
+        _ => Err(format!(
+            "--crop '{s}': expected ROW,COL,SIZE (whole numbers)"
+        )),
     }
 }
 

@@ -244,13 +244,39 @@ fn a_rate_below_the_header_is_refused_with_the_smallest_usable_rate() {
 }
 
 #[test]
-fn a_crop_is_three_whole_numbers_with_a_nonzero_size() {
+fn a_crop_is_three_whole_numbers_with_a_size_of_two_or_more() {
     assert_eq!(parse_crop("300, 500,257"), Ok((300, 500, 257)));
-    assert_eq!(parse_crop("0,0,1"), Ok((0, 0, 1)));
-    for bad in ["1,2,0", "1,2", "1,2,3,4", "a,b,c", "-1,2,3", "1.5,2,3"] {
+    assert_eq!(parse_crop("0,0,2"), Ok((0, 0, 2)));
+    assert!(parse_crop("0,0,1")
+        .unwrap_err()
+        .contains("SIZE must be at least 2"));
+    for bad in [
+        "1,2,0", "1,2,1", "1,2", "1,2,3,4", "a,b,c", "-1,2,3", "1.5,2,3",
+    ] {
         let e = parse_crop(bad).unwrap_err();
         assert!(e.contains(&format!("--crop '{bad}'")), "{bad}: {e}");
     }
+}
+
+/// An --out that is a file is refused before any work, by what it is.
+#[test]
+fn an_out_that_is_a_file_is_refused_up_front() {
+    let dir = crate::fixtures::scratch("eval-out-file");
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("afile");
+    std::fs::write(&file, b"mine").unwrap();
+    let e = run(&TerrainEval {
+        out: Some(file.clone()),
+        ..n44(65, Sweep::Threshold(vec![4.0]))
+    })
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.ends_with("afile: is a file; give a folder for the meshes"),
+        "{e}"
+    );
+    assert_eq!(std::fs::read(&file).unwrap(), b"mine");
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// A window with no-data samples has no heights to measure there: refused, with the count

@@ -208,12 +208,19 @@ pub fn build(job: &Ingest, map: &Heightmap) -> Result<(PathBuf, Metadata)> {
     } else {
         // Outside the source is sea level unless told otherwise; holes inside get the same.
         let fill = job.fill.unwrap_or(0.0);
-        let georef = map.georef.with_context(|| {
-            format!(
-                "{}: no georeference, so it cannot be placed on the globe (use --scheme local)",
-                job.input.display()
+        let georef =
+            map.georef.with_context(|| {
+                format!(
+                "{}: no georeference, so it cannot be placed on the globe (use --scheme local){}",
+                job.input.display(),
+                // The one format placed by its name, which a renamed copy loses.
+                if job.input.extension().is_some_and(|e| e.eq_ignore_ascii_case("hgt")) {
+                    "; an SRTM .hgt is placed by its file name, as N44W072.hgt"
+                } else {
+                    ""
+                }
             )
-        })?;
+            })?;
         if !matches!(georef.crs, Crs::Geographic | Crs::WebMercator) {
             let what = match georef.crs {
                 Crs::Unknown => "not known (an ESRI ASCII grid's is read from the .prj beside \
@@ -695,6 +702,22 @@ mod tests {
     /// A data folder not made yet: ingest makes it.
     fn scratch(tag: &str) -> PathBuf {
         crate::fixtures::scratch(&format!("ingest-{tag}")).join("data")
+    }
+
+    /// A .hgt without a georeference (a renamed copy) is told how one is placed.
+    #[test]
+    fn a_hgt_without_a_georeference_is_told_it_is_placed_by_its_name() {
+        let data = scratch("hgt-name");
+        let map = Heightmap::new(Grid::new(3, 3, vec![1.0; 9]).unwrap(), Some(1.0), None);
+        let e = build(&job("copy", "geodetic", &data), &map)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.ends_with(
+                "(use --scheme local); an SRTM .hgt is placed by its file name, as N44W072.hgt"
+            ),
+            "{e}"
+        );
     }
 
     /// An ESRI ASCII grid goes on the globe when the `.prj` beside it names WGS 84: it was

@@ -425,6 +425,22 @@ async fn tile_addresses_are_canonical_and_zooms_checked_against_the_dataset() {
     }
     let (s, _, _) = get(&app, "/v1/datasets/hill/tiles/0/0/0.png").await;
     assert_eq!(s, StatusCode::OK);
+    // A base URL without the dataset's trailing slash asks for these: said so.
+    for uri in ["/v1/datasets/layer.json", "/v1/datasets/tiles.json"] {
+        let v = refused(&app, uri, StatusCode::NOT_FOUND, "unknown_dataset").await;
+        assert!(
+            v["message"].as_str().unwrap().contains("trailing slash"),
+            "{v}"
+        );
+    }
+    let v = refused(
+        &app,
+        "/v1/datasets/nope",
+        StatusCode::NOT_FOUND,
+        "unknown_dataset",
+    )
+    .await;
+    assert_eq!(v["message"], "no dataset named \"nope\"");
 }
 
 #[tokio::test]

@@ -44,9 +44,16 @@ pub const MANIFEST_CACHE_CONTROL: &str = "public, max-age=60";
 /// Looks a dataset up by the name in the path.
 pub fn dataset(state: &AppState, name: &str) -> ApiResult<Arc<Dataset>> {
     state.catalog.get(name).cloned().ok_or_else(|| {
+        // What a client asks for when its base URL lost the dataset's trailing slash.
+        let hint = match name {
+            "layer.json" | "tiles.json" | "view" | "tiles" => {
+                " (a base URL needs the dataset and a trailing slash: /v1/datasets/NAME/)"
+            }
+            _ => "",
+        };
         ApiError::not_found(
             "unknown_dataset",
-            format!("no dataset named {}", echo(name)),
+            format!("no dataset named {}{hint}", echo(name)),
         )
     })
 }
