@@ -332,10 +332,15 @@ pub fn render(r: &Report) -> String {
         let [w, so, e, n] = m.bounds;
         let _ = writeln!(s, "bounds (W, S, E, N) {w}, {so}, {e}, {n} degrees");
     }
+    // "none" is what the metadata records for a source without a CRS.
+    let crs = match m.source_crs.as_str() {
+        "none" => "no CRS",
+        c => c,
+    };
     let _ = writeln!(
         s,
-        "heights {} … {} m, fill {} m; source {} ({}), ingested {}",
-        m.height_range[0], m.height_range[1], m.fill, m.source, m.source_crs, m.created
+        "heights {} … {} m, fill {} m; source {} ({crs}), ingested {}",
+        m.height_range[0], m.height_range[1], m.fill, m.source, m.created
     );
     // Records hold the corners besides the stream: 32 bytes a tile above the stream bytes
     // ingest reports.
@@ -708,6 +713,10 @@ mod tests {
         std::fs::write(dir.join("src.ztd"), b"not a dataset").unwrap();
         let e = format!("{:#}", run(&job("src".into())).unwrap_err());
         assert!(e.contains("src.ztd") && !e.contains("a folder"), "{e}");
+        // A file name alone, not in the current folder, is looked up in --data too.
+        let e = format!("{:#}", run(&job("src.ztd".into())).unwrap_err());
+        let in_data = dir.join("src.ztd").display().to_string();
+        assert!(e.starts_with(&format!("{in_data}: 13 bytes")), "{e}");
         let _ = std::fs::remove_dir_all(&dir);
     }
     /// Failures are listed in tile order (zoom, then rows, then columns), whatever order

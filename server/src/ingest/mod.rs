@@ -67,6 +67,11 @@ struct Plan {
 pub fn dataset_path(dataset: &str, data: &Path) -> Result<PathBuf> {
     let as_path = Path::new(dataset);
     if as_path.extension().is_some_and(|e| e == EXTENSION) {
+        // `info n44.ztd --data d` meant the file in d when there is none here.
+        let in_data = data.join(as_path);
+        if !as_path.exists() && as_path.is_relative() && in_data.is_file() {
+            return Ok(in_data);
+        }
         return Ok(as_path.to_path_buf());
     }
     // A dataset of that name wins over a file or folder of that name in the current
