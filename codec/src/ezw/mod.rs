@@ -32,6 +32,17 @@ use tree::Tree;
 /// Default bound on decoded grid size (samples); a header asking for more is refused.
 pub const DEFAULT_MAX_SAMPLES: usize = 1 << 26;
 
+/// The height range, in steps, a tile of `wavelet` can be coded with: below 2^19 for the
+/// integer 5/3 path ([`encode`] refuses more); for 9/7, 2^52 (f64 holds whole numbers
+/// exactly to 2^53, and the bit planes end not far above). A caller checks its whole range
+/// against it before work that [`encode`] would refuse tile by tile.
+pub fn max_range_steps(wavelet: Wavelet) -> f64 {
+    match wavelet {
+        Wavelet::LeGall53 => INT53_LIMIT / 2.0,
+        Wavelet::Cdf97 => (1u64 << 52) as f64,
+    }
+}
+
 /// How to encode.
 #[derive(Clone, Debug)]
 pub struct EncodeParams {
@@ -194,7 +205,7 @@ pub fn encode(heights: &Grid<f64>, params: &EncodeParams) -> Result<Encoded, Par
         .fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
     let offset = ((lo + hi) / 2.0).round();
     let centered = units.map(|u| u - offset);
-    if params.wavelet == Wavelet::LeGall53 && (hi - lo) * 2.0 >= INT53_LIMIT {
+    if params.wavelet == Wavelet::LeGall53 && hi - lo >= max_range_steps(Wavelet::LeGall53) {
         return Err(out_of_range(
             "height range / step",
             "below 2^19 for the integer 5/3 path (the 9/7 wavelet takes any range)",

@@ -199,6 +199,7 @@ pub fn build(job: &Ingest, map: &Heightmap) -> Result<(PathBuf, Metadata)> {
         .min_max()
         .with_context(|| format!("{}: no valid samples", job.input.display()))?;
     let step = map.step.unwrap_or(0.01);
+    check_span(job, lo, hi, step)?;
     let (plan, fill) = if scheme == "local" {
         // The tiling the server will open the dataset with: a grid it refuses (under 2 × 2)
         // is refused here, before anything is written.
@@ -408,6 +409,37 @@ fn local_plan(heights: &Grid<f64>) -> Plan {
         jobs,
         available,
         bounds: [0.0, (rows - 1) as f64, (cols - 1) as f64, 0.0],
+    }
+}
+
+/// Refuses heights, fill included, whose range the wavelet cannot code
+/// ([`ezw::max_range_steps`]), before any work: a `--fill` of -1e300 ran the whole ingest,
+/// then failed on the first tile with a message about no-data sentinels. A tile's own range
+/// is at most the dataset's, so what passes here never fails there for its range.
+fn check_span(job: &Ingest, lo: f64, hi: f64, step: f64) -> Result<()> {
+    let fill = job
+        .fill
+        .unwrap_or(if job.scheme == "local" { lo } else { 0.0 });
+    let (a, b) = (lo.min(fill), hi.max(fill));
+    let limit = ezw::max_range_steps(job.wavelet);
+    if (b - a) / step < limit {
+        return Ok(());
+    }
+    let what = format!(
+        "span {} steps of {step}, more than the {limit} the {} wavelet codes",
+        (b - a) / step,
+        job.wavelet.name()
+    );
+    match job.fill.filter(|f| !(lo..=hi).contains(f)) {
+        Some(f) => bail!(
+            "--fill {f}: with heights {lo} … {hi} the dataset would {what}; give a fill near \
+             the heights"
+        ),
+        None => bail!(
+            "{}: heights {a} … {b} {what} (a no-data value not marked as such? --wavelet 97 \
+             takes a wider range)",
+            job.input.display()
+        ),
     }
 }
 
@@ -707,6 +739,40 @@ mod tests {
     /// A data folder not made yet: ingest makes it.
     fn scratch(tag: &str) -> PathBuf {
         crate::fixtures::scratch(&format!("ingest-{tag}")).join("data")
+    }
+
+    /// A fill the coder cannot span with the heights is refused before any work.
+    #[test]
+    fn a_fill_too_far_from_the_heights_is_refused_up_front() {
+        let data = scratch("far-fill");
+        let mut h = vec![100.0; 9];
+        h[4] = f64::NAN;
+        let map = Heightmap::new(Grid::new(3, 3, h).unwrap(), Some(1.0), None);
+        for (wavelet, fill, ok) in [
+            (Wavelet::Cdf97, -1e300, false),
+            (Wavelet::Cdf97, 1e16, false),
+            (Wavelet::Cdf97, -1e6, true),
+            // The integer 5/3 path codes below 2^19 steps: 524,388 is past it, 400,000 not.
+            (Wavelet::LeGall53, -524_388.0, false),
+            (Wavelet::LeGall53, -400_000.0, true),
+        ] {
+            let j = Ingest {
+                fill: Some(fill),
+                wavelet,
+                ..job("f", "local", &data)
+            };
+            match build(&j, &map) {
+                Ok(_) => assert!(ok, "{fill}"),
+                Err(e) if ok => panic!("{fill}: {e:#}"),
+                Err(e) => {
+                    let e = e.to_string();
+                    assert!(
+                        !ok && e.starts_with(&format!("--fill {fill}:")),
+                        "{fill}: {e}"
+                    );
+                }
+            }
+        }
     }
 
     /// A .hgt without a georeference (a renamed copy) is told how one is placed.
