@@ -79,9 +79,9 @@ pub struct ExportArgs {
     pub base_url: Option<String>,
     /// DEFLATE effort of png tiles: fast | balanced | best (the same pixels; balanced takes
     /// ~4× fast's time for ~25 % fewer bytes, best tries four row filters, ~3.5× balanced's
-    /// time for up to ~1 % fewer).
-    #[arg(long, default_value = "balanced", value_name = "EFFORT")]
-    pub png_compression: PngCompression,
+    /// time for up to ~1 % fewer). Default: balanced.
+    #[arg(long, value_name = "EFFORT")]
+    pub png_compression: Option<PngCompression>,
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -410,6 +410,9 @@ fn ingest_summary(
 
 fn export(a: ExportArgs) -> anyhow::Result<()> {
     let started = std::time::Instant::now();
+    if let Some(note) = unused_png_compression(&a.format, a.png_compression) {
+        eprintln!("note: {note}");
+    }
     let job = crate::export::Export {
         dataset: a.dataset,
         data: a.data,
@@ -417,7 +420,7 @@ fn export(a: ExportArgs) -> anyhow::Result<()> {
         out: a.out,
         zooms: a.zoom,
         base_url: a.base_url,
-        png_compression: a.png_compression,
+        png_compression: a.png_compression.unwrap_or(PngCompression::Balanced),
         progress: !a.quiet,
     };
     let done = crate::export::run(&job)?;
@@ -435,6 +438,13 @@ fn export(a: ExportArgs) -> anyhow::Result<()> {
 }
 
 /// What a finished export should tell its user it did not do.
+/// `--png-compression` given for a tree with no PNG in it would otherwise look applied.
+fn unused_png_compression(format: &str, given: Option<PngCompression>) -> Option<String> {
+    given.filter(|_| format != "png").map(|_| {
+        format!("--png-compression applies to --format png; a {format} export has no PNG tiles")
+    })
+}
+
 fn export_notes(job: &crate::export::Export, done: &crate::export::Exported) -> Vec<String> {
     let mut notes = Vec::new();
     if done.no_tilejson {

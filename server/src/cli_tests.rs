@@ -254,6 +254,18 @@ fn export_notes_say_what_was_not_written() {
     assert!(notes[0].starts_with("no tiles.json written"), "{notes:?}");
 }
 
+/// `--png-compression` on a tree without PNG is said to do nothing; left out, or on png, not.
+#[test]
+fn png_compression_on_another_format_is_noted() {
+    let best = Some(PngCompression::Best);
+    assert_eq!(unused_png_compression("png", best), None);
+    assert_eq!(unused_png_compression("terrain", None), None);
+    assert_eq!(
+        unused_png_compression("terrain", best).as_deref(),
+        Some("--png-compression applies to --format png; a terrain export has no PNG tiles")
+    );
+}
+
 #[test]
 fn done_lines_say_what_was_built() {
     let data = Path::new("data");
