@@ -56,7 +56,8 @@ fn accepts_a_coding(req: &Request) -> impl std::future::Future<Output = bool> + 
         probe
     });
     async move {
-        // No Accept-Encoding accepts identity: the common case costs no probe.
+        // No Accept-Encoding accepts identity: nothing to ask. (A probe is a few small
+        // allocations and no compression: its body is empty.)
         let Some(probe) = probe else {
             return true;
         };
