@@ -75,7 +75,7 @@ fn a_budget_below_every_level_gets_the_coarsest_non_empty_level() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
         err.contains(&format!(
-            "--faces 100: the coarsest octree level of this mesh has {} faces",
+            "--faces 100: the coarsest octree level with faces has {} on this mesh",
             coarsest["faces"]
         )),
         "{err}"
