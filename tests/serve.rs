@@ -115,6 +115,7 @@ fn write_world(path: &Path, scheme: &str, xs: &[u32]) {
         step: 1.0,
         precision: None,
         height_range: [0.0, 1500.0],
+        source_height_range: None,
         fill: 0.0,
         view: ViewParams { a: 40.0, b: 0.0 },
         available: vec![vec![Availability {

@@ -337,9 +337,14 @@ pub fn render(r: &Report) -> String {
         "none" => "no CRS",
         c => c,
     };
+    // The source's own range, where the fill around it widens the dataset's.
+    let source_range = match m.source_height_range {
+        Some([lo, hi]) if [lo, hi] != m.height_range => format!(" (the source's {lo} … {hi} m)"),
+        _ => String::new(),
+    };
     let _ = writeln!(
         s,
-        "heights {} … {} m, fill {} m; source {} ({crs}), ingested {}",
+        "heights {} … {} m{source_range}, fill {} m; source {} ({crs}), ingested {}",
         m.height_range[0], m.height_range[1], m.fill, m.source, m.created
     );
     // Records hold the corners besides the stream: 32 bytes a tile above the stream bytes
@@ -515,6 +520,29 @@ mod tests {
         let mut w = Writer::new();
         w.add(TileId { z: 0, x: 0, y: 0 }, [0.0; 4], b"not decoded here");
         report_on("a", w.finish(&m).unwrap(), false)
+    }
+
+    /// The source's own heights are shown where the fill widens the dataset's range, and not
+    /// where they are the same or were not recorded.
+    #[test]
+    fn the_sources_height_range_is_shown_beside_the_datasets() {
+        let line = |source: Option<[f64; 2]>| {
+            let mut m = local_257(16);
+            m.source_height_range = source;
+            let mut w = Writer::new();
+            w.add(TileId { z: 0, x: 0, y: 0 }, [0.0; 4], b"not decoded here");
+            let text = render(&report_on("a", w.finish(&m).unwrap(), false));
+            let heights = text.lines().find(|l| l.starts_with("heights")).unwrap();
+            heights.to_string()
+        };
+        assert!(
+            line(Some([115.0, 512.0]))
+                .starts_with("heights 0 … 512 m (the source's 115 … 512 m), fill"),
+            "{}",
+            line(Some([115.0, 512.0]))
+        );
+        assert!(line(Some([0.0, 512.0])).starts_with("heights 0 … 512 m, fill"));
+        assert!(line(None).starts_with("heights 0 … 512 m, fill"));
     }
 
     /// A header that announces every tile of a 2^32 × 2^32 zoom but stores one: the check

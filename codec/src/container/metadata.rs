@@ -27,8 +27,14 @@ pub struct Metadata {
     /// Max |stored − source| guaranteed by the streams' residual pass; `None` when the
     /// streams are lossless to the step.
     pub precision: Option<f64>,
-    /// Lowest and highest height in the dataset (metres).
+    /// Lowest and highest height in the dataset (metres), the fill included where it is
+    /// stored.
     pub height_range: [f64; 2],
+    /// Lowest and highest height of the source's own samples, which on a world dataset
+    /// `height_range` hides behind the fill around it. Absent in datasets ingested before
+    /// it was recorded (read as `None`; not written then, so their bytes stay the same).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub source_height_range: Option<[f64; 2]>,
     /// Height given to samples outside the source or without data.
     pub fill: f64,
     /// Eq. 4 of the paper: T = a·(A_v / A_t) + b.

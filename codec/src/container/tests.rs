@@ -13,6 +13,7 @@ fn metadata() -> Metadata {
         step: 1.0,
         precision: Some(0.5),
         height_range: [115.0, 1908.0],
+        source_height_range: None,
         fill: 0.0,
         view: ViewParams { a: 50.0, b: 0.0 },
         available: vec![vec![Availability {

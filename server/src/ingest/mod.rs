@@ -280,6 +280,7 @@ pub fn build(job: &Ingest, map: &Heightmap) -> Result<(PathBuf, Metadata)> {
         };
         (plan, fill)
     };
+    let (source_lo, source_hi) = (lo, hi);
     // The fill is stored wherever there is no data, so it belongs to the range then.
     let (lo, hi) = if map.has_nodata() || scheme != "local" {
         (lo.min(fill), hi.max(fill))
@@ -332,6 +333,7 @@ pub fn build(job: &Ingest, map: &Heightmap) -> Result<(PathBuf, Metadata)> {
         step,
         precision: job.precision,
         height_range: [lo, hi],
+        source_height_range: Some([source_lo, source_hi]),
         fill,
         view: ViewParams {
             a: (hi - lo) / 32.0,
@@ -958,6 +960,8 @@ mod tests {
         };
         let (_, m) = build(&j, &map).unwrap();
         assert_eq!((m.fill, m.height_range), (0.0, [0.0, 108.0]));
+        // The source's own range is kept beside it.
+        assert_eq!(m.source_height_range, Some([100.0, 108.0]));
         let _ = std::fs::remove_dir_all(&data);
     }
 

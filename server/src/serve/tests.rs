@@ -105,6 +105,7 @@ fn hill_file_with(
         step: 0.01,
         precision: None,
         height_range: [60.0, 140.0],
+        source_height_range: None,
         fill: 60.0,
         view: ViewParams { a: 2.5, b: 0.0 },
         available: vec![stored(0, 0, 0, 0)],

@@ -105,6 +105,7 @@ pub async fn describe(
         "tile_side": m.tile_side,
         "source_size": m.source_size,
         "height_range": m.height_range,
+        "source_height_range": m.source_height_range,
         "fill": m.fill,
         "view": { "a": m.view.a, "b": m.view.b, "equation": "T = a * (A_v / A_t) + b" },
         "default_thresholds": defaults,
