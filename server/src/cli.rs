@@ -371,10 +371,7 @@ fn ingest(a: IngestArgs) -> anyhow::Result<()> {
         progress: !a.quiet,
     };
     let started = std::time::Instant::now();
-    let existed = job
-        .data
-        .join(format!("{}.{}", job.name, crate::ingest::EXTENSION))
-        .is_file();
+    let existed = job.target().is_file();
     let (path, m) = crate::ingest::run(&job)?;
     println!(
         "{}",
@@ -437,7 +434,6 @@ fn export(a: ExportArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// What a finished export should tell its user it did not do.
 /// `--png-compression` given for a tree with no PNG in it would otherwise look applied.
 fn unused_png_compression(format: &str, given: Option<PngCompression>) -> Option<String> {
     given.filter(|_| format != "png").map(|_| {
@@ -445,6 +441,7 @@ fn unused_png_compression(format: &str, given: Option<PngCompression>) -> Option
     })
 }
 
+/// What a finished export should tell its user it did not do.
 fn export_notes(job: &crate::export::Export, done: &crate::export::Exported) -> Vec<String> {
     let mut notes = Vec::new();
     if done.no_tilejson {

@@ -38,6 +38,18 @@ pub enum Method {
     Silhouette,
 }
 
+impl Method {
+    /// The name `--method` takes and the JSON gives.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Curvature => "curvature",
+            Self::Octree => "octree",
+            Self::Qem => "qem",
+            Self::Silhouette => "silhouette",
+        }
+    }
+}
+
 #[derive(Args, Debug, Clone)]
 #[command(group(ArgGroup::new("amount").required(true).args(["error", "level", "faces"])))]
 pub struct MeshArgs {
@@ -128,18 +140,17 @@ pub fn run(args: &MeshArgs) -> Result<()> {
 /// A budget no method can meet is answered with the fewest faces it reaches (the
 /// benchmark compares the octree at such targets): say so, or --faces would look ignored.
 pub fn budget_note(p: &MeshPoint) -> Option<String> {
-    let Param::Faces(n) = p.param else {
-        return None;
+    let n = match p.param {
+        Param::Faces(n) if p.faces > n => n,
+        _ => return None,
     };
-    if p.faces <= n {
-        return None;
-    }
     let f = p.faces;
     Some(match p.method {
-        Method::Octree | Method::Silhouette => {
-            let name = format!("{:?}", p.method).to_lowercase();
-            format!("--faces {n}: the coarsest {name} level with faces has {f} on this mesh; measuring that level")
-        }
+        Method::Octree | Method::Silhouette => format!(
+            "--faces {n}: the coarsest {} level with faces has {f} on this mesh; measuring \
+             that level",
+            p.method.name()
+        ),
         Method::Curvature => format!(
             "--faces {n}: curvature decimation stops at {f} faces on this mesh (no vertex \
              left whose removal keeps the surface manifold within its largest ε); measuring \
@@ -449,7 +460,7 @@ pub(super) fn table(p: &MeshPoint) -> String {
         "ms",
         "Hausdorff",
         "mean",
-        format!("{:?}", p.method).to_lowercase(),
+        p.method.name(),
         param,
         p.vertices,
         p.faces,

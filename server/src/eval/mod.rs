@@ -66,10 +66,11 @@ pub fn parse_list(flag: &str, s: &str, zero_ok: bool) -> Result<Vec<f64>, String
                 .trim()
                 .parse()
                 .map_err(|_| format!("{flag}: '{p}' is not a number"))?;
-            match (v.is_finite() && v > 0.0, v == 0.0, zero_ok) {
-                (true, _, _) | (_, true, true) => Ok(v),
-                (_, _, true) => Err(format!("{flag}: '{p}' must be finite and ≥ 0")),
-                _ => Err(format!("{flag}: '{p}' must be finite and > 0")),
+            if v.is_finite() && (v > 0.0 || (zero_ok && v == 0.0)) {
+                Ok(v)
+            } else {
+                let bound = if zero_ok { "≥ 0" } else { "> 0" };
+                Err(format!("{flag}: '{p}' must be finite and {bound}"))
             }
         })
         .collect()

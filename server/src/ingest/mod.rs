@@ -51,6 +51,13 @@ pub struct Ingest {
     pub progress: bool,
 }
 
+impl Ingest {
+    /// The file the dataset is written to: `DATA/NAME.ztd`.
+    pub fn target(&self) -> PathBuf {
+        self.data.join(format!("{}.{EXTENSION}", self.name))
+    }
+}
+
 /// Levels, the tiles to encode and their published ranges: what a scheme contributes.
 struct Plan {
     levels: Vec<Level>,
@@ -199,8 +206,11 @@ pub fn build(job: &Ingest, map: &Heightmap) -> Result<(PathBuf, Metadata)> {
         .min_max()
         .with_context(|| format!("{}: no valid samples", job.input.display()))?;
     let step = map.step.unwrap_or(0.01);
-    check_span(job, lo, hi, step)?;
-    let (plan, fill) = if scheme == "local" {
+    // A local grid's holes take its lowest height; a world tiling's surroundings and holes
+    // are sea level; unless told otherwise.
+    let fill = job.fill.unwrap_or(if scheme == "local" { lo } else { 0.0 });
+    check_span(job, lo, hi, fill, step)?;
+    let plan = if scheme == "local" {
         // The tiling the server will open the dataset with: a grid it refuses (under 2 × 2)
         // is refused here, before anything is written.
         let (rows, cols) = (map.heights.rows(), map.heights.cols());
@@ -208,25 +218,25 @@ pub fn build(job: &Ingest, map: &Heightmap) -> Result<(PathBuf, Metadata)> {
             .with_context(|| format!("{}: cannot be tiled", job.input.display()))?;
         check_local_lattice(rows, cols)
             .with_context(|| format!("{}: cannot be tiled", job.input.display()))?;
-        let fill = job.fill.unwrap_or(lo);
         let heights = map.heights.map(|&h| if h.is_finite() { h } else { fill });
-        (local_plan(&heights), fill)
+        local_plan(&heights)
     } else {
-        // Outside the source is sea level unless told otherwise; holes inside get the same.
-        let fill = job.fill.unwrap_or(0.0);
-        let georef =
-            map.georef.with_context(|| {
-                format!(
+        let georef = map.georef.with_context(|| {
+            // The one format placed by its name, which a renamed copy loses.
+            let hgt = job
+                .input
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("hgt"));
+            format!(
                 "{}: no georeference, so it cannot be placed on the globe (use --scheme local){}",
                 job.input.display(),
-                // The one format placed by its name, which a renamed copy loses.
-                if job.input.extension().is_some_and(|e| e.eq_ignore_ascii_case("hgt")) {
+                if hgt {
                     "; an SRTM .hgt is placed by its file name, as N44W072.hgt"
                 } else {
                     ""
                 }
             )
-            })?;
+        })?;
         if !matches!(georef.crs, Crs::Geographic | Crs::WebMercator) {
             let what = match georef.crs {
                 Crs::Unknown => "not known (an ESRI ASCII grid's is read from the .prj beside \
@@ -256,7 +266,7 @@ pub fn build(job: &Ingest, map: &Heightmap) -> Result<(PathBuf, Metadata)> {
                 zerotile_codec::geo::MERCATOR_MAX_LATITUDE
             );
         }
-        let plan = Plan {
+        Plan {
             levels: w.levels,
             max_zoom: w.max_zoom,
             jobs: w
@@ -277,8 +287,7 @@ pub fn build(job: &Ingest, map: &Heightmap) -> Result<(PathBuf, Metadata)> {
                 .collect(),
             available: w.available,
             bounds: w.bounds,
-        };
-        (plan, fill)
+        }
     };
     let (source_lo, source_hi) = (lo, hi);
     // The fill is stored wherever there is no data, so it belongs to the range then.
@@ -350,7 +359,7 @@ pub fn build(job: &Ingest, map: &Heightmap) -> Result<(PathBuf, Metadata)> {
         created: now_rfc3339(),
     };
     let bytes = writer.finish(&metadata)?;
-    let target = job.data.join(format!("{}.{EXTENSION}", job.name));
+    let target = job.target();
     write_atomically(&target, &bytes)?;
     Ok((target, metadata))
 }
@@ -418,10 +427,7 @@ fn local_plan(heights: &Grid<f64>) -> Plan {
 /// ([`ezw::max_range_steps`]), before any work: a `--fill` of -1e300 ran the whole ingest,
 /// then failed on the first tile with a message about no-data sentinels. A tile's own range
 /// is at most the dataset's, so what passes here never fails there for its range.
-fn check_span(job: &Ingest, lo: f64, hi: f64, step: f64) -> Result<()> {
-    let fill = job
-        .fill
-        .unwrap_or(if job.scheme == "local" { lo } else { 0.0 });
+fn check_span(job: &Ingest, lo: f64, hi: f64, fill: f64, step: f64) -> Result<()> {
     let (a, b) = (lo.min(fill), hi.max(fill));
     let limit = ezw::max_range_steps(job.wavelet);
     if (b - a) / step < limit {

@@ -46,9 +46,16 @@ pub async fn refuse_unacceptable(req: Request, next: Next) -> Response {
 }
 
 /// Asks the compression layer, around an empty answer, what it would do with this request.
+/// Only a header with a weight can refuse identity (`identity;q=0`, `*;q=0`): without one,
+/// as browsers and curl send it, there is nothing to ask, and tile requests skip the probe.
 fn accepts_a_coding(req: &Request) -> impl std::future::Future<Output = bool> + Send {
+    let weighted = req.headers().get_all(ACCEPT_ENCODING).iter().any(|v| {
+        v.as_bytes()
+            .windows(2)
+            .any(|w| w.eq_ignore_ascii_case(b"q="))
+    });
     // Built before the await: a `&Request` (its body is not `Sync`) cannot be held across it.
-    let probe = req.headers().contains_key(ACCEPT_ENCODING).then(|| {
+    let probe = weighted.then(|| {
         let mut probe = Request::new(Body::empty());
         for v in req.headers().get_all(ACCEPT_ENCODING) {
             probe.headers_mut().append(ACCEPT_ENCODING, v.clone());
@@ -56,8 +63,6 @@ fn accepts_a_coding(req: &Request) -> impl std::future::Future<Output = bool> + 
         probe
     });
     async move {
-        // No Accept-Encoding accepts identity: nothing to ask. (A probe is a few small
-        // allocations and no compression: its body is empty.)
         let Some(probe) = probe else {
             return true;
         };

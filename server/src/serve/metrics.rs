@@ -156,14 +156,10 @@ pub async fn track(State(state): State<AppState>, req: Request, next: Next) -> R
     let res = next.run(req).await;
     // The handler's body size, noted before compression; an answer a layer made instead (a
     // timeout's 503, a 406 for the coding) is counted as it goes out.
-    let bytes = res.extensions().get::<BodyBytes>().map_or_else(
-        || {
-            axum::body::HttpBody::size_hint(res.body())
-                .exact()
-                .unwrap_or(0)
-        },
-        |b| b.0,
-    );
+    let bytes = res
+        .extensions()
+        .get::<BodyBytes>()
+        .map_or_else(|| body_len(&res), |b| b.0);
     state
         .metrics
         .observe(&route, res.status().as_u16(), started.elapsed(), bytes);

@@ -507,7 +507,7 @@ pub(crate) fn alive_mesh(positions: &[DVec3], faces: &[[u32; 3]], alive: &[bool]
 
 #[cfg(test)]
 mod tests {
-    use super::super::tests::uv_sphere;
+    use super::super::tests::{flat_grid, uv_sphere};
     use super::super::DEFAULT_LAMBDA_C;
     use super::*;
 
@@ -621,21 +621,7 @@ mod tests {
     fn a_removal_may_leave_no_ring_vertex_without_faces() {
         // The centre of a flat 3 × 3 grid: two of its ring's corners have no face but the
         // centre's, and keep faces of the refill, so the centre may go.
-        let mut positions = Vec::new();
-        for y in 0..3 {
-            for x in 0..3 {
-                positions.push(DVec3::new(f64::from(x), f64::from(y), 0.0));
-            }
-        }
-        let mut faces = Vec::new();
-        for y in 0..2u32 {
-            for x in 0..2u32 {
-                let a = y * 3 + x;
-                faces.push([a, a + 1, a + 4]);
-                faces.push([a, a + 4, a + 3]);
-            }
-        }
-        let grid = TriMesh { positions, faces };
+        let grid = flat_grid(3);
         let d = Decimator::new(&grid, Weights::default(), DEFAULT_LAMBDA_C);
         assert!(d.vf[0].iter().all(|&f| d.faces[f as usize].contains(&4)));
         let r = d.evaluate(4).expect("the centre may go");

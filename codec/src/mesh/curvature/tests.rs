@@ -30,6 +30,23 @@ pub(super) fn uv_sphere(rings: usize, segments: usize, r: f64) -> TriMesh {
     TriMesh { positions, faces }
 }
 
+/// A flat `n` × `n` grid of unit squares at z = 0, each cut on the same diagonal, rows of
+/// vertices from y = 0.
+pub(super) fn flat_grid(n: u32) -> TriMesh {
+    let positions = (0..n)
+        .flat_map(|y| (0..n).map(move |x| DVec3::new(f64::from(x), f64::from(y), 0.0)))
+        .collect();
+    let mut faces = Vec::new();
+    for y in 0..n - 1 {
+        for x in 0..n - 1 {
+            let a = y * n + x;
+            faces.push([a, a + 1, a + n + 1]);
+            faces.push([a, a + n + 1, a + n]);
+        }
+    }
+    TriMesh { positions, faces }
+}
+
 fn per_vertex(mesh: &TriMesh) -> Vec<super::Measure> {
     let mut vf = vec![Vec::new(); mesh.positions.len()];
     for f in &mesh.faces {
@@ -340,22 +357,9 @@ fn the_decimators_counts_and_worst_error_follow_its_mesh() {
 fn without_an_area_scale_a_flat_sheet_still_decimates() {
     // A flat 6 × 6 sheet and 2,000 unreferenced vertices: the area quantile is 0, so W has
     // no area part and removing a flat vertex costs nothing.
-    let mut positions = Vec::new();
-    for y in 0..6 {
-        for x in 0..6 {
-            positions.push(DVec3::new(x as f64, y as f64, 0.0));
-        }
-    }
-    let mut faces = Vec::new();
-    for y in 0..5u32 {
-        for x in 0..5u32 {
-            let a = y * 6 + x;
-            faces.push([a, a + 1, a + 7]);
-            faces.push([a, a + 7, a + 6]);
-        }
-    }
-    positions.extend((0..2000).map(|i| DVec3::new(100.0 + i as f64, 0.0, 0.0)));
-    let mesh = TriMesh { positions, faces };
+    let mut mesh = flat_grid(6);
+    mesh.positions
+        .extend((0..2000).map(|i| DVec3::new(100.0 + i as f64, 0.0, 0.0)));
     let mut d = Decimator::new(&mesh, Weights::default(), DEFAULT_LAMBDA_C);
     assert_eq!(d.vertices(), 36);
     d.run_to_error(0.01);
