@@ -44,8 +44,48 @@ impl Encoding {
         }
     }
 
+    /// The other colour encoding, when a PNG's typical code reads as no place on Earth under
+    /// `self` and as one under it: the two conventions put ordinary heights in disjoint
+    /// ranges of the red channel (terrain-RGB R ≤ 2, Terrarium R = 85…162), so a wrong
+    /// `--encoding` gives heights near −32 km or past 800 km rather than an error. `typical`
+    /// is the median 24-bit code of the opaque pixels (both decodings rise with the code, so
+    /// it decodes to the median height under either).
+    ///
+    /// Only refused when the other reading is Earth-like: a source outside Earth's range
+    /// under both (another planet, a made-up raster) is the caller's to read as they say.
+    pub fn misread(self, typical: [u8; 3]) -> Option<Misread> {
+        let other = match self {
+            Self::TerrainRgb => Self::Terrarium,
+            Self::Terrarium => Self::TerrainRgb,
+            Self::Gray => return None,
+        };
+        let asked = self.decode_rgb(typical)?;
+        let instead = other.decode_rgb(typical)?;
+        // Wider than Earth's −10,935 … 8,849 m for the asked reading (Olympus Mons rises
+        // 21.9 km); the other reading must be Earth's, and above −10,000 m, terrain-RGB's
+        // zero code, which a blank Terrarium tile of zeros would give.
+        let asked_plausible = (-15_000.0..=30_000.0).contains(&asked);
+        let instead_earthlike = instead > -10_000.0 && instead <= 9_000.0;
+        (!asked_plausible && instead_earthlike).then_some(Misread {
+            asked,
+            other,
+            instead,
+        })
+    }
+
     /// The names [`FromStr`] accepts, for messages.
     pub const NAMES: &'static str = "terrain-rgb, terrarium, gray";
+}
+
+/// A PNG read under the wrong colour encoding: see [`Encoding::misread`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Misread {
+    /// The median height under the encoding asked for, in metres.
+    pub asked: f64,
+    /// The encoding that reads the PNG as terrain.
+    pub other: Encoding,
+    /// The median height under `other`.
+    pub instead: f64,
 }
 
 impl fmt::Display for Encoding {
@@ -99,5 +139,37 @@ mod tests {
         assert_eq!(Encoding::Terrarium.decode_rgb([128, 0, 0]), Some(0.0));
         assert_eq!(Encoding::Terrarium.decode_rgb([128, 1, 128]), Some(1.5));
         assert_eq!(Encoding::Gray.decode_rgb([1, 2, 3]), None);
+    }
+
+    #[test]
+    fn a_wrong_colour_encoding_is_told_by_the_median_code() {
+        use Encoding::{Gray, TerrainRgb, Terrarium};
+        // 1,000 m in each convention, read under the other: −32,338 m and +854,461 m.
+        let terrain_rgb_1000m = [1, 173, 176];
+        let terrarium_1000m = [131, 232, 0];
+        assert_eq!(TerrainRgb.decode_rgb(terrain_rgb_1000m), Some(1000.0));
+        assert_eq!(Terrarium.decode_rgb(terrarium_1000m), Some(1000.0));
+        let m = Terrarium.misread(terrain_rgb_1000m).unwrap();
+        assert_eq!((m.other, m.instead), (TerrainRgb, 1000.0));
+        assert!(m.asked < -32_000.0, "{m:?}");
+        let m = TerrainRgb.misread(terrarium_1000m).unwrap();
+        assert_eq!((m.other, m.instead), (Terrarium, 1000.0));
+        assert!(m.asked > 800_000.0, "{m:?}");
+        // Read rightly: nothing to say.
+        assert_eq!(TerrainRgb.misread(terrain_rgb_1000m), None);
+        assert_eq!(Terrarium.misread(terrarium_1000m), None);
+        assert_eq!(Gray.misread(terrarium_1000m), None);
+        // The Dead Sea shore and Everest, and near the deepest trench: still right.
+        // −411 m and 8849 m in Terrarium, −9923 m in terrain-RGB.
+        assert_eq!(Terrarium.misread([126, 101, 0]), None);
+        assert_eq!(Terrarium.misread([162, 145, 0]), None);
+        assert_eq!(TerrainRgb.misread([0, 3, 2]), None);
+        // Olympus Mons (21.9 km) in terrain-RGB: not Earth, but not refused.
+        let olympus = [4, 225, 240]; // 319,984 · 0.1 − 10,000 = 21,998.4 m
+        assert_eq!(TerrainRgb.decode_rgb(olympus), Some(21_998.4));
+        assert_eq!(TerrainRgb.misread(olympus), None);
+        // A blank Terrarium tile (all zeros, −32,768 m) reads −10,000 m as terrain-RGB:
+        // the floor of its range, not terrain; left to the caller.
+        assert_eq!(Terrarium.misread([0, 0, 0]), None);
     }
 }

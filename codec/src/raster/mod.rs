@@ -35,7 +35,7 @@ mod png;
 use std::fs::File;
 use std::path::Path;
 
-pub use encoding::Encoding;
+pub use encoding::{Encoding, Misread};
 pub use error::RasterError;
 pub use georef::{Crs, Georef};
 pub use heightmap::Heightmap;

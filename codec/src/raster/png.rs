@@ -75,15 +75,19 @@ pub(super) fn read(path: &Path, opts: &ReadOptions) -> Result<Heightmap, RasterE
             ))
         }
         (DynamicImage::ImageRgb8(img), Some(encoding)) => (
-            img.pixels()
-                .map(|p| rgb(encoding, [p[0], p[1], p[2]], false))
-                .collect(),
+            colour(
+                path,
+                encoding,
+                img.pixels().map(|p| ([p[0], p[1], p[2]], false)),
+            )?,
             encoding.step(),
         ),
         (DynamicImage::ImageRgba8(img), Some(encoding)) => (
-            img.pixels()
-                .map(|p| rgb(encoding, [p[0], p[1], p[2]], p[3] == 0))
-                .collect(),
+            colour(
+                path,
+                encoding,
+                img.pixels().map(|p| ([p[0], p[1], p[2]], p[3] == 0)),
+            )?,
             encoding.step(),
         ),
         (other, _) => {
@@ -109,10 +113,39 @@ fn gray(value: impl Into<f64>, transparent: bool) -> f64 {
     }
 }
 
-fn rgb(encoding: Encoding, pixel: [u8; 3], transparent: bool) -> f64 {
-    match encoding.decode_rgb(pixel) {
-        Some(h) if !transparent => h,
-        _ => f64::NAN,
+/// Decodes RGB(A) pixels (with whether each is transparent), refusing an encoding that reads
+/// the opaque pixels' median code as no place on Earth while the other reads it as terrain.
+fn colour(
+    path: &Path,
+    encoding: Encoding,
+    pixels: impl Iterator<Item = ([u8; 3], bool)>,
+) -> Result<Vec<f64>, RasterError> {
+    let mut heights = Vec::with_capacity(pixels.size_hint().0);
+    let mut codes = Vec::with_capacity(pixels.size_hint().0);
+    for (pixel, transparent) in pixels {
+        match encoding.decode_rgb(pixel) {
+            Some(h) if !transparent => {
+                heights.push(h);
+                codes.push(u32::from_be_bytes([0, pixel[0], pixel[1], pixel[2]]));
+            }
+            _ => heights.push(f64::NAN),
+        }
+    }
+    if codes.is_empty() {
+        return Ok(heights);
+    }
+    let middle = codes.len() / 2;
+    let [_, r, g, b] = codes.select_nth_unstable(middle).1.to_be_bytes();
+    match encoding.misread([r, g, b]) {
+        None => Ok(heights),
+        Some(m) => Err(RasterError::parameter(
+            path,
+            format!(
+                "read as {encoding}, its median height is {:.0} m, and as {} it is {:.0} m: \
+                 this looks like a {} PNG (--encoding {})",
+                m.asked, m.other, m.instead, m.other, m.other
+            ),
+        )),
     }
 }
 
@@ -150,6 +183,41 @@ mod tests {
         assert_eq!(map.step, Some(0.1));
         assert_eq!(map.nodata_count, 0);
         assert_eq!(map.georef, None);
+    }
+
+    #[test]
+    fn fuji_read_as_terrarium_is_told_it_is_terrain_rgb() {
+        let path = shared_data("dem/fuji.png");
+        let err = read(&path, &opts(Some(Encoding::Terrarium))).unwrap_err();
+        assert!(matches!(err, RasterError::Parameter { .. }), "{err}");
+        let message = err.to_string();
+        assert!(
+            message.contains("fuji.png") && message.contains("--encoding terrain-rgb"),
+            "{message}"
+        );
+    }
+
+    #[test]
+    fn a_terrarium_png_read_as_terrain_rgb_is_told_so_and_transparency_is_left_out() {
+        let path = scratch_dir("png_misread").join("terrarium.png");
+        // Three opaque pixels at 0, 1.5 and 1000 m in Terrarium, and two transparent ones
+        // whose codes would move the median to terrain-RGB's own range were they counted.
+        let mut img = RgbaImage::new(5, 1);
+        img.put_pixel(0, 0, Rgba([128, 0, 0, 255]));
+        img.put_pixel(1, 0, Rgba([128, 1, 128, 255]));
+        img.put_pixel(2, 0, Rgba([131, 232, 0, 255]));
+        img.put_pixel(3, 0, Rgba([1, 134, 160, 0]));
+        img.put_pixel(4, 0, Rgba([1, 134, 160, 0]));
+        img.save(&path).unwrap();
+        let message = read(&path, &opts(Some(Encoding::TerrainRgb)))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            message.contains("as terrarium it is 2 m") && message.contains("--encoding terrarium"),
+            "{message}"
+        );
+        let map = read(&path, &opts(Some(Encoding::Terrarium))).unwrap();
+        assert_eq!(map.nodata_count, 2);
     }
 
     #[test]
