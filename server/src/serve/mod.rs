@@ -23,6 +23,7 @@ pub mod metrics;
 pub mod negotiate;
 pub mod pipeline;
 pub mod plain_names;
+pub mod preflight;
 pub mod public_url;
 pub mod render;
 pub mod render_slots;
@@ -162,6 +163,7 @@ pub fn app(state: AppState) -> Router {
             ),
         )
         .layer(cors)
+        .layer(axum::middleware::from_fn(preflight::route_methods))
         .with_state(state)
 }
 

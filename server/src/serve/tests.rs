@@ -258,6 +258,52 @@ async fn cors_preflights_are_answered_and_may_be_cached() {
     );
 }
 
+/// A preflight lists POST only where the route takes one: an address of every route, asked
+/// both ways, so `preflight::takes_uploads` cannot drift from the route table.
+#[tokio::test]
+async fn preflights_name_each_routes_methods() {
+    let app = router("preflight-routes");
+    for path in [
+        "/",
+        "/assets/viewer.js",
+        "/openapi.json",
+        "/healthz",
+        "/metrics",
+        "/v1/datasets",
+        "/v1/datasets/hill",
+        "/v1/datasets/hill/layer.json",
+        "/v1/datasets/hill/tiles.json",
+        "/v1/datasets/hill/view",
+        "/v1/datasets/hill/tiles/0/0/0.png",
+        "/v1/meshes",
+        "/v1/meshes/bunny",
+        "/v1/meshes/bunny/qem",
+    ] {
+        let uploads = super::preflight::takes_uploads(path);
+        let (s, h, _) = send(
+            &app,
+            Method::OPTIONS,
+            path,
+            &[
+                ("origin", "https://example.org"),
+                ("access-control-request-method", "POST"),
+            ],
+        )
+        .await;
+        assert_eq!(s, StatusCode::OK, "{path}");
+        let methods = h["access-control-allow-methods"].to_str().unwrap();
+        assert_eq!(methods.contains("POST"), uploads, "{path}: {methods}");
+        assert!(methods.contains("GET"), "{path}: {methods}");
+        // The route itself: a POST is refused by method exactly where the preflight says so.
+        let (s, _, _) = send(&app, Method::POST, path, &[]).await;
+        assert_eq!(
+            s == StatusCode::METHOD_NOT_ALLOWED,
+            !uploads,
+            "{path}: POST got {s}"
+        );
+    }
+}
+
 /// A trailing slash is a 404 whose message gives the path without it, which works.
 #[tokio::test]
 async fn a_trailing_slash_is_named_in_the_404() {
