@@ -13,13 +13,19 @@ fn help_lists_the_commands() {
     assert!(text.contains("eval"), "help did not mention eval: {text}");
 }
 
-/// `serve` options it cannot honour are refused at start with a message and exit 1.
+/// `serve` options it cannot honour are refused at start with a message: exit 2 for a value
+/// no machine could run (a usage error), 1 for data it cannot open.
 #[test]
 fn serve_refuses_what_it_cannot_honour() {
-    for (args, says) in [
-        (vec!["--data", "ftp://example.org/tiles"], "not supported"),
-        (vec!["--data", "s3://"], "data URL"),
-        (vec!["--cpu-jobs", "0"], "--cpu-jobs 0"),
+    for (args, code, says) in [
+        (
+            vec!["--data", "ftp://example.org/tiles"],
+            1,
+            "not supported",
+        ),
+        (vec!["--data", "s3://"], 1, "data URL"),
+        (vec!["--cpu-jobs", "0"], 2, "--cpu-jobs 0"),
+        (vec!["--cors-origin", "example.org"], 2, "--cors-origin"),
     ] {
         let out = Command::new(zerotile_bin())
             .args(["serve", "--addr", "127.0.0.1:0"])
@@ -27,7 +33,7 @@ fn serve_refuses_what_it_cannot_honour() {
             .output()
             .unwrap();
         let err = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
+        assert_eq!(out.status.code(), Some(code), "{args:?}: {err}");
         assert!(err.contains(says), "{args:?}: {err}");
     }
 }
@@ -171,9 +177,10 @@ fn eval_terrain_warns_below_the_streams_floor() {
     );
 }
 
-/// Flags that would be ignored are refused: --encoding and --key on inputs whose reader does
-/// not use them (exit 1, as other refused combinations) and --repeat outside 1–100 (a usage
-/// error, exit 2).
+/// Flags that would be ignored or that no input could make right are refused as usage errors
+/// (exit 2), whichever layer catches them: --encoding and --key on inputs whose reader does
+/// not use them, a size or view the mesh method does not take (checked after the parser),
+/// and --repeat outside 1–100 (by the parser).
 #[test]
 fn flags_that_would_be_ignored_are_refused() {
     let hgt = shared_data().join("dem/N44W072.hgt");
@@ -182,26 +189,56 @@ fn flags_that_would_be_ignored_are_refused() {
     let hgt = hgt.to_str().unwrap();
     let tif = tif.to_str().unwrap();
     let fandisk = fandisk.to_str().unwrap();
-    let cases: [(&[&str], i32, &str); 6] = [
+    let cases: [(&[&str], i32, &str); 9] = [
         (
             &["ingest", hgt, "--name", "x", "--encoding", "terrarium"],
-            1,
+            2,
             "--encoding terrarium: applies to .png",
         ),
         (
             &["ingest", tif, "--name", "x", "--key", "x"],
-            1,
+            2,
             "--key x: applies to .npz",
         ),
         (
             &["eval", "terrain", hgt, "--lossless", "--encoding", "gray"],
-            1,
+            2,
             "--encoding gray",
         ),
         (
             &["eval", "terrain", hgt, "--lossless", "--repeat", "0"],
             2,
             "--repeat",
+        ),
+        // A size the method does not take, or a view for another method: refused before
+        // the mesh is read (the file named here does not exist).
+        (
+            &[
+                "eval", "mesh", "gone.obj", "--method", "qem", "--level", "2",
+            ],
+            2,
+            "qem takes --faces N or --error E",
+        ),
+        (
+            &[
+                "eval",
+                "mesh",
+                "gone.obj",
+                "--method",
+                "curvature",
+                "--level",
+                "4",
+            ],
+            2,
+            "curvature --level is 1, 2 or 3",
+        ),
+        (
+            &[
+                "eval", "mesh", "gone.obj", "--method", "qem", "--faces", "9", "--eye", "1,1,1",
+                "--target", "0,0,0",
+            ],
+            2,
+            "--eye/--target apply to --method silhouette",
         ),
         (
             &[
@@ -280,7 +317,7 @@ fn messages_name_what_was_wrong_once() {
 
     std::fs::write(dir.join("afile"), "x").unwrap();
     let tif = shared_data().join("dem/terra_elev.tif");
-    let ingest_to = |data: &str| {
+    let ingest_to = |data: &str, code: i32| {
         let args = [
             "ingest",
             tif.to_str().unwrap(),
@@ -290,9 +327,9 @@ fn messages_name_what_was_wrong_once() {
             data,
             "--quiet",
         ];
-        refused(&args, 1)
+        refused(&args, code)
     };
-    let err = ingest_to("afile");
+    let err = ingest_to("afile", 1);
     assert!(
         err.contains("--data afile: is a file, not a folder"),
         "{err}"
@@ -300,7 +337,7 @@ fn messages_name_what_was_wrong_once() {
     assert_eq!(std::fs::read_to_string(dir.join("afile")).unwrap(), "x");
     // A store URL is for serve: ingest once wrote it as a local folder named "s3:" and
     // printed the URL, as if it had uploaded.
-    let err = ingest_to("s3://tiles/prod");
+    let err = ingest_to("s3://tiles/prod", 2);
     assert!(err.contains("ingest writes a local folder"), "{err}");
     assert!(!dir.join("s3:").exists());
     // Metro samples are bounded (10^12 once asked for 24 TB and aborted): a usage error.

@@ -152,20 +152,27 @@ fn a_failed_export_leaves_the_previous_tree_and_says_why() {
     let before = files(&dir.join("tree"), "png");
     assert!(!before.is_empty());
 
-    for (args, needle) in [
+    // Exit 2 for a usage error (a flag no dataset could make right), 1 for the data's.
+    for (args, code, needle) in [
         (
             &["export", "lux", "--out", "tree", "--zoom", "3-40"][..],
+            1,
             "--zoom",
         ),
-        (&["export", "nope", "--out", "tree"][..], "nope"),
+        (&["export", "nope", "--out", "tree"][..], 1, "nope"),
         (
             &["export", "lux", "--out", "tree", "--format", "tiff"][..],
+            2,
             "--format",
         ),
-        (&["export", "../lux", "--out", "tree"][..], "dataset name"),
+        (
+            &["export", "../lux", "--out", "tree"][..],
+            1,
+            "dataset name",
+        ),
     ] {
         let out = zerotile(args, &dir);
-        assert_eq!(out.status.code(), Some(1), "{args:?}");
+        assert_eq!(out.status.code(), Some(code), "{args:?}");
         assert!(
             String::from_utf8_lossy(&out.stderr).contains(needle),
             "{args:?}"

@@ -84,12 +84,13 @@ fn a_failed_ingest_leaves_the_previous_dataset_intact() {
 fn bad_names_and_schemes_are_refused_with_a_message() {
     let data = scratch("names");
     let hgt = shared_data().join("dem/terra_elev.tif");
+    // Usage errors, exit 2 as the parser's own below.
     for (name, extra, needle) in [
         ("../escape", &[][..], "dataset name"),
         ("ok", &["--precision", "0"][..], "--precision"),
     ] {
         let out = ingest(&hgt, name, &data, extra);
-        assert_eq!(out.status.code(), Some(1), "{name} {extra:?}");
+        assert_eq!(out.status.code(), Some(2), "{name} {extra:?}");
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(err.contains(needle), "{name} {extra:?}: {err}");
     }
@@ -251,9 +252,9 @@ fn world_schemes_refuse_sources_they_cannot_place() {
     );
     assert_eq!(out.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&out.stderr).contains("no georeference"));
-    // --max-zoom means nothing for a local grid.
+    // --max-zoom means nothing for a local grid: a usage error.
     let out = ingest(&utm, "v", &data, &["--max-zoom", "3"]);
-    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(out.status.code(), Some(2));
     assert!(!data.join("v.ztd").exists() && !data.join("j.ztd").exists());
 }
 
@@ -358,7 +359,7 @@ fn info_verify_finds_a_flipped_bit_and_names_the_tile() {
         .args(["info", "s3://tiles/prod/n44.ztd"])
         .output()
         .unwrap();
-    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("local files"));
     let _ = std::fs::remove_dir_all(&data);
 }

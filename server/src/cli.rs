@@ -321,6 +321,8 @@ pub fn run() -> ExitCode {
             eprintln!("zerotile: {e:#}");
             if e.is::<crate::info::ChecksFailed>() {
                 ExitCode::from(crate::info::CHECKS_FAILED)
+            } else if crate::usage::is_usage(&e) {
+                ExitCode::from(crate::usage::EXIT)
             } else {
                 ExitCode::FAILURE
             }
@@ -338,7 +340,7 @@ fn check_reader_flags(
     let ext = zerotile_codec::raster::extension(input);
     if let Some(e) = encoding {
         if ext != "png" {
-            anyhow::bail!(
+            crate::bail_usage!(
                 "--encoding {e}: applies to .png inputs only; {} is not a PNG",
                 input.display()
             );
@@ -346,7 +348,7 @@ fn check_reader_flags(
     }
     if let Some(k) = key {
         if ext != "npz" {
-            anyhow::bail!(
+            crate::bail_usage!(
                 "--key {k}: applies to .npz inputs only; {} is not an .npz",
                 input.display()
             );
@@ -581,20 +583,20 @@ fn serve_config(a: &ServeArgs) -> anyhow::Result<crate::serve::Config> {
             && !o.ends_with('/')
             && o.bytes().all(|b| b.is_ascii_graphic());
         if !ok {
-            anyhow::bail!("--cors-origin {o:?}: give a scheme and host, e.g. https://maps.example.org (no path, no trailing slash)");
+            crate::bail_usage!("--cors-origin {o:?}: give a scheme and host, e.g. https://maps.example.org (no path, no trailing slash)");
         }
     }
     let defaults = crate::serve::Config::default();
     if a.cpu_jobs == Some(0) {
-        anyhow::bail!("--cpu-jobs 0: at least one render must be able to run");
+        crate::bail_usage!("--cpu-jobs 0: at least one render must be able to run");
     }
     if a.render_threads == Some(0) {
-        anyhow::bail!("--render-threads 0: renders need at least one thread");
+        crate::bail_usage!("--render-threads 0: renders need at least one thread");
     }
     let public_url = match &a.public_url {
         Some(u) => Some(
             crate::serve::public_url::parse_base(u)
-                .map_err(|why| anyhow::anyhow!("--public-url {u:?}: {why}"))?,
+                .map_err(|why| crate::usage::usage(format!("--public-url {u:?}: {why}")))?,
         ),
         None => None,
     };
@@ -633,26 +635,26 @@ fn eval_terrain(a: TerrainArgs) -> anyhow::Result<()> {
 fn terrain_eval(a: TerrainArgs) -> anyhow::Result<terrain::TerrainEval> {
     check_reader_flags(&a.input, a.encoding, a.key.as_deref())?;
     let sweep = if let Some(t) = &a.threshold {
-        let ts = eval::parse_list("--threshold", t, true).map_err(anyhow::Error::msg)?;
+        let ts = eval::parse_list("--threshold", t, true).map_err(crate::usage::usage)?;
         terrain::Sweep::Threshold(ts)
     } else if let Some(b) = &a.bpp {
         // 0 is refused later with the smallest rate that decodes anything.
-        terrain::Sweep::Bpp(eval::parse_list("--bpp", b, true).map_err(anyhow::Error::msg)?)
+        terrain::Sweep::Bpp(eval::parse_list("--bpp", b, true).map_err(crate::usage::usage)?)
     } else if let Some(e) = &a.max_error {
         let es = eval::parse_list("--max-error", e, false)
-            .map_err(|e| anyhow::anyhow!("{e} (use --lossless for exact)"))?;
+            .map_err(|e| crate::usage::usage(format!("{e} (use --lossless for exact)")))?;
         terrain::Sweep::MaxError(es)
     } else {
         terrain::Sweep::Lossless
     };
     if let Some(s) = a.step {
         if !(s.is_finite() && s > 0.0) {
-            anyhow::bail!("--step must be finite and > 0, got {s}");
+            crate::bail_usage!("--step must be finite and > 0, got {s}");
         }
     }
     let decode_share = a.decode_share.unwrap_or(terrain::DECODE_SHARE);
     if !(decode_share > 0.0 && decode_share < 1.0) {
-        anyhow::bail!("--decode-share must be in (0, 1), got {decode_share}");
+        crate::bail_usage!("--decode-share must be in (0, 1), got {decode_share}");
     }
     Ok(terrain::TerrainEval {
         input: a.input,

@@ -82,7 +82,7 @@ pub fn parse_zooms(s: &str) -> Result<(u8, u8), String> {
 fn check_out(out: &Path) -> Result<()> {
     // `.` inside an earlier export is a folder, but one with no name to make a sibling by.
     if out.file_name().is_none() {
-        bail!(
+        crate::bail_usage!(
             "--out {}: name the folder itself (`../tiles`, say), not `.` or `..`: the export is \
              made beside it and swapped in",
             out.display()
@@ -125,7 +125,7 @@ pub fn run(job: &Export) -> Result<Exported> {
         "terrain" => (TileFormat::Terrain, "terrain"),
         "png" => (TileFormat::Png, "png"),
         "json" => (TileFormat::Json, "json"),
-        other => bail!("--format {other}: use terrain, png or json"),
+        other => crate::bail_usage!("--format {other}: use terrain, png or json"),
     };
     let variant = match format {
         // The extensions layer.json lists, which CesiumJS skips unless it asked for them.
@@ -163,9 +163,9 @@ pub fn run(job: &Export) -> Result<Exported> {
              use it with --format png on a dataset ingested with --scheme mercator"
         ),
         Some(u) => Some(public_url::parse_base(u).map_err(|why| {
-            anyhow::anyhow!(
+            crate::usage::usage(format!(
                 "--base-url {u:?}: {why}; give the absolute URL the tree will be served from"
-            )
+            ))
         })?),
     };
     let (z0, z1) = job.zooms.unwrap_or((m.min_zoom, m.max_zoom));

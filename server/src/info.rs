@@ -109,7 +109,7 @@ pub fn run(job: &Info) -> Result<Report> {
     let data = job.data.to_string_lossy();
     for given in [&*job.dataset, &*data] {
         if crate::serve::storage::is_url(given) {
-            bail!(
+            crate::bail_usage!(
                 "{given}: info reads local files; verify a dataset before uploading it, or \
                  copy it down first"
             );

@@ -14,3 +14,4 @@ mod fixtures;
 pub mod info;
 pub mod ingest;
 pub mod serve;
+pub mod usage;

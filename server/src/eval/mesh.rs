@@ -17,6 +17,8 @@ use zerotile_codec::mesh::{
 };
 
 use super::{cell, median_ms, short};
+use crate::bail_usage;
+use crate::usage::usage;
 
 /// Timed runs when `--repeat` is not given (the benchmark's peers report medians of 5).
 pub const DEFAULT_REPEAT: usize = 5;
@@ -173,15 +175,10 @@ pub fn evaluate(args: &MeshArgs) -> Result<MeshPoint> {
     let input = load(&args.input, args.weld)?;
     // Simplify, timed over a few runs.
     let view = match (&args.eye, &args.target) {
-        (Some(e), Some(t)) => {
-            if args.method != Method::Silhouette {
-                bail!("--eye/--target apply to --method silhouette");
-            }
-            Some(View {
-                eye: point("--eye", e)?,
-                target: point("--target", t)?,
-            })
-        }
+        (Some(e), Some(t)) => Some(View {
+            eye: point("--eye", e)?,
+            target: point("--target", t)?,
+        }),
         _ => None,
     };
     let (ms, result) = median_ms(args.repeat, || simplify(&input, args.method, param, view));
@@ -207,15 +204,45 @@ pub fn evaluate(args: &MeshArgs) -> Result<MeshPoint> {
     })
 }
 
+/// The one size parameter, refusing before the mesh is read what no mesh could make right:
+/// a bad value, none or two of them, one the method does not take, a view for another method.
 fn param(args: &MeshArgs) -> Result<Param> {
-    match (args.error, args.level, args.faces) {
-        (Some(e), None, None) if e.is_finite() && e >= 0.0 => Ok(Param::Error(e)),
-        (Some(e), None, None) => bail!("--error must be finite and ≥ 0, got {e}"),
-        (None, Some(k), None) => Ok(Param::Level(k)),
-        (None, None, Some(0)) => bail!("--faces must be > 0"),
-        (None, None, Some(n)) => Ok(Param::Faces(n)),
-        _ => bail!("give exactly one of --error, --level, --faces"),
+    let param = match (args.error, args.level, args.faces) {
+        (Some(e), None, None) if e.is_finite() && e >= 0.0 => Param::Error(e),
+        (Some(e), None, None) => bail_usage!("--error must be finite and ≥ 0, got {e}"),
+        (None, Some(k), None) => Param::Level(k),
+        (None, None, Some(0)) => bail_usage!("--faces must be > 0"),
+        (None, None, Some(n)) => Param::Faces(n),
+        _ => bail_usage!("give exactly one of --error, --level, --faces"),
+    };
+    takes(args.method, param)?;
+    if (args.eye.is_some() || args.target.is_some()) && args.method != Method::Silhouette {
+        bail_usage!("--eye/--target apply to --method silhouette");
     }
+    Ok(param)
+}
+
+const QEM_TAKES: &str = "qem takes --faces N or --error E, not --level";
+const CURVATURE_LEVELS: &str =
+    "curvature --level is 1, 2 or 3 (ε = 0.15, 0.20, 0.25); use --error E for others";
+const SILHOUETTE_TAKES: &str = "silhouette takes --level K or --faces N";
+const OCTREE_TAKES: &str = "octree takes --level K or --faces N, not --error";
+
+/// Refuses a size parameter `method` does not take. ([`simplify`] says the same if called
+/// with one.)
+fn takes(method: Method, param: Param) -> Result<()> {
+    let refused = match (method, param) {
+        (Method::Qem, Param::Level(_)) => QEM_TAKES,
+        (Method::Curvature, Param::Level(k))
+            if !(1..=curvature::PAPER_LEVELS.len()).contains(&(k as usize)) =>
+        {
+            CURVATURE_LEVELS
+        }
+        (Method::Silhouette, Param::Error(_)) => SILHOUETTE_TAKES,
+        (Method::Octree, Param::Error(_)) => OCTREE_TAKES,
+        _ => return Ok(()),
+    };
+    Err(usage(refused))
 }
 
 /// Refuses an output that is the input file itself (by another name too: a symlink, a
@@ -251,7 +278,7 @@ fn same_file(a: &Path, b: &Path) -> bool {
 pub fn subdivide(args: &crate::cli::SubdivideArgs) -> Result<()> {
     // Before the work, which takes minutes for the large meshes this is for.
     if io::Format::from_path(&args.output).is_none() {
-        bail!(
+        bail_usage!(
             "{}: unknown output extension (use .obj, .ply, .glb or .json)",
             args.output.display()
         );
@@ -309,10 +336,10 @@ fn point(flag: &str, s: &str) -> Result<glam::DVec3> {
         .split(',')
         .map(|p| p.trim().parse::<f64>())
         .collect::<Result<_, _>>()
-        .map_err(|_| anyhow::anyhow!("{flag} must be x,y,z numbers, got {s:?}"))?;
+        .map_err(|_| usage(format!("{flag} must be x,y,z numbers, got {s:?}")))?;
     match v.as_slice() {
         [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(glam::DVec3::new(*x, *y, *z)),
-        _ => bail!("{flag} must be three finite numbers x,y,z, got {s:?}"),
+        _ => bail_usage!("{flag} must be three finite numbers x,y,z, got {s:?}"),
     }
 }
 
@@ -328,7 +355,7 @@ fn simplify(
             let options = match param {
                 Param::Faces(n) => QemOptions::to_faces(n),
                 Param::Error(e) => QemOptions::to_error(e),
-                Param::Level(_) => bail!("qem takes --faces N or --error E, not --level"),
+                Param::Level(_) => return Err(usage(QEM_TAKES)),
             };
             let (out, report): (TriMesh, qem::QemReport) = qem::simplify(input, &options)?;
             Ok((out, serde_json::to_value(report)?))
@@ -347,10 +374,7 @@ fn simplify(
                         .get(..k as usize)
                         .filter(|c| !c.is_empty())
                     else {
-                        bail!(
-                            "curvature --level is 1, 2 or 3 (ε = 0.15, 0.20, 0.25); \
-                             use --error E for others"
-                        );
+                        return Err(usage(CURVATURE_LEVELS));
                     };
                     let mut levels = curvature::levels(input, cuts, &options)?;
                     steps_ms = levels.iter().map(|l| l.ms).collect();
@@ -389,7 +413,7 @@ fn simplify(
                     }
                     pick.context("no levels")?
                 }
-                Param::Error(_) => bail!("silhouette takes --level K or --faces N"),
+                Param::Error(_) => return Err(usage(SILHOUETTE_TAKES)),
             };
             Ok((out, serde_json::json!({ "level": level })))
         }
@@ -406,7 +430,7 @@ fn octree_level(input: &TriMesh, param: Param) -> Result<(TriMesh, serde_json::V
     let level = match param {
         Param::Level(k) => k,
         Param::Faces(n) => lod.level_for_faces(n),
-        Param::Error(_) => bail!("octree takes --level K or --faces N, not --error"),
+        Param::Error(_) => return Err(usage(OCTREE_TAKES)),
     };
     let out = lod.level(level)?;
     let (boxes, plain_boxes) = lod.box_totals();

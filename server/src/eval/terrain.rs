@@ -215,7 +215,7 @@ pub fn run(eval: &TerrainEval) -> Result<Vec<Point>> {
         }
         Sweep::Lossless => {
             if eval.wavelet == Some(Wavelet::Cdf97) {
-                bail!("--lossless needs the reversible 5/3 wavelet (--wavelet 53)");
+                crate::bail_usage!("--lossless needs the reversible 5/3 wavelet (--wavelet 53)");
             }
             // Lossless is exact in height steps; float heights off the step grid would come
             // back rounded to it, which is a max-error point, not a lossless one.

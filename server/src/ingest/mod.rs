@@ -135,7 +135,7 @@ pub fn check_name_of(kind: &str, name: &str) -> Result<()> {
             .chars()
             .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_');
     if !ok {
-        bail!(
+        crate::bail_usage!(
             "{kind} name {}: use 1–64 characters from A–Z, a–z, 0–9, '-' and '_'",
             crate::serve::error::echo(name)
         );
@@ -148,7 +148,7 @@ pub fn check_name_of(kind: &str, name: &str) -> Result<()> {
 pub fn check_data_dir(data: &Path) -> Result<()> {
     // `serve --data` reads store URLs; a write here would make a local folder named "s3:".
     if crate::serve::storage::is_url(&data.to_string_lossy()) {
-        bail!(
+        crate::bail_usage!(
             "--data {}: ingest writes a local folder; ingest there, then copy the .ztd file \
              to the store (serve --data reads store URLs)",
             data.display()
@@ -168,20 +168,20 @@ fn check(job: &Ingest) -> Result<&str> {
     check_name(&job.name)?;
     let scheme = match job.scheme.as_str() {
         "local" | "geodetic" | "mercator" => job.scheme.as_str(),
-        other => bail!("--scheme {other}: use geodetic, mercator or local"),
+        other => crate::bail_usage!("--scheme {other}: use geodetic, mercator or local"),
     };
     check_data_dir(&job.data)?;
     if job.max_zoom.is_some() && scheme == "local" {
-        bail!("--max-zoom applies to geodetic and mercator; a local pyramid ends at the source's resolution");
+        crate::bail_usage!("--max-zoom applies to geodetic and mercator; a local pyramid ends at the source's resolution");
     }
     if let Some(p) = job.precision {
         if !(p.is_finite() && p > 0.0) {
-            bail!("--precision must be finite and > 0 metres, got {p}");
+            crate::bail_usage!("--precision must be finite and > 0 metres, got {p}");
         }
     }
     if let Some(f) = job.fill {
         if !f.is_finite() {
-            bail!("--fill must be a finite height, got {f}");
+            crate::bail_usage!("--fill must be a finite height, got {f}");
         }
     }
     Ok(scheme)
