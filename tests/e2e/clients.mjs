@@ -203,6 +203,19 @@ async function describe(name) {
 
 // ---- (a) CesiumJS -----------------------------------------------------------------------------
 
+// Waits until Cesium has drawn the view it was just given and loaded its tiles. Its
+// `tilesLoaded` still describes the last view until a frame has selected tiles for the new
+// one, and on a loaded machine a frame can take longer than any fixed pause (a 56 km view
+// once asked for nothing: the check ran before the first frame), so a few frames (counted
+// by `ztFrames`, which each page's viewer bumps after rendering) come first.
+async function settle(page) {
+  const from = await page.evaluate(() => window.ztFrames);
+  await page.waitForFunction((f) => window.ztFrames >= f + 3, from, { timeout: 60000, polling: 100 });
+  await page.waitForFunction(() => window.viewer.scene.globe.tilesLoaded, null, { timeout: 60000, polling: 250 });
+  await page.waitForTimeout(500);
+  await page.waitForFunction(() => window.viewer.scene.globe.tilesLoaded, null, { timeout: 60000, polling: 250 });
+}
+
 async function cesium() {
   const info = await describe(args.geodetic || "demo-ridges");
   const [w, s, e, n] = info.bounds;
@@ -231,6 +244,8 @@ async function cesium() {
   viewer.scene.globe.enableLighting = true;
   viewer.scene.globe.terrainExaggeration = 2.0;
   window.viewer = viewer;
+  window.ztFrames = 0;
+  viewer.scene.postRender.addEventListener(() => { window.ztFrames += 1; });
   window.fly = (lon, lat, height) => viewer.camera.setView({
     destination: Cesium.Cartesian3.fromDegrees(lon, lat, height),
     orientation: { heading: 0, pitch: Cesium.Math.toRadians(-35), roll: 0 } });
@@ -248,9 +263,7 @@ async function cesium() {
   for (const height of [span * 15, span * 2, span * 0.4]) {
     const before = c.requests.length;
     await c.page.evaluate(([a, b, h]) => window.fly(a, b, h), [lon, lat - (height * 1.43) / 111000, height]);
-    await c.page.waitForFunction(() => window.viewer.scene.globe.tilesLoaded, null, { timeout: 60000, polling: 250 });
-    await c.page.waitForTimeout(500);
-    await c.page.waitForFunction(() => window.viewer.scene.globe.tilesLoaded, null, { timeout: 60000, polling: 250 });
+    await settle(c.page);
     const zooms = {};
     for (const u of c.requests.slice(before)) {
       const m = u.match(/\/tiles\/(\d+)\/\d+\/\d+\.terrain/);
@@ -440,10 +453,10 @@ async function staticExport() {
     viewer.camera.setView({ destination: Cesium.Cartesian3.fromDegrees(lon, lat - 0.25, 12000),
       orientation: { heading: 0, pitch: Cesium.Math.toRadians(-25), roll: 0 } });
     window.viewer = viewer;
+    window.ztFrames = 0;
+    viewer.scene.postRender.addEventListener(() => { window.ztFrames += 1; });
   }, [tiles, expect[0]]);
-  await c.page.waitForFunction(() => window.viewer.scene.globe.tilesLoaded, null, { timeout: 60000, polling: 250 });
-  await c.page.waitForTimeout(500);
-  await c.page.waitForFunction(() => window.viewer.scene.globe.tilesLoaded, null, { timeout: 60000, polling: 250 });
+  await settle(c.page);
   await shoot(c, "static.png");
   const asked = cdn.log.filter((u) => /\.terrain(\?|$)/.test(u));
   console.log(`static: ${asked.length} .terrain request(s), e.g. ${asked[0]}`);
