@@ -26,6 +26,8 @@ impl View {
     /// A view with +Z up unless looking along Z, then +Y up.
     pub fn looking_at(eye: DVec3, target: DVec3, fov_y_deg: f64, aspect: f64) -> Self {
         let dir = (target - eye).normalize_or_zero();
+        // A tolerance, not a boundary: at sin² = 1e-6 neither axis is parallel to the view, so
+        // `<=` picks an up as usable as `<` does.
         let up = if dir.cross(DVec3::Z).length_squared() < 1e-6 {
             DVec3::Y
         } else {
@@ -198,6 +200,8 @@ impl Camera {
         let mut y = (f64::INFINITY, f64::NEG_INFINITY);
         let mut behind = 0;
         for corner in 0..8 {
+            // `== 0` for `!= 0` takes each corner's opposite: the same eight corners, in
+            // another order, and the bounds below do not depend on the order.
             let pick = |bit: usize, a: f64, b: f64| if corner & bit != 0 { b } else { a };
             let p = DVec3::new(
                 pick(1, lo.x, hi.x),

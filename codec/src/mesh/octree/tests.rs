@@ -320,6 +320,12 @@ fn below_the_base_level_only_boxes_meeting_the_region_are_opened() {
         opened > 0 && left > 0,
         "opened {opened}, left collapsed {left}"
     );
+    // The counts are those boxes: the base ones selected, and with them the ones below.
+    let selected = (0..nodes.len())
+        .filter(|&b| open[b] && nodes[b].depth == base)
+        .count();
+    assert_eq!(browsed.refinement.selected, selected);
+    assert_eq!(browsed.refinement.opened, selected + opened);
 }
 
 #[test]
@@ -635,4 +641,110 @@ fn common_ancestor_is_the_deepest_box_holding_both() {
         assert_eq!(tree.common_ancestor(x, y), expected);
         assert_eq!(tree.common_ancestor(y, x), expected);
     }
+}
+
+/// Eye on +Z at 10 looking at the origin, +Y up, a 90° vertical field (focal length 1): the
+/// screen's x is world x, its y world y, and a point at height z projects to (x, y) / (10 − z).
+fn down_the_z_axis(aspect: f64) -> View {
+    View {
+        eye: DVec3::new(0.0, 0.0, 10.0),
+        target: DVec3::ZERO,
+        up: DVec3::Y,
+        fov_y_deg: 90.0,
+        aspect,
+    }
+}
+
+/// A lone box, as the tree stores one.
+fn cube(centre: DVec3, half: f64) -> tree::Node {
+    tree::Node {
+        centre,
+        half,
+        depth: 0,
+        parent: u32::MAX,
+        first_child: 0,
+        children: 0,
+        first: 0,
+        end: 0,
+    }
+}
+
+#[test]
+fn fields_of_view_aspects_and_regions_out_of_range_are_refused() {
+    // Only a 180° field and an inverted region had tests: a 0° field (focal length ∞), an
+    // aspect of 0, −1 or ∞, or a region of no width or height could have slipped through.
+    let view = down_the_z_axis(1.0);
+    for fov_y_deg in [0.0, -30.0, 180.0, 200.0, f64::NAN] {
+        let bad = View { fov_y_deg, ..view };
+        assert!(bad.camera().is_err(), "fov {fov_y_deg}");
+    }
+    for aspect in [0.0, -1.0, f64::INFINITY, f64::NAN] {
+        let bad = View { aspect, ..view };
+        assert!(bad.camera().is_err(), "aspect {aspect}");
+    }
+    for (fov_y_deg, aspect) in [(1e-3, 1e-3), (179.9, 1e3)] {
+        let good = View {
+            fov_y_deg,
+            aspect,
+            ..view
+        };
+        assert!(good.camera().is_ok(), "fov {fov_y_deg}, aspect {aspect}");
+    }
+    let flat = Roi {
+        x1: -1.0,
+        ..Roi::FULL
+    };
+    let thin = Roi {
+        y1: -1.0,
+        ..Roi::FULL
+    };
+    assert!(flat.check().is_err() && thin.check().is_err());
+    assert!(Roi::FULL.check().is_ok());
+}
+
+#[test]
+fn points_project_in_perspective_with_the_aspect_on_x() {
+    // The tests' views all had aspect 1 or only checked the mesh, so x scaled by the aspect
+    // instead of divided went unseen; so did a point on the eye plane (w = 0, x/0 = ∞).
+    let camera = down_the_z_axis(2.0).camera().expect("valid view");
+    let near =
+        |(x, y): (f64, f64), (ex, ey): (f64, f64)| (x - ex).abs() < 1e-12 && (y - ey).abs() < 1e-12;
+    for (p, expected) in [
+        (DVec3::new(1.0, 1.0, 0.0), (0.05, 0.1)),
+        (DVec3::new(-4.0, 2.0, 6.0), (-0.5, 0.5)),
+        (DVec3::new(0.0, 0.0, 9.0), (0.0, 0.0)),
+    ] {
+        let got = camera.project(p).expect("in front of the eye");
+        assert!(near(got, expected), "{p}: {got:?}, not {expected:?}");
+    }
+    for p in [DVec3::new(3.0, 0.0, 10.0), DVec3::new(0.0, 0.0, 11.0)] {
+        assert_eq!(camera.project(p), None, "{p} is on or behind the eye plane");
+    }
+}
+
+#[test]
+fn a_box_meets_the_region_by_all_eight_corners_and_straddling_the_eye_plane() {
+    // Every box the browse tests met lay wholly in front of the eye or wholly behind it, and
+    // no region edge fell between two corners' projections, so a box taken from four of its
+    // corners, or one straddling the eye plane decided by its front corners alone, passed.
+    let camera = down_the_z_axis(1.0).camera().expect("valid view");
+    let region = |x0: f64, x1: f64| Roi {
+        x0,
+        x1,
+        ..Roi::FULL
+    };
+    // x, y, z in [1, 2] × [1, 2] × [0, 1]: x on screen runs from 1/10 (the corner at x 1, z 0)
+    // to 2/9 (x 2, z 1).
+    let b = cube(DVec3::new(1.5, 1.5, 0.5), 0.5);
+    assert!(camera.box_meets(&b, &region(-1.0, 0.105)));
+    assert!(camera.box_meets(&b, &region(0.2, 1.0)));
+    assert!(!camera.box_meets(&b, &region(-1.0, 0.095)));
+    assert!(!camera.box_meets(&b, &region(0.23, 1.0)));
+    // z in [9.5, 10.5] round the eye plane at 10: its front corners project to x, y ≥ 10,
+    // far off screen, yet it meets any region (its projection is unbounded).
+    let straddling = cube(DVec3::new(5.5, 5.5, 10.0), 0.5);
+    assert!(camera.box_meets(&straddling, &centred_roi(0.1)));
+    // Wholly behind the eye, or in front but off screen (x ≥ 25/10): no.
+    assert!(!camera.box_meets(&cube(DVec3::new(0.0, 0.0, 12.0), 0.5), &Roi::FULL));
+    assert!(!camera.box_meets(&cube(DVec3::new(25.5, 0.0, 0.5), 0.5), &Roi::FULL));
 }
