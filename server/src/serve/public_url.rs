@@ -28,12 +28,14 @@ pub fn origin(config: &Config, headers: &HeaderMap, uri: &Uri) -> ApiResult<Stri
     if let Some(u) = &config.public_url {
         return Ok(u.clone());
     }
-    // A proxy appends to these: the last value is the one the nearest (trusted) proxy set.
+    // A proxy appends to these, to the last line or in a line of its own: the last value of
+    // the last line is the one the nearest (trusted) proxy set. (`get` gives the first line,
+    // which a client could send ahead of the proxy's.)
     let forwarded = |name: &str| -> ApiResult<Option<String>> {
         if !config.trust_forwarded {
             return Ok(None);
         }
-        match headers.get(name) {
+        match headers.get_all(name).iter().next_back() {
             None => Ok(None),
             Some(v) => {
                 let s = v.to_str().map_err(|_| bad(name, "is not ASCII"))?;
@@ -234,6 +236,25 @@ mod tests {
         );
         assert_eq!(vary(&fixed), None);
         assert_eq!(vary(&Config::default()), Some("Host"));
+    }
+
+    /// A proxy that adds a line of its own (rather than appending to the client's) still
+    /// wins: the client's line comes first and must not be the one read.
+    #[test]
+    fn the_last_line_of_a_repeated_forwarded_header_is_the_proxys() {
+        let h = headers(&[
+            ("host", "10.0.0.7:8080"),
+            ("x-forwarded-proto", "http"),
+            ("x-forwarded-proto", "https"),
+            ("x-forwarded-host", "evil.example"),
+            ("x-forwarded-host", "a.example, tiles.example.org"),
+            ("x-forwarded-prefix", "/evil"),
+            ("x-forwarded-prefix", "/terrain"),
+        ]);
+        assert_eq!(
+            origin(&trusting(), &h, &path()).unwrap(),
+            "https://tiles.example.org/terrain"
+        );
     }
 
     #[test]
