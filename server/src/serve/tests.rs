@@ -2173,6 +2173,47 @@ async fn a_view_wider_than_the_tile_cap_still_meshes_the_shallowest_zoom() {
     );
 }
 
+/// openapi.json's view answer lists each format's media type and every header a mesh file
+/// comes with (it listed JSON only, and no headers but ETag).
+#[tokio::test]
+async fn openapi_describes_each_view_format_and_its_headers() {
+    let app = router_of("view-openapi", "geodetic");
+    let doc: serde_json::Value =
+        serde_json::from_str(crate::serve::routes::site::OPENAPI_JSON).unwrap();
+    let ok = &doc["paths"]["/v1/datasets/{name}/view"]["get"]["responses"]["200"];
+    let documented: Vec<String> = ok["headers"]
+        .as_object()
+        .unwrap()
+        .keys()
+        .map(|k| k.to_ascii_lowercase())
+        .collect();
+    for format in ["json", "glb", "obj"] {
+        let uri =
+            format!("/v1/datasets/hill/view?eye=0,0,3850000&target=0,0,0&fov=60&format={format}");
+        let (s, h, _) = get(&app, &uri).await;
+        assert_eq!(s, StatusCode::OK, "{format}");
+        let media = h[header::CONTENT_TYPE].to_str().unwrap();
+        assert!(
+            ok["content"][media].is_object(),
+            "{format}: {media} not listed"
+        );
+        let custom: Vec<&str> = h
+            .keys()
+            .map(|k| k.as_str())
+            .filter(|k| k.starts_with("x-"))
+            .collect();
+        if format != "json" {
+            assert!(custom.contains(&"x-view-ratio"), "{format}: {custom:?}");
+        }
+        for k in custom {
+            assert!(
+                documented.iter().any(|d| d == k),
+                "{format}: {k} not listed"
+            );
+        }
+    }
+}
+
 /// A view whose camera has not moved revalidates to a 304 without touching a tile, and
 /// anything that changes the mesh (the camera, the format) changes the tag.
 #[tokio::test]
