@@ -91,6 +91,8 @@ impl ViewSphere {
             // Classify the cell at the chosen level, as the traversal does.
             let c = cell.ancestor(level).centre();
             let cos = -c.dot(dir);
+            // `>=` here and `<=` below would differ only for a centre exactly at a bound,
+            // which a cell's centre meets at most by rounding.
             if cos > DEFAULT_FACING_COS {
                 facing += 1;
                 level.saturating_sub(1)
@@ -119,6 +121,7 @@ impl ViewSphere {
         let diagonal = self.mesh.diagonal().max(f64::MIN_POSITIVE);
         let centre = self.centre();
         let distance = (view.eye - centre).length() / diagonal;
+        // At one diagonal log2 is 0, so `>=` would give the same level.
         let coarser = if distance > 1.0 {
             distance.log2().ceil() as i64
         } else {

@@ -30,6 +30,7 @@ impl Cell {
 
     /// A key unique across levels.
     pub fn key(self) -> u32 {
+        // The three fields' bits do not overlap (path < 2¹⁴, octant < 8), so `|` and `^` agree.
         (u32::from(self.level) << 24) | (u32::from(self.octant) << 16) | u32::from(self.path)
     }
 
@@ -47,6 +48,8 @@ impl Cell {
                 _ => [bc, ca, ab],
             };
         }
+        // Only the direction counts (normalised below), and the corners' sum stays under 3 in
+        // every component, so `* 3.0` or `% 3.0` would give the same centre.
         let c = (corners[0] + corners[1] + corners[2]) / 3.0;
         let sign = |bit: u8| if self.octant & bit != 0 { -1.0 } else { 1.0 };
         DVec3::new(c.x * sign(1), c.y * sign(2), c.z * sign(4)).normalize_or_zero()
@@ -127,5 +130,35 @@ mod tests {
         let (a, b) = (DVec3::new(0.5, 0.5, 0.7), DVec3::new(0.52, 0.5, 0.7));
         assert_eq!(cell_of(a, 1), cell_of(b, 1));
         assert_ne!(cell_of(a, MAX_LEVEL), cell_of(b, MAX_LEVEL));
+    }
+
+    #[test]
+    fn keys_tell_every_cell_of_every_level_apart() {
+        // Regions of a view mix levels: a cell and its middle descendants share octant and
+        // path bits (path 0 at level 0, 1, 2…) and only the level tells them apart.
+        let mut keys = std::collections::HashSet::new();
+        let mut cells = 0;
+        for level in 0..=MAX_LEVEL {
+            for octant in 0..8 {
+                // Every path at the coarse levels, the first and last few at the finer ones.
+                let paths = 1u32 << (2 * level);
+                for path in (0..paths.min(64)).chain(paths.saturating_sub(64).max(64)..paths) {
+                    let cell = Cell {
+                        level,
+                        octant,
+                        path: path as u16,
+                    };
+                    assert!(keys.insert(cell.key()), "{cell:?}");
+                    cells += 1;
+                }
+            }
+        }
+        assert_eq!(keys.len(), cells);
+        let c = Cell {
+            level: 7,
+            octant: 5,
+            path: 0x3fff,
+        };
+        assert_eq!(c.key(), 7 << 24 | 5 << 16 | 0x3fff);
     }
 }

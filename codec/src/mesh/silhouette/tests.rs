@@ -146,3 +146,184 @@ fn degenerate_faces_stay_their_own_region() {
         assert_eq!(boundary_and_winding(&out), (0, true), "level {level}");
     }
 }
+
+/// A closed cube on [10, 12]³ whose +x side is a fan of four triangles around its centre
+/// (the other sides two triangles each): 14 faces, none degenerate.
+fn fanned_cube() -> TriMesh {
+    let mut positions: Vec<DVec3> = (0..8)
+        .map(|i| {
+            DVec3::new(10.0, 10.0, 10.0)
+                + 2.0 * DVec3::new((i & 1) as f64, (i >> 1 & 1) as f64, (i >> 2) as f64)
+        })
+        .collect();
+    positions.push(DVec3::new(12.0, 11.0, 11.0));
+    let quads = [
+        [0, 2, 6, 4], // −x
+        [0, 4, 5, 1], // −y
+        [2, 3, 7, 6], // +y
+        [0, 1, 3, 2], // −z
+        [4, 6, 7, 5], // +z
+    ];
+    let mut faces: Vec<[u32; 3]> = quads
+        .iter()
+        .flat_map(|&[a, b, c, d]| [[a, c, b], [a, d, c]])
+        .collect();
+    // +x: 1, 5, 7, 3 around the centre 8.
+    for [a, b] in [[1, 5], [5, 7], [7, 3], [3, 1]] {
+        faces.push([a, 8, b]);
+    }
+    TriMesh::new(positions, faces)
+}
+
+#[test]
+fn a_view_counts_every_face_by_the_kind_of_its_cell() {
+    let cube = fanned_cube();
+    assert_eq!(boundary_and_winding(&cube), (0, true));
+    let vs = ViewSphere::new(&cube).unwrap();
+    let centre = DVec3::splat(11.0);
+    // Not level 0: there the octant's centre is 55° from every side.
+    for level in [1, 3, MAX_LEVEL] {
+        // From +x: the fan faces the eye, the four sides are edge-on, −x faces away.
+        let view = View {
+            eye: centre + DVec3::X * 100.0,
+            target: centre,
+        };
+        let (m, drawn) = vs.view(&view, Some(level)).unwrap();
+        let want = Drawn {
+            level,
+            facing_faces: 4,
+            silhouette_faces: 8,
+            other_faces: 2,
+        };
+        assert_eq!(drawn, want, "from +x at {level}");
+        // The fan's centre is interior to its region at every level.
+        assert_eq!(m.faces.len(), 12, "from +x at {level}");
+        assert_eq!(boundary_and_winding(&m), (0, true));
+        // From −x the fan faces away and −x's two faces the eye.
+        let view = View {
+            eye: centre - DVec3::X * 100.0,
+            target: centre,
+        };
+        let (_, drawn) = vs.view(&view, Some(level)).unwrap();
+        let want = Drawn {
+            facing_faces: 2,
+            other_faces: 4,
+            ..want
+        };
+        assert_eq!(drawn, want, "from −x at {level}");
+    }
+    assert_eq!(vs.max_level(), MAX_LEVEL);
+}
+
+#[test]
+fn the_level_drops_by_one_per_doubling_of_the_distance_past_one_diagonal() {
+    // Box [10, 12]³: centre (11, 11, 11), diagonal 2√3. An eye off the origin, so that the
+    // distance is measured from the box's centre.
+    let vs = ViewSphere::new(&fanned_cube()).unwrap();
+    let (centre, diagonal) = (DVec3::splat(11.0), 2.0 * 3f64.sqrt());
+    let dir = DVec3::new(1.0, -2.0, 2.0) / 3.0;
+    for (diagonals, level) in [
+        (0.0, 7),
+        (0.5, 7),
+        (0.99, 7),
+        (1.01, 6),
+        (1.5, 6),
+        (1.99, 6),
+        (2.01, 5),
+        (3.0, 5),
+        (4.5, 4),
+        (9.0, 3),
+        (17.0, 2),
+        (33.0, 1),
+        (65.0, 0),
+        (1e6, 0),
+    ] {
+        let view = View {
+            eye: centre + dir * diagonals * diagonal,
+            target: centre,
+        };
+        assert_eq!(vs.level_for(&view), level, "{diagonals} diagonals");
+        if diagonals > 0.0 {
+            // With no level given, the view takes this one.
+            assert_eq!(vs.view(&view, None).unwrap().1.level, level, "{diagonals}");
+        }
+    }
+}
+
+#[test]
+fn views_with_a_non_finite_end_are_refused() {
+    let vs = ViewSphere::new(&fanned_cube()).unwrap();
+    for (eye, target) in [
+        (DVec3::new(f64::NAN, 0.0, 0.0), DVec3::ZERO),
+        (DVec3::X, DVec3::new(0.0, f64::INFINITY, 0.0)),
+    ] {
+        let e = vs.view(&View { eye, target }, Some(2)).unwrap_err();
+        assert!(
+            e.to_string().contains("eye and target must be finite"),
+            "{e}"
+        );
+    }
+}
+
+/// An open fan of four triangles around a centre lifted `h` off a unit square whose plane has
+/// normal `n`: the faces' normals lean from `n` by an angle that grows with `h`.
+fn lifted_fan(n: DVec3, h: f64) -> TriMesh {
+    let u = n.any_orthonormal_vector();
+    let w = n.cross(u);
+    let positions = vec![n * h, u, w, -u, -w];
+    let faces = vec![[0, 1, 2], [0, 2, 3], [0, 3, 4], [0, 4, 1]];
+    TriMesh::new(positions, faces)
+}
+
+#[test]
+fn silhouette_cells_are_drawn_one_level_finer_and_facing_ones_one_coarser() {
+    // A fan round the centre of a level-3 cell, lifted until its normals still share that
+    // cell but no longer one level-4 cell: drawn at 3 its centre goes (2 faces), at 4 it stays.
+    let level = 3;
+    let n = sphere::cell_of(DVec3::new(1.0, 2.0, 3.0), level)
+        .unwrap()
+        .centre();
+    let share = |m: &TriMesh, level: u8| {
+        let cells: Vec<_> = m
+            .face_normals()
+            .iter()
+            .map(|&d| cell_of(d, level))
+            .collect();
+        cells.iter().all(|c| *c == cells[0])
+    };
+    let fan = (1..400)
+        .map(|k| lifted_fan(n, f64::from(k) * 0.001))
+        .find(|m| share(m, level) && !share(m, level + 1))
+        .expect("a lift that parts the level-4 cells");
+    let vs = ViewSphere::new(&fan).unwrap();
+    assert_eq!(vs.level(level).unwrap().faces.len(), 2);
+    assert_eq!(vs.level(level + 1).unwrap().faces.len(), 4);
+
+    let u = n.any_orthonormal_vector();
+    let at = |eye: DVec3, level: u8| {
+        let (m, drawn) = vs
+            .view(
+                &View {
+                    eye,
+                    target: DVec3::ZERO,
+                },
+                Some(level),
+            )
+            .unwrap();
+        (m.faces.len(), drawn)
+    };
+    let drawn = |level, facing_faces, silhouette_faces, other_faces| Drawn {
+        level,
+        facing_faces,
+        silhouette_faces,
+        other_faces,
+    };
+    // Edge-on (the cell's centre ⟂ the view): drawn at 4, the centre stays.
+    assert_eq!(at(u * 100.0, level), (4, drawn(level, 0, 4, 0)));
+    // Head-on at 4: drawn at 3, the centre goes.
+    assert_eq!(at(n * 100.0, level + 1), (2, drawn(level + 1, 4, 0, 0)));
+    // From 60° off the normal: neither, drawn at the level asked.
+    let oblique = (n * 0.5 + u * 0.75f64.sqrt()) * 100.0;
+    assert_eq!(at(oblique, level), (2, drawn(level, 0, 0, 4)));
+    assert_eq!(at(oblique, level + 1), (4, drawn(level + 1, 0, 0, 4)));
+}
