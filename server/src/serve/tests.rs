@@ -1058,6 +1058,22 @@ async fn a_mesh_replaced_across_a_restart_gets_new_etags() {
     let _ = std::fs::remove_dir_all(&data);
 }
 
+/// Every object-mesh route refuses a parameter it does not take, the list too (which
+/// answered `?x=1` with the list), while the dataset list, which map clients may call with
+/// their own parameters, ignores it.
+#[tokio::test]
+async fn the_mesh_list_refuses_parameters_and_the_dataset_list_ignores_them() {
+    let data = one_triangle_data("list-query");
+    let app = router_with_meshes("list-query", &data);
+    for uri in ["/v1/meshes?x=1", "/v1/meshes/a?x=1", "/v1/meshes/a/qem?x=1"] {
+        refused(&app, uri, StatusCode::BAD_REQUEST, "bad_query").await;
+    }
+    for uri in ["/v1/meshes", "/v1/datasets?x=1"] {
+        assert_eq!(get(&app, uri).await.0, StatusCode::OK, "{uri}");
+    }
+    let _ = std::fs::remove_dir_all(&data);
+}
+
 /// `fov` and `aspect` only shape a browse: without `roi`, `eye` and `target` they were
 /// dropped and the plain level answered, as if the camera had been used.
 #[tokio::test]

@@ -41,7 +41,19 @@ use crate::serve::threshold::{aspect, integer, number, vec3};
 /// The LOD methods, as path segments.
 pub const METHODS: [&str; 5] = ["original", "curvature", "silhouette", "qem", "octree"];
 
-pub async fn list(State(state): State<AppState>, headers: HeaderMap) -> ApiResult<Response> {
+pub async fn list(
+    State(state): State<AppState>,
+    query: Result<Query<HashMap<String, String>>, QueryRejection>,
+    headers: HeaderMap,
+) -> ApiResult<Response> {
+    // As every object-mesh route: a parameter it does not take is a mistake to name.
+    let Query(q) = query?;
+    if let Some(k) = q.keys().next() {
+        return Err(ApiError::bad_request(
+            "bad_query",
+            format!("the mesh list takes no parameters, got {}", echo(k)),
+        ));
+    }
     let meshes: Vec<Value> = state.meshes.list().iter().map(|e| summary(e)).collect();
     revalidate::json(&headers, &json!({ "meshes": meshes }), REVALIDATE)
 }
