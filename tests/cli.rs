@@ -26,6 +26,17 @@ fn serve_refuses_what_it_cannot_honour() {
         (vec!["--data", "s3://"], 1, "data URL"),
         (vec!["--cpu-jobs", "0"], 2, "--cpu-jobs 0"),
         (vec!["--cors-origin", "example.org"], 2, "--cors-origin"),
+        (
+            vec!["--cors-origin", "https://a.example/"],
+            2,
+            "--cors-origin",
+        ),
+        (
+            vec!["--cors-origin", "https://a.example/path"],
+            2,
+            "--cors-origin",
+        ),
+        (vec!["--cors-origin", "https://"], 2, "--cors-origin"),
     ] {
         let out = Command::new(zerotile_bin())
             .args(["serve", "--addr", "127.0.0.1:0"])
@@ -189,7 +200,7 @@ fn flags_that_would_be_ignored_are_refused() {
     let hgt = hgt.to_str().unwrap();
     let tif = tif.to_str().unwrap();
     let fandisk = fandisk.to_str().unwrap();
-    let cases: [(&[&str], i32, &str); 9] = [
+    let cases: [(&[&str], i32, &str); 13] = [
         (
             &["ingest", hgt, "--name", "x", "--encoding", "terrarium"],
             2,
@@ -239,6 +250,48 @@ fn flags_that_would_be_ignored_are_refused() {
             ],
             2,
             "--eye/--target apply to --method silhouette",
+        ),
+        (
+            &[
+                "eval",
+                "mesh",
+                "gone.obj",
+                "--method",
+                "silhouette",
+                "--level",
+                "9",
+            ],
+            2,
+            "silhouette --level is 0 to 7",
+        ),
+        (
+            &[
+                "eval",
+                "mesh",
+                "gone.obj",
+                "--method",
+                "silhouette",
+                "--level",
+                "2",
+                "--eye",
+                "0,0,0",
+                "--target",
+                "0,0,0",
+            ],
+            2,
+            "--eye and --target must differ",
+        ),
+        (
+            &[
+                "eval", "mesh", "gone.obj", "--method", "qem", "--faces", "9", "--out", "x.stl",
+            ],
+            2,
+            "--out x.stl: stl is read, not written",
+        ),
+        (
+            &["subdivide", "gone.obj", "x.txt"],
+            2,
+            "OUTPUT x.txt: unknown mesh extension",
         ),
         (
             &[

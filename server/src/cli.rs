@@ -579,9 +579,12 @@ fn serve(a: ServeArgs) -> anyhow::Result<()> {
 /// anything is bound or generated.
 fn serve_config(a: &ServeArgs) -> anyhow::Result<crate::serve::Config> {
     for o in &a.cors_origins {
-        let ok = (o.starts_with("http://") || o.starts_with("https://"))
-            && !o.ends_with('/')
-            && o.bytes().all(|b| b.is_ascii_graphic());
+        // A browser's Origin is scheme://host[:port] and nothing after: a value with a path
+        // (or a query) could never match one.
+        let ok = ["http://", "https://"].iter().any(|scheme| {
+            o.strip_prefix(scheme)
+                .is_some_and(|host| !host.is_empty() && !host.contains(['/', '?', '#']))
+        }) && o.bytes().all(|b| b.is_ascii_graphic());
         if !ok {
             crate::bail_usage!("--cors-origin {o:?}: give a scheme and host, e.g. https://maps.example.org (no path, no trailing slash)");
         }

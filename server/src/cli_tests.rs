@@ -122,6 +122,10 @@ fn serve_refuses_origins_and_urls_it_could_not_honour() {
         "ftp://maps.example.org",
         "https://maps example.org",
         "https://maps.example.org\u{e9}",
+        // A path or query no browser's Origin carries, and no host at all.
+        "https://maps.example.org/tiles",
+        "https://maps.example.org?x=1",
+        "https://",
     ] {
         let msg = refusal(serve_config(&serve_args(&["--cors-origin", origin])));
         assert!(

@@ -15,7 +15,7 @@ use anyhow::{bail, Context, Result};
 use rayon::prelude::*;
 use zerotile_codec::container::TileId;
 use zerotile_codec::formats::terrain_rgb::PngCompression;
-use zerotile_codec::geo::Scheme;
+use zerotile_codec::geo::{Scheme, MAX_ZOOM};
 
 use crate::serve::dataset::Dataset;
 use crate::serve::negotiate::Extensions;
@@ -59,10 +59,13 @@ const PNG_SIZE: u32 = 512;
 
 /// Parses `A-B` or `Z`.
 pub fn parse_zooms(s: &str) -> Result<(u8, u8), String> {
+    // Past MAX_ZOOM no dataset has tiles: a usage error, whatever the dataset.
     let parse = |v: &str| {
         v.trim()
             .parse::<u8>()
-            .map_err(|_| format!("zoom {v:?} is not 0..=255"))
+            .ok()
+            .filter(|z| *z <= MAX_ZOOM)
+            .ok_or_else(|| format!("zoom {v:?} is not 0..={MAX_ZOOM}"))
     };
     let (a, b) = match s.split_once('-') {
         Some((a, b)) => (parse(a)?, parse(b)?),
@@ -364,6 +367,9 @@ mod tests {
         assert_eq!(parse_zooms("4-4"), Ok((4, 4)));
         assert!(parse_zooms("5-3").unwrap_err().contains("must not exceed"));
         assert!(parse_zooms("3-256").is_err());
+        // No dataset has a zoom past MAX_ZOOM: refused by the parser, exit 2.
+        assert_eq!(parse_zooms("28"), Ok((28, 28)));
+        assert!(parse_zooms("3-29").unwrap_err().contains("0..=28"));
     }
 
     /// A symbolic link as --out is refused for what it is (the swap would replace the link).

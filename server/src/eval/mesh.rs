@@ -10,6 +10,7 @@ use serde::Serialize;
 use zerotile_codec::mesh::curvature::{self, CurvatureOptions};
 use zerotile_codec::mesh::distance::DEFAULT_SAMPLES;
 use zerotile_codec::mesh::io::{self, MeshLimits};
+use zerotile_codec::mesh::silhouette::sphere::MAX_LEVEL;
 use zerotile_codec::mesh::silhouette::{View, ViewSphere};
 use zerotile_codec::mesh::{
     qem, repair, surface_distance, DistanceOptions, OctreeLod, OctreeOptions, QemOptions,
@@ -168,19 +169,17 @@ pub fn budget_note(p: &MeshPoint) -> Option<String> {
 /// The evaluation without the printing (and `--out` written), so tests can read the point.
 pub fn evaluate(args: &MeshArgs) -> Result<MeshPoint> {
     let param = param(args)?;
+    let view = match (&args.eye, &args.target) {
+        (Some(e), Some(t)) => Some(view(e, t)?),
+        _ => None,
+    };
     if let Some(out) = &args.out {
+        writable("--out", out)?;
         not_the_input(&args.input, out)?;
     }
     // Read and repair: the simplifiers take a clean manifold.
     let input = load(&args.input, args.weld)?;
     // Simplify, timed over a few runs.
-    let view = match (&args.eye, &args.target) {
-        (Some(e), Some(t)) => Some(View {
-            eye: point("--eye", e)?,
-            target: point("--target", t)?,
-        }),
-        _ => None,
-    };
     let (ms, result) = median_ms(args.repeat, || simplify(&input, args.method, param, view));
     let (output, detail) = result?;
     // Measure against the input the way Metro does.
@@ -239,6 +238,9 @@ fn takes(method: Method, param: Param) -> Result<()> {
             CURVATURE_LEVELS
         }
         (Method::Silhouette, Param::Error(_)) => SILHOUETTE_TAKES,
+        (Method::Silhouette, Param::Level(k)) if k > u32::from(MAX_LEVEL) => {
+            bail_usage!("silhouette --level is 0 to {MAX_LEVEL} (the view sphere's levels)")
+        }
         (Method::Octree, Param::Error(_)) => OCTREE_TAKES,
         _ => return Ok(()),
     };
@@ -277,12 +279,7 @@ fn same_file(a: &Path, b: &Path) -> bool {
 /// `zerotile subdivide`: the input, repaired as `eval mesh` reads it, Loop-subdivided.
 pub fn subdivide(args: &crate::cli::SubdivideArgs) -> Result<()> {
     // Before the work, which takes minutes for the large meshes this is for.
-    if io::Format::from_path(&args.output).is_none() {
-        bail_usage!(
-            "{}: unknown output extension (use .obj, .ply, .glb or .json)",
-            args.output.display()
-        );
-    }
+    writable("OUTPUT", &args.output)?;
     not_the_input(&args.input, &args.output)?;
     let mut mesh = load(&args.input, false)?;
     let limit = MeshLimits::default();
@@ -328,6 +325,38 @@ pub(super) fn load(path: &Path, weld: bool) -> Result<TriMesh> {
         repair(&mesh).with_context(|| format!("repairing {}", path.display()))?;
     crate::serve::meshes::has_surface(&clean).with_context(|| format!("{}", path.display()))?;
     Ok(clean)
+}
+
+/// Refuses an output path whose extension names no format a mesh is written in, before the
+/// work (the write came after it).
+fn writable(what: &str, path: &Path) -> Result<()> {
+    match io::Format::from_path(path) {
+        Some(f) if io::Format::WRITABLE.contains(&f) => Ok(()),
+        found => {
+            let names: Vec<_> = io::Format::WRITABLE.iter().map(|f| f.extension()).collect();
+            bail_usage!(
+                "{what} {}: {}; write .{}",
+                path.display(),
+                match found {
+                    Some(f) => format!("{} is read, not written", f.extension()),
+                    None => "unknown mesh extension".to_string(),
+                },
+                names.join(", .")
+            )
+        }
+    }
+}
+
+/// `--eye` and `--target` as a view, refusing one that looks nowhere.
+fn view(eye: &str, target: &str) -> Result<View> {
+    let view = View {
+        eye: point("--eye", eye)?,
+        target: point("--target", target)?,
+    };
+    if view.eye == view.target {
+        bail_usage!("--eye and --target must differ: the view looks from one to the other");
+    }
+    Ok(view)
 }
 
 /// `x,y,z` as a finite point.

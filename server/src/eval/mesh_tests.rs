@@ -369,7 +369,7 @@ fn subdivide_refuses_beyond_the_face_limit_and_writes_four_times_the_faces_a_ste
     })
     .expect_err("no such format");
     assert!(
-        format!("{err:#}").contains("fine.xyz: unknown output extension"),
+        format!("{err:#}").contains("fine.xyz: unknown mesh extension"),
         "{err:#}"
     );
     std::fs::remove_dir_all(&dir).unwrap();

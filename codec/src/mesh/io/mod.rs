@@ -41,6 +41,9 @@ impl Format {
     /// The formats [`read_bytes`] reads (GLB is written only).
     pub const READABLE: [Self; 4] = [Self::Json, Self::Obj, Self::Ply, Self::Stl];
 
+    /// The formats [`write_to`] writes (STL is read only).
+    pub const WRITABLE: [Self; 4] = [Self::Obj, Self::Ply, Self::Glb, Self::Json];
+
     /// The file extension of the format, lower case: what [`Self::from_extension`] reads back.
     pub fn extension(self) -> &'static str {
         match self {
