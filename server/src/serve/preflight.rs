@@ -1,6 +1,8 @@
 //! A CORS preflight names the methods its route answers. The CORS layer has one method list
 //! for the whole service, which must hold the upload's POST, so on its own it told a browser
-//! that every tile and listing took POST too, and the POST then met a 405.
+//! that every tile and listing took POST too, and the POST then met a 405. (A CORS layer per
+//! route would miss the answers the outer layers make, a timeout's 503 or a 406, which a
+//! browser could then not read.)
 
 use axum::extract::Request;
 use axum::http::header::{ACCESS_CONTROL_ALLOW_METHODS, ACCESS_CONTROL_REQUEST_METHOD};
@@ -8,23 +10,32 @@ use axum::http::{HeaderValue, Method};
 use axum::middleware::Next;
 use axum::response::Response;
 
-/// What every route but the upload answers, as the CORS layer spells a list.
-const READ_METHODS: &str = "GET,HEAD,OPTIONS";
-
-/// Middleware, outside the CORS layer: narrows a preflight's answer to [`READ_METHODS`] on
-/// routes that take no upload.
+/// Middleware, outside the CORS layer: takes POST out of a preflight's method list on routes
+/// that take no upload (the rest of the list is the CORS layer's, as it wrote it).
 pub async fn route_methods(req: Request, next: Next) -> Response {
     let narrow = req.method() == Method::OPTIONS
         && req.headers().contains_key(ACCESS_CONTROL_REQUEST_METHOD)
         && !takes_uploads(req.uri().path());
     let mut res = next.run(req).await;
-    if narrow && res.headers().contains_key(ACCESS_CONTROL_ALLOW_METHODS) {
-        res.headers_mut().insert(
-            ACCESS_CONTROL_ALLOW_METHODS,
-            HeaderValue::from_static(READ_METHODS),
-        );
+    let listed = res
+        .headers()
+        .get(ACCESS_CONTROL_ALLOW_METHODS)
+        .and_then(|v| v.to_str().ok());
+    if let Some(read) = listed.filter(|_| narrow).map(without_post) {
+        if let Ok(v) = HeaderValue::from_str(&read) {
+            res.headers_mut().insert(ACCESS_CONTROL_ALLOW_METHODS, v);
+        }
     }
     res
+}
+
+/// A method list without POST.
+fn without_post(list: &str) -> String {
+    list.split(',')
+        .map(str::trim)
+        .filter(|m| *m != Method::POST.as_str())
+        .collect::<Vec<_>>()
+        .join(",")
 }
 
 /// Whether `path` is `/v1/meshes/{name}`, the one route with a POST. The router's own test
@@ -36,7 +47,14 @@ pub fn takes_uploads(path: &str) -> bool {
 
 #[cfg(test)]
 mod tests {
-    use super::takes_uploads;
+    use super::{takes_uploads, without_post};
+
+    #[test]
+    fn post_is_taken_out_of_a_list_as_written() {
+        assert_eq!(without_post("GET,HEAD,OPTIONS,POST"), "GET,HEAD,OPTIONS");
+        assert_eq!(without_post("POST, GET"), "GET");
+        assert_eq!(without_post("GET"), "GET");
+    }
 
     #[test]
     fn only_a_mesh_name_takes_uploads() {

@@ -657,16 +657,7 @@ fn down_the_z_axis(aspect: f64) -> View {
 
 /// A lone box, as the tree stores one.
 fn cube(centre: DVec3, half: f64) -> tree::Node {
-    tree::Node {
-        centre,
-        half,
-        depth: 0,
-        parent: u32::MAX,
-        first_child: 0,
-        children: 0,
-        first: 0,
-        end: 0,
-    }
+    tree::Node::root(centre, half, 0)
 }
 
 #[test]

@@ -26,6 +26,20 @@ pub struct Node {
 }
 
 impl Node {
+    /// A root box around a tree's first `points` vertices, not yet split.
+    pub fn root(centre: DVec3, half: f64, points: u32) -> Self {
+        Self {
+            centre,
+            half,
+            depth: 0,
+            parent: u32::MAX,
+            first_child: 0,
+            children: 0,
+            first: 0,
+            end: points,
+        }
+    }
+
     pub fn is_leaf(&self) -> bool {
         self.children == 0
     }
@@ -78,16 +92,7 @@ impl Octree {
             ((min + max) * 0.5, ((max - min).max_element() * 0.5))
         };
         let n = positions.len();
-        let mut nodes = vec![Node {
-            centre,
-            half,
-            depth: 0,
-            parent: u32::MAX,
-            first_child: 0,
-            children: 0,
-            first: 0,
-            end: n as u32,
-        }];
+        let mut nodes = vec![Node::root(centre, half, n as u32)];
         let mut order: Vec<u32> = (0..n as u32).collect();
         let mut boxes_per_depth = vec![1];
         let mut plain_boxes_per_depth = vec![1];

@@ -46,14 +46,7 @@ pub async fn list(
     query: Result<Query<HashMap<String, String>>, QueryRejection>,
     headers: HeaderMap,
 ) -> ApiResult<Response> {
-    // As every object-mesh route: a parameter it does not take is a mistake to name.
-    let Query(q) = query?;
-    if let Some(k) = q.keys().next() {
-        return Err(ApiError::bad_request(
-            "bad_query",
-            format!("the mesh list takes no parameters, got {}", echo(k)),
-        ));
-    }
+    no_parameters(query, "the mesh list", "")?;
     let meshes: Vec<Value> = state.meshes.list().iter().map(|e| summary(e)).collect();
     revalidate::json(&headers, &json!({ "meshes": meshes }), REVALIDATE)
 }
@@ -65,20 +58,15 @@ pub async fn describe(
     headers: HeaderMap,
 ) -> ApiResult<Response> {
     let Path(name) = path?;
-    let Query(q) = query?;
+    let query = query?;
     let e = entry(&state, &name)?;
     // `?format=glb` here would otherwise answer this JSON with a 200 to a client that
     // asked for a model.
-    if let Some(k) = q.keys().next() {
-        return Err(ApiError::bad_request(
-            "bad_query",
-            format!(
-                "the mesh description takes no parameters, got {}; the mesh itself is \
-                 /v1/meshes/{name}/original?format=obj|ply|glb|json",
-                echo(k)
-            ),
-        ));
-    }
+    no_parameters(
+        Ok(query),
+        "the mesh description",
+        &format!("; the mesh itself is /v1/meshes/{name}/original?format=obj|ply|glb|json"),
+    )?;
     let mut v = summary(&e);
     let base = format!("/v1/meshes/{name}");
     let methods = json!({
@@ -718,6 +706,23 @@ fn upload_error(e: UploadError) -> ApiError {
     }
 }
 
+/// Refuses any query parameter (400 `bad_query`) on a route that takes none: the object-mesh
+/// routes name a parameter they would ignore, as no map client adds its own there. `what`
+/// starts the message and `hint` ends it.
+fn no_parameters(
+    query: Result<Query<HashMap<String, String>>, QueryRejection>,
+    what: &str,
+    hint: &str,
+) -> ApiResult<()> {
+    match query?.0.keys().next() {
+        None => Ok(()),
+        Some(k) => Err(ApiError::bad_request(
+            "bad_query",
+            format!("{what} takes no parameters, got {}{hint}", echo(k)),
+        )),
+    }
+}
+
 /// The name and format of an upload, checked before its body is read.
 fn upload_target(
     path: Result<Path<String>, PathRejection>,
@@ -726,15 +731,7 @@ fn upload_target(
 ) -> ApiResult<(String, Option<Format>)> {
     let Path(name) = path?;
     // A parameter an upload would ignore (`?format=ply` say) is the client's mistake.
-    if let Some(k) = query?.0.keys().next() {
-        return Err(ApiError::bad_request(
-            "bad_query",
-            format!(
-                "an upload takes no parameters, got {}; its Content-Type names the format",
-                echo(k)
-            ),
-        ));
-    }
+    no_parameters(query, "an upload", "; its Content-Type names the format")?;
     crate::ingest::check_name_of("mesh", &name)
         .map_err(|e| ApiError::bad_request("bad_name", e.to_string()))?;
     // Nothing decodes a compressed body: it reached the mesh parsers as it came and was
