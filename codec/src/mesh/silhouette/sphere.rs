@@ -52,17 +52,20 @@ impl Cell {
         // every component, so `* 3.0` or `% 3.0` would give the same centre.
         let c = (corners[0] + corners[1] + corners[2]) / 3.0;
         let sign = |bit: u8| if self.octant & bit != 0 { -1.0 } else { 1.0 };
+        // The signs are ±1, so `/` for each `*` below would give the same vector.
         DVec3::new(c.x * sign(1), c.y * sign(2), c.z * sign(4)).normalize_or_zero()
     }
 }
 
 /// The cell of direction `n` at `level` (≤ [`MAX_LEVEL`]); `None` for a zero or non-finite
-/// vector.
+/// vector. A direction on a cell's edge goes to the positive octant (a zero component, +0 or
+/// −0, counts as positive) and to the middle sub-triangle, which treats the axes alike.
 pub fn cell_of(n: DVec3, level: u8) -> Option<Cell> {
     let sum = n.x.abs() + n.y.abs() + n.z.abs();
     if !(sum > 0.0 && sum.is_finite()) {
         return None;
     }
+    // The three bits do not overlap, so `|` and `^` agree.
     let octant = u8::from(n.x < 0.0) | (u8::from(n.y < 0.0) << 1) | (u8::from(n.z < 0.0) << 2);
     let mut b = [n.x.abs() / sum, n.y.abs() / sum, n.z.abs() / sum];
     let mut path = 0u16;
@@ -82,6 +85,7 @@ pub fn cell_of(n: DVec3, level: u8) -> Option<Cell> {
             b = [1.0 - 2.0 * b[0], 1.0 - 2.0 * b[1], 1.0 - 2.0 * b[2]];
             3
         };
+        // `path << 2` has its low two bits clear and `child` < 4, so `|` and `^` agree.
         path = (path << 2) | child;
     }
     Some(Cell {

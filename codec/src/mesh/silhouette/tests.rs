@@ -328,3 +328,114 @@ fn silhouette_cells_are_drawn_one_level_finer_and_facing_ones_one_coarser() {
     assert_eq!(at(oblique, level), (2, drawn(level, 0, 0, 4)));
     assert_eq!(at(oblique, level + 1), (4, drawn(level + 1, 0, 0, 4)));
 }
+
+#[test]
+fn regions_join_faces_across_shared_edges_of_one_key_only() {
+    // Only the faces' vertex lists count. 1 shares the edge 2–0 with 0 (each face's third
+    // edge, from its last vertex back to its first); 2 shares only the vertex 0 with both,
+    // first in each list; 3 shares the edge 0–1 with 0 but has another key.
+    let faces = vec![[0, 1, 2], [2, 3, 0], [0, 4, 5], [1, 0, 6]];
+    let m = TriMesh::new(vec![DVec3::ZERO; 7], faces);
+    assert_eq!(simplify::regions(&m, &[5, 5, 5, 6]), [0, 0, 2, 3]);
+    // With one key the edge 0–1 joins 3 too; 2, touching at a vertex, stays alone.
+    assert_eq!(simplify::regions(&m, &[5, 5, 5, 5]), [0, 0, 2, 0]);
+}
+
+/// `cell` with the axes `i` and `j` swapped: their octant bits, and at every level the child
+/// indices `i` and `j` (the corner sub-triangles at those axes; in the middle one too, whose
+/// corners are the edge midpoints opposite them).
+fn swap_axes(cell: Cell, i: u8, j: u8) -> Cell {
+    let bit = |octant: u8, k: u8| (octant >> k) & 1;
+    let mut octant = cell.octant & !(1 << i | 1 << j);
+    octant |= bit(cell.octant, i) << j | bit(cell.octant, j) << i;
+    let mut path = 0;
+    for k in (0..cell.level).rev() {
+        let child = (cell.path >> (2 * k)) & 3;
+        let child = match child {
+            c if c == u16::from(i) => u16::from(j),
+            c if c == u16::from(j) => u16::from(i),
+            c => c,
+        };
+        path = path << 2 | child;
+    }
+    Cell {
+        octant,
+        path,
+        ..cell
+    }
+}
+
+#[test]
+fn swapping_a_directions_axes_swaps_its_cell_ties_included() {
+    // The sphere treats the axes alike, so a mesh turned by swapping two axes is drawn the
+    // same. Small whole components put many directions on cell edges, e.g. (1, 1, 0) on the
+    // edge of the corner cells 0 and 1 and the middle one: a tie goes to the middle cell,
+    // which has no favourite axis.
+    for x in -3..=3 {
+        for y in -3..=3 {
+            for z in -3..=3 {
+                let d = [f64::from(x), f64::from(y), f64::from(z)];
+                let Some(cell) = cell_of(DVec3::from(d), MAX_LEVEL) else {
+                    continue;
+                };
+                for (i, j) in [(0, 1), (0, 2), (1, 2)] {
+                    let mut e = d;
+                    e.swap(usize::from(i), usize::from(j));
+                    let want = swap_axes(cell, i, j);
+                    assert_eq!(
+                        cell_of(DVec3::from(e), MAX_LEVEL),
+                        Some(want),
+                        "{d:?} {i}↔{j}"
+                    );
+                }
+            }
+        }
+    }
+    for (d, middle) in [
+        (DVec3::new(1.0, 1.0, 0.0), 3),
+        (DVec3::new(0.0, 1.0, 1.0), 3),
+        (DVec3::new(1.0, 0.0, 1.0), 3),
+    ] {
+        assert_eq!(cell_of(d, 1).map(|c| c.path), Some(middle), "{d}");
+    }
+}
+
+#[test]
+fn a_zero_component_of_either_sign_counts_as_positive() {
+    // Axis-aligned faces (exact zeros in their normals, of either sign) all go to one octant,
+    // the positive one, as `cell_of` says.
+    for d in [
+        DVec3::new(0.0, 1.0, 0.0),
+        DVec3::new(-0.0, 1.0, -0.0),
+        DVec3::new(1.0, 0.0, -0.0),
+        DVec3::new(-0.0, -0.0, 1.0),
+    ] {
+        assert_eq!(cell_of(d, 0).map(|c| c.octant), Some(0), "{d}");
+    }
+    assert_eq!(
+        cell_of(DVec3::new(-0.0, -1.0, -0.0), 0).map(|c| c.octant),
+        Some(2)
+    );
+}
+
+#[test]
+fn every_cells_centre_lies_in_that_cell() {
+    // `Cell::centre` works down from the octant's corners, `cell_of` down from a direction,
+    // so each checks the other, at every level and every path: a direction that leaves a
+    // corner cell for another goes through the corner cell's rescaling.
+    let mut cells = 0;
+    for level in 0..=MAX_LEVEL {
+        for octant in 0..8 {
+            for path in 0..1u32 << (2 * level) {
+                let cell = Cell {
+                    level,
+                    octant,
+                    path: path as u16,
+                };
+                assert_eq!(cell_of(cell.centre(), level), Some(cell));
+                cells += 1;
+            }
+        }
+    }
+    assert_eq!(cells, 8 * (4usize.pow(8) - 1) / 3);
+}
