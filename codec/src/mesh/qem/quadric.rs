@@ -109,6 +109,8 @@ impl Quadric {
         let c01 = xz * yz - xy * zz;
         let c02 = xy * yz - xz * yy;
         let det = xx * c00 + xy * c01 + xz * c02;
+        // `>` as `>=` differs only at |det| exactly 2⁻¹⁰²², where the solve is as usable as
+        // the fallback and the distance test still applies: equivalent.
         if det.abs() > f64::MIN_POSITIVE {
             let c11 = xx * zz - xz * xz;
             let c12 = xy * xz - xx * yz;

@@ -36,6 +36,8 @@ pub(super) fn radix_sort(items: &mut Vec<Entry>, scratch: &mut Vec<Entry>) {
     const BUCKETS: usize = 1 << BITS;
     // Late passes re-rank a few dozen pairs: three sweeps over 2,048 counters would cost more
     // than the sort (the standard sort is stable too, so the order is the same).
+    // Either path sorts any length alike (every key is masked by `KEY_MASK`), so `<` as `<=`,
+    // `==` or `>` is equivalent.
     if items.len() < 256 {
         items.sort_by_key(|e| e.key);
         return;
@@ -90,6 +92,7 @@ pub(super) fn merge(
         kept += usize::from(valid(&e));
     }
     out.clear();
+    // Only the capacity: `- checked` as `+ checked` reserves more, and is equivalent.
     out.reserve(kept + old.len() - checked + fresh.len());
     let mut j = 0;
     for part in [&old[..kept], &old[checked..]] {
@@ -115,6 +118,8 @@ pub(super) fn merge(
 /// front (the runs between fresh entries are short), then a binary search.
 fn leading_at_most(items: &[Entry], key: u32) -> usize {
     let (mut lo, mut step) = (0, 1);
+    // Any growth of `lo` and `step` that keeps `items[..lo]` at most `key` finds the same
+    // answer: `lo += step` as `*=` (lo stays 0) and `step *= 2` as `+= 2` are equivalent.
     while lo + step <= items.len() && items[lo + step - 1].key <= key {
         lo += step;
         step *= 2;

@@ -298,3 +298,211 @@ fn unwelded_teapot_simplifies_without_panicking() {
     let (out, _) = simplify(&cow, &QemOptions::to_faces(500)).expect("runs");
     assert!(out.face_count() <= 500);
 }
+
+// Unit checks of the quadric and the ranked list against hand values (added after a
+// cargo-mutants run: the mesh tests above pass with many arithmetic slips in these, since a
+// slightly wrong optimum or order still simplifies well).
+
+/// Four weighted planes n·x + d = 0 (n unit), three through (1.5, −0.5, 2) and one off it, so
+/// A is full and no entry of it is zero, and the minimum is not 0.
+fn four_planes() -> [(DVec3, f64, f64); 4] {
+    [
+        (DVec3::new(1.0, 2.0, 2.0) / 3.0, -1.5, 2.0),
+        (DVec3::new(2.0, -1.0, 2.0) / 3.0, -2.5, 0.75),
+        (DVec3::new(-2.0, -2.0, 1.0) / 3.0, 0.0, 1.5),
+        (DVec3::new(0.0, 0.6, 0.8), 1.0, 1.25),
+    ]
+}
+
+fn four_plane_quadric() -> Quadric {
+    four_planes()
+        .into_iter()
+        .map(|(n, d, w)| Quadric::from_plane(n, d, w))
+        .fold(Quadric::default(), |s, q| s + q)
+}
+
+/// Σ w (n·v + d)², worked out plane by plane.
+fn four_plane_distances(v: DVec3) -> f64 {
+    four_planes()
+        .into_iter()
+        .map(|(n, d, w)| w * (n.dot(v) + d).powi(2))
+        .sum()
+}
+
+/// `a` and `b` finite and equal to `tol`, relative (absolute below 1).
+fn close(a: f64, b: f64, tol: f64) -> bool {
+    a.is_finite() && b.is_finite() && (a - b).abs() <= tol * a.abs().max(b.abs()).max(1.0)
+}
+
+#[test]
+fn a_plane_quadric_holds_the_planes_products() {
+    // n = (1, 2, 2)/3, d = −1.5, weight 2: A = 2/9 · (1 2 2; 2 4 4; 2 4 4), b = 2 · −1.5 · n,
+    // c = 2 · 2.25.
+    let n = DVec3::new(1.0, 2.0, 2.0) / 3.0;
+    let q = Quadric::from_plane(n, -1.5, 2.0);
+    let want_a = [2.0, 4.0, 4.0, 8.0, 8.0, 8.0].map(|x| x / 9.0);
+    for (got, want) in q.a.iter().zip(want_a) {
+        assert!(close(*got, want, 1e-15), "{:?}", q.a);
+    }
+    assert!(
+        (q.b - DVec3::new(-1.0, -2.0, -2.0)).length() < 1e-15,
+        "{}",
+        q.b
+    );
+    assert_eq!((q.c, q.w), (4.5, 2.0));
+    // A penalty plane is the same quadric with no weight.
+    let p = Quadric::penalty(n, -1.5, 2.0);
+    assert_eq!(p, Quadric { w: 0.0, ..q });
+}
+
+#[test]
+fn quadrics_add_field_by_field() {
+    let x = Quadric::from_plane(DVec3::X, -1.0, 2.0);
+    let y = Quadric::from_plane(DVec3::Y, 3.0, 0.5);
+    let want = Quadric {
+        a: [2.0, 0.0, 0.0, 0.5, 0.0, 0.0],
+        b: DVec3::new(-2.0, 1.5, 0.0),
+        c: 6.5,
+        w: 2.5,
+    };
+    assert_eq!(x + y, want);
+    let mut s = x;
+    s += y;
+    assert_eq!(s, want);
+}
+
+#[test]
+fn a_quadric_is_its_planes_weighted_squared_distances() {
+    let q = four_plane_quadric();
+    assert_eq!(q.w, 5.5);
+    for v in [
+        DVec3::ZERO,
+        DVec3::new(1.5, -0.5, 2.0),
+        DVec3::new(-3.0, 7.0, 0.25),
+        DVec3::new(0.1, 2.0, -5.0),
+    ] {
+        let want = four_plane_distances(v);
+        assert!(close(q.eval(v), want, 1e-13), "{v}: {} {want}", q.eval(v));
+        assert!(close(q.mean_error(v), want / 5.5, 1e-13), "{v}");
+        // Penalty planes only: the sum itself, not divided by a weight of 0.
+        let penalty = Quadric { w: 0.0, ..q };
+        assert!(close(penalty.mean_error(v), want, 1e-13), "{v}");
+    }
+}
+
+#[test]
+fn the_solve_is_the_regularised_minimum_and_its_value() {
+    let q = four_plane_quadric();
+    let (p, r) = (DVec3::new(1.0, -1.0, 3.5), DVec3::new(3.0, 0.0, 2.5));
+    let (v, e) = q.solve(p, r).expect("near the segment");
+    // By Cramer's rule on (A + λI) v = λm − b, λ = 10⁻³ · trace(A) / 3 = 0.0018333…, m the
+    // midpoint (worked out apart from the code, in Python).
+    let want = DVec3::new(
+        2.475_903_105_090_882,
+        -1.359_621_839_296_798,
+        1.140_999_769_197_27,
+    );
+    assert!((v - want).length() < 1e-12, "{v}");
+    // Q there, which the solve takes from the solution rather than evaluating.
+    assert!(close(e, 3.148_817_974_171_597, 1e-12), "{e}");
+    assert!(close(e, four_plane_distances(v), 1e-12), "{e}");
+    // The regularisation pulls toward m: the unregularised minimum is elsewhere.
+    let free = DVec3::new(
+        2.477_891_156_462_584,
+        -1.360_544_217_687_075,
+        1.139_455_782_312_925,
+    );
+    assert!((v - free).length() > 1e-3);
+    assert_eq!(q.minimize(p, r), (v, e));
+    assert_eq!(q.optimize(p, r), v);
+}
+
+#[test]
+fn the_solve_gives_up_past_twice_the_edge_length_from_its_midpoint() {
+    // Three unit planes through c: A = I, λ = 10⁻³, so v = (c + λm)/(1 + λ) and
+    // |v − m| = |c − m|/(1 + λ). The edge is 2 long (the bound is |v − m|² ≤ 4 · 4 = 16),
+    // away from the origin so that neither p + q nor v + m is near it.
+    let (p, r) = (DVec3::new(10.0, 10.0, 10.0), DVec3::new(12.0, 10.0, 10.0));
+    let m = DVec3::new(11.0, 10.0, 10.0);
+    let through = |c: DVec3| {
+        [DVec3::X, DVec3::Y, DVec3::Z]
+            .into_iter()
+            .map(|n| Quadric::from_plane(n, -n.dot(c), 1.0))
+            .fold(Quadric::default(), |s, q| s + q)
+    };
+    let lambda = 1e-3;
+    for (dist_sq, inside) in [(15.0f64, true), (17.0, false)] {
+        let c = m + DVec3::new(0.0, dist_sq.sqrt() * (1.0 + lambda), 0.0);
+        let q = through(c);
+        let solved = q.solve(p, r);
+        assert_eq!(solved.is_some(), inside, "|v − m|² {dist_sq}: {solved:?}");
+        if let Some((v, _)) = solved {
+            assert!(close((v - m).length_squared(), dist_sq, 1e-12), "{v}");
+        } else {
+            // The paper's fallback: the best of p, q and m (here m, nearest c), and Q there.
+            let (v, e) = q.minimize(p, r);
+            assert_eq!(v, m);
+            assert!(close(e, (c - m).length_squared(), 1e-12), "{e}");
+        }
+    }
+}
+
+#[test]
+fn the_fallback_takes_the_best_of_the_ends_and_the_midpoint_first_on_ties() {
+    let (p, r) = (DVec3::new(0.0, 0.0, 1.0), DVec3::new(4.0, 0.0, 3.0));
+    let m = DVec3::new(2.0, 0.0, 2.0);
+    // z = 0: p is nearest; z = 3: r; x = 2: m.
+    let at = |n: DVec3, d: f64| Quadric::from_plane(n, d, 1.0);
+    assert_eq!(at(DVec3::Z, 0.0).best_of_segment(p, r), p);
+    assert_eq!(at(DVec3::Z, -3.0).best_of_segment(p, r), r);
+    assert_eq!(at(DVec3::X, -2.0).best_of_segment(p, r), m);
+    // y = 0 holds all three: the first, p, is kept.
+    assert_eq!(at(DVec3::Y, 0.0).best_of_segment(p, r), p);
+    // The fallback of a sum, with Q of the sum at the pick: planes z = 3 and x = 4 (weight 2)
+    // are both met at r.
+    let (a, b) = (at(DVec3::Z, -3.0), Quadric::from_plane(DVec3::X, -4.0, 2.0));
+    assert_eq!(Quadric::segment_fallback(&a, &b, p, r), (r, 0.0));
+    // Planes z = 0 and x = 4: p costs 1 + 2·16, r 9 + 0, m 4 + 2·4 = 12: r, at 9.
+    let b = Quadric::from_plane(DVec3::X, -4.0, 2.0);
+    let a = at(DVec3::Z, 0.0);
+    assert_eq!(Quadric::segment_fallback(&a, &b, p, r), (r, 9.0));
+}
+
+#[test]
+fn ranking_keys_keep_fourteen_mantissa_bits() {
+    // Errors 2⁻¹⁴ apart (the last bit kept) rank apart; 2⁻¹⁵ apart they tie.
+    let key = |f: f32| f.to_bits() & ranked::KEY_MASK;
+    assert!(key(1.0 + 2f32.powi(-14)) > key(1.0));
+    assert_eq!(key(1.0 + 2f32.powi(-15)), key(1.0));
+    assert_eq!(key(1.0 + 2f32.powi(-23)), key(1.0));
+    assert_eq!(
+        ranked::Entry {
+            key: key(0.75),
+            ..ranked::Entry::default()
+        }
+        .error(),
+        0.75
+    );
+}
+
+#[test]
+fn merge_takes_more_fresh_entries_than_it_had_old_ones() {
+    let entries = |keys: &[u32], b: u32| -> Vec<ranked::Entry> {
+        keys.iter()
+            .map(|&key| ranked::Entry {
+                key,
+                b,
+                ..ranked::Entry::default()
+            })
+            .collect()
+    };
+    let fresh = entries(&[1, 2, 3, 4, 6, 7], 1);
+    let mut out = Vec::new();
+    // One old entry among six fresh ones.
+    let dropped = ranked::merge(&mut entries(&[5], 0), &fresh, &mut out, 0, |_| true);
+    let keys: Vec<u32> = out.iter().map(|e| e.key).collect();
+    assert_eq!((dropped, keys), (0, vec![1, 2, 3, 4, 5, 6, 7]));
+    // Both old entries looked at and refused.
+    let dropped = ranked::merge(&mut entries(&[1, 9], 0), &fresh, &mut out, 2, |_| false);
+    assert_eq!((dropped, out), (2, fresh));
+}
