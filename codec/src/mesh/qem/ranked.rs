@@ -124,6 +124,8 @@ fn leading_at_most(items: &[Entry], key: u32) -> usize {
         lo += step;
         step *= 2;
     }
+    // `+` as `*` is equivalent: the answer is at most min(lo + step − 1, len), and lo · step
+    // (lo = step − 1) is 0 only when the answer is 0, 2 when step is 2, else ≥ lo + step.
     let hi = (lo + step).min(items.len());
     lo + items[lo..hi].partition_point(|e| e.key <= key)
 }
