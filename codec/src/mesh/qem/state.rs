@@ -7,7 +7,7 @@ use std::collections::HashMap;
 use glam::{DVec3, Vec3};
 
 use super::quadric::Quadric;
-use super::ranked::{Entry, KEY_MASK};
+use super::ranked::{key_of, Entry};
 use super::{plane, QemOptions, QemReport, Stop};
 use crate::mesh::error::MeshError;
 use crate::mesh::indexed::{Aabb, TriMesh};
@@ -342,9 +342,7 @@ impl State {
         let len_sq = (self.geo[a as usize].pos - self.geo[b as usize].pos).length_squared();
         let key = e + TIE_BREAK * len_sq;
         Some(Entry {
-            // Non-negative floats order like their bits; 14 mantissa bits (errors within 6·10⁻⁵
-            // of each other tie and keep their order) let the sort take two radix passes.
-            key: (key as f32).to_bits() & KEY_MASK,
+            key: key_of(key as f32),
             a,
             b,
             stamp: self.stamps(a, b),

@@ -460,18 +460,22 @@ fn the_fallback_takes_the_best_of_the_ends_and_the_midpoint_first_on_ties() {
     assert_eq!(at(DVec3::Y, 0.0).best_of_segment(p, r), p);
     // The fallback of a sum, with Q of the sum at the pick: planes z = 3 and x = 4 (weight 2)
     // are both met at r.
-    let (a, b) = (at(DVec3::Z, -3.0), Quadric::from_plane(DVec3::X, -4.0, 2.0));
-    assert_eq!(Quadric::segment_fallback(&a, &b, p, r), (r, 0.0));
+    let x4 = Quadric::from_plane(DVec3::X, -4.0, 2.0);
+    assert_eq!(
+        Quadric::segment_fallback(&at(DVec3::Z, -3.0), &x4, p, r),
+        (r, 0.0)
+    );
     // Planes z = 0 and x = 4: p costs 1 + 2·16, r 9 + 0, m 4 + 2·4 = 12: r, at 9.
-    let b = Quadric::from_plane(DVec3::X, -4.0, 2.0);
-    let a = at(DVec3::Z, 0.0);
-    assert_eq!(Quadric::segment_fallback(&a, &b, p, r), (r, 9.0));
+    assert_eq!(
+        Quadric::segment_fallback(&at(DVec3::Z, 0.0), &x4, p, r),
+        (r, 9.0)
+    );
 }
 
 #[test]
 fn ranking_keys_keep_fourteen_mantissa_bits() {
     // Errors 2⁻¹⁴ apart (the last bit kept) rank apart; 2⁻¹⁵ apart they tie.
-    let key = |f: f32| f.to_bits() & ranked::KEY_MASK;
+    let key = ranked::key_of;
     assert!(key(1.0 + 2f32.powi(-14)) > key(1.0));
     assert_eq!(key(1.0 + 2f32.powi(-15)), key(1.0));
     assert_eq!(key(1.0 + 2f32.powi(-23)), key(1.0));

@@ -46,7 +46,7 @@ pub async fn list(
     query: Result<Query<HashMap<String, String>>, QueryRejection>,
     headers: HeaderMap,
 ) -> ApiResult<Response> {
-    no_parameters(query, "the mesh list", "")?;
+    no_parameters(&query?, "the mesh list", "")?;
     let meshes: Vec<Value> = state.meshes.list().iter().map(|e| summary(e)).collect();
     revalidate::json(&headers, &json!({ "meshes": meshes }), REVALIDATE)
 }
@@ -63,9 +63,9 @@ pub async fn describe(
     // `?format=glb` here would otherwise answer this JSON with a 200 to a client that
     // asked for a model.
     no_parameters(
-        Ok(query),
+        &query,
         "the mesh description",
-        &format!("; the mesh itself is /v1/meshes/{name}/original?format=obj|ply|glb|json"),
+        format_args!("; the mesh itself is /v1/meshes/{name}/original?format=obj|ply|glb|json"),
     )?;
     let mut v = summary(&e);
     let base = format!("/v1/meshes/{name}");
@@ -708,13 +708,13 @@ fn upload_error(e: UploadError) -> ApiError {
 
 /// Refuses any query parameter (400 `bad_query`) on a route that takes none: the object-mesh
 /// routes name a parameter they would ignore, as no map client adds its own there. `what`
-/// starts the message and `hint` ends it.
+/// starts the message and `hint` ends it (formatted only for the refusal).
 fn no_parameters(
-    query: Result<Query<HashMap<String, String>>, QueryRejection>,
+    query: &Query<HashMap<String, String>>,
     what: &str,
-    hint: &str,
+    hint: impl std::fmt::Display,
 ) -> ApiResult<()> {
-    match query?.0.keys().next() {
+    match query.keys().next() {
         None => Ok(()),
         Some(k) => Err(ApiError::bad_request(
             "bad_query",
@@ -731,7 +731,7 @@ fn upload_target(
 ) -> ApiResult<(String, Option<Format>)> {
     let Path(name) = path?;
     // A parameter an upload would ignore (`?format=ply` say) is the client's mistake.
-    no_parameters(query, "an upload", "; its Content-Type names the format")?;
+    no_parameters(&query?, "an upload", "; its Content-Type names the format")?;
     crate::ingest::check_name_of("mesh", &name)
         .map_err(|e| ApiError::bad_request("bad_name", e.to_string()))?;
     // Nothing decodes a compressed body: it reached the mesh parsers as it came and was
