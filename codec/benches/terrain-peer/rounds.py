@@ -1,14 +1,16 @@
 #!/usr/bin/env python3
-"""Paired speed rounds: zerotile's decode to T/8 + mesh against @mapbox/martini's createTile +
-getMesh at equal true max error, alternating, on terrain_mesh.py's three 257² tiles.
+"""Paired speed rounds: zerotile's decode to T/8 + mesh against Martini's createTile + getMesh
+at equal true max error, alternating, on terrain_mesh.py's three 257² tiles. Both Martinis run:
+@mapbox/martini (JS, the original) and pymartini (Cython, the one terrain_mesh.py times).
 
 usage: rounds.py [ROUNDS] [ITERATIONS]   (defaults 9 and 31; run from anywhere)
 
 run.sh's criterion group takes minutes before Martini runs, and load on a shared machine drifts
 in that time, on one side of the ratio only. Here each round times every case on both sides
-(the `terrain_rounds` bench binary, the same function the criterion bench times, then node, or
-node first on odd rounds), each a median of ITERATIONS after warm-up, and takes the ratio inside
-the round. The table gives the median ratio over the rounds, its range, and how many rounds came
+(the `terrain_rounds` bench binary, the same function the criterion bench times, then node and
+pymartini, or the peers first on odd rounds), each a median of ITERATIONS after warm-up, and
+takes the ratio inside the round. terrain_mesh.py's pymartini figure is medians of 5 a side
+minutes apart, so it carries the machine's drift; this one does not. The table gives the median ratio over the rounds, its range, and how many rounds came
 out below 1. Martini's E per budget is fixed once, before the rounds (peer.fair_params: the
 largest E whose mesh's true max error is within T).
 """
@@ -53,37 +55,58 @@ def main() -> int:
     def martini() -> dict:
         return {name: peer.node_martini(z, params, iterations) for name, z, _, params in tiles}
 
-    # (tile, wavelet, T) -> one (zerotile ms, Martini ms) pair per round.
+    def pymartini() -> dict:
+        # createTile + getMesh(E), the sum of their medians, as peer.martini_times takes it.
+        out = {}
+        for name, z, _, params in tiles:
+            m = Martini(257)
+            _, create = bl.median_ms(lambda: m.create_tile(z), iterations)
+            t = m.create_tile(z)
+            out[name] = {e: create + bl.median_ms(lambda: t.get_mesh(e), iterations)[1] for e in params}
+        return out
+
+    # (tile, wavelet, T) -> one (zerotile ms, @mapbox/martini ms, pymartini ms) per round.
     pairs: dict = {}
     for r in range(rounds):
         if r % 2:
-            m, zt = martini(), zerotile_round(repo, iterations)
+            m, py = martini(), pymartini()
+            zt = zerotile_round(repo, iterations)
         else:
-            zt, m = zerotile_round(repo, iterations), martini()
+            zt = zerotile_round(repo, iterations)
+            m, py = martini(), pymartini()
         for name, _, fair, _ in tiles:
             if m[name] is None:
                 print("@mapbox/martini not installed: run ../shared/bench/setup.sh", file=sys.stderr)
                 return 1
             for w in peer.WAVELETS:
                 for t, (e, _) in fair.items():
-                    pairs.setdefault((name, w, t), []).append((zt[(name, w, t)], m[name][e]))
+                    pairs.setdefault((name, w, t), []).append((zt[(name, w, t)], m[name][e], py[name][e]))
         print(f"round {r + 1}/{rounds} done", file=sys.stderr)
 
     fair_of = {name: fair for name, _, fair, _ in tiles}
     rows = []
     for (name, w, t), ps in pairs.items():
         e, err = fair_of[name][t]
-        rs = [a / b for a, b in ps]
-        rows.append([name, w, f"{t:g}", f"{e:.3g} ({err:.3g} m)",
-                     f"{statistics.median(a for a, _ in ps):.3f}",
-                     f"{statistics.median(b for _, b in ps):.3f}",
-                     f"{statistics.median(rs):.2f}", f"{min(rs):.2f}–{max(rs):.2f}",
-                     f"{sum(x < 1 for x in rs)}/{len(rs)}"])
-    head = ["tile", "wavelet", "T (m)", "Martini E (true err)", "zerotile ms", "@mapbox/martini ms",
-            "ratio (median)", "ratio range", "rounds < 1"]
+        row = [name, w, f"{t:g}", f"{e:.3g} ({err:.3g} m)", f"{statistics.median(p[0] for p in ps):.3f}"]
+        for side in (1, 2):
+            rs = [p[0] / p[side] for p in ps]
+            row += [f"{statistics.median(p[side] for p in ps):.3f}", f"{statistics.median(rs):.2f}",
+                    f"{min(rs):.2f}–{max(rs):.2f}", f"{sum(x < 1 for x in rs)}/{len(rs)}"]
+        rows.append(row)
+    head = ["tile", "wavelet", "T (m)", "Martini E (true err)", "zerotile ms",
+            "@mapbox/martini ms", "ratio (median)", "ratio range", "rounds < 1",
+            "pymartini ms", "ratio (median)", "ratio range", "rounds < 1"]
     print(f"# {rounds} paired rounds, medians of {iterations} a side a round; ratio = zerotile / Martini "
           "at equal true max error\n")
     print(bl.md_table(head, rows))
+    # The docs' one-line form: per budget, the range of the median ratios over tiles and wavelets.
+    print()
+    for side, peer_name in ((1, "@mapbox/martini"), (2, "pymartini")):
+        spans = []
+        for t in sorted({t for _, _, t in pairs}):
+            meds = [statistics.median(p[0] / p[side] for p in ps) for (_, _, tt), ps in pairs.items() if tt == t]
+            spans.append(f"T = {t:g}: {min(meds):.2f}–{max(meds):.2f}")
+        print(f"zerotile / {peer_name}, median over rounds, range over tiles and wavelets: " + "; ".join(spans))
     return 0
 
 

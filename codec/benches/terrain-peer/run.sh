@@ -5,7 +5,7 @@
 # same machine load (the bench machine is shared).
 # Usage: codec/benches/terrain-peer/run.sh; REPEAT=n sets Martini's timed runs (default 51).
 # For ratios that survive the machine's drift, rounds.py alternates both sides instead
-# (codec/benches/terrain-peer/rounds.py [ROUNDS] [ITERATIONS], about 1.5 min at 15 31).
+# (codec/benches/terrain-peer/rounds.py [ROUNDS] [ITERATIONS], both Martinis, about 3 min at 9 31).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 repo=$(git -C "$here" rev-parse --show-toplevel)
