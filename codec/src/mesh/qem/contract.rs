@@ -49,6 +49,8 @@ impl State {
             let mut end = ranked.len();
             moved.clear();
             for (i, e) in ranked.iter().enumerate() {
+                // Prefetches only ask the caches: no result depends on them, so their offsets'
+                // `+` as `*` and `2 * ` as `2 +` or `2 /` are equivalent (`-` underflows).
                 if large {
                     if let Some(ahead) = ranked.get(i + 2 * PREFETCH_AHEAD) {
                         self.prefetch_pair(ahead.a, ahead.b);
@@ -66,6 +68,9 @@ impl State {
                     break;
                 }
                 let (a, b) = (e.a, e.b);
+                // The stamp check alone skips pairs with a dead end (a vertex's stamp is bumped
+                // when it dies, and pairs are ranked only between live vertices), so `& ALIVE`
+                // as `| ALIVE` (never 0: no check) is equivalent.
                 if self.stamps(a, b) != e.stamp || self.flags[b as usize] & ALIVE == 0 {
                     continue;
                 }
@@ -117,16 +122,20 @@ impl State {
                 moved.sort_unstable();
             }
             for (k, &a) in moved.iter().enumerate() {
+                // A prefetch: `+` as `*` is equivalent (see above).
                 if let Some(&ahead) = moved.get(k + PREFETCH_AHEAD).filter(|_| large) {
                     self.prefetch_pair(ahead, ahead);
                 }
+                // `u > a` as `u >= a` is equivalent: a is not its own neighbour.
                 self.collect_vertex(a, |u| touched[u as usize] != pass || u > a, &mut fresh);
             }
             radix_sort(&mut fresh, &mut scratch);
             let purge = 3 * stale > ranked.len();
             let (stamp, flags) = (&self.stamp, &self.flags);
             let checked = if purge { ranked.len() } else { end };
-            // `&`, not `&&`: no branch (see `merge`).
+            // `&`, not `&&`: no branch (see `merge`). The stamp test alone drops pairs with a
+            // dead end (as in the pass above), so either `&` of the first test as `|` (a weaker
+            // test, or none) is equivalent.
             let dropped = merge(&mut ranked, &fresh, &mut scratch, checked, |e| {
                 (flags[e.a as usize] & flags[e.b as usize] & ALIVE != 0)
                     & (stamp[e.a as usize].wrapping_add(stamp[e.b as usize]) == e.stamp)
@@ -146,6 +155,7 @@ impl State {
     /// error order, so on a mesh larger than the caches (the 1.1M-face bunny: 71 MB of
     /// vertex records) nearly every pair starts with misses on both vertices; the ranked list
     /// says which vertices come next, so their loads can be in flight a few pairs early.
+    /// Only a hint: as `()` it changes no result (equivalent).
     #[inline]
     fn prefetch_pair(&self, a: u32, b: u32) {
         for v in [a as usize, b as usize] {
@@ -165,7 +175,8 @@ impl State {
     }
 
     /// The second step of [`Self::prefetch_pair`], once `v`'s slice bounds are in cache: its
-    /// face list and the faces themselves, which the link condition reads first.
+    /// face list and the faces themselves, which the link condition reads first. Only a hint:
+    /// as `()`, or with `s + c` as `s * c` (other faces, or none), it changes no result.
     #[inline]
     fn prefetch_faces(&self, v: u32) {
         let (Some(&s), Some(&c)) = (self.start.get(v as usize), self.count.get(v as usize)) else {
@@ -225,6 +236,8 @@ impl State {
         let mut common = 0usize;
         let mut b_caps = false;
         // A face of b holding both (distinct) far corners is b-far-far: it cannot hold a.
+        // `&&` as `||` is equivalent: `b_caps` is only read when `on_edge == 2`, and equal far
+        // corners are refused before it is.
         let caps_possible = on_edge == 2 && far[0] != far[1];
         for &f in &self.refs[sb..sb + cb] {
             let t = self.faces[f as usize];
@@ -235,7 +248,9 @@ impl State {
             if !folds && !t.contains(&a) {
                 folds = self.face_turns_too_far(f, t, b, pb, p);
             }
-            // Without a branch: whether a corner is a's neighbour is unpredictable.
+            // Without a branch: whether a corner is a's neighbour is unpredictable. A hit
+            // moves its mark off `g` so it counts once; `+=` as `-=` is equivalent: g − 1 is
+            // below every later generation too (marks are zeroed when the counter wraps).
             for u in t {
                 let m = &mut self.mark[u as usize];
                 let hit = *m == g;
@@ -332,6 +347,7 @@ impl State {
         self.geo[ai].pos = p;
         let qb = self.geo[bi].q;
         self.geo[ai].q += qb;
+        // `BOUNDARY | AGGREGATED` as `^` is equivalent: the two are different bits.
         self.flags[ai] |= self.flags[bi] & (BOUNDARY | AGGREGATED);
         if removed == 0 {
             self.flags[ai] |= AGGREGATED;
@@ -339,6 +355,8 @@ impl State {
         } else {
             self.report.collapses += 1;
         }
+        // `&=` as `|=` is equivalent: b stays "alive" but is then also LOCKED, and a locked
+        // vertex is never ranked again; its faces are gone and its stamp is bumped.
         self.flags[bi] &= !ALIVE;
         self.stamp[ai] = self.stamp[ai].wrapping_add(1);
         self.stamp[bi] = self.stamp[bi].wrapping_add(1);
@@ -352,7 +370,8 @@ impl State {
         self.refs.extend_from_within(sb..sb + cb);
         // Without branches: which faces die (a's faces on the edge) and which are already
         // dead is a coin toss per face to the predictor. Renaming b leaves a's other faces
-        // and dead faces as they are, and b's faces on the edge died among a's.
+        // and dead faces as they are, and b's faces on the edge died among a's. A face holds
+        // b at most once, so `|` as `^` in `dies` is equivalent.
         let (mut keep, from_b) = (new_start, new_start + ca);
         for i in new_start..self.refs.len() {
             let f = self.refs[i];
@@ -368,6 +387,9 @@ impl State {
             keep += usize::from(!dies & (t[0] != DEAD));
         }
         self.refs.truncate(keep);
+        // `&` as `|` or `^` (always true: a is alive) is equivalent, only slower: without an
+        // aggregation the link condition already refused every contraction that would make a
+        // face twice, so there is nothing to drop.
         if self.flags[ai] & AGGREGATED != 0 {
             self.drop_duplicates(new_start);
         }
