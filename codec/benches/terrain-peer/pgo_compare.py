@@ -3,7 +3,8 @@
 (`eval terrain --repeat 11`, its medians) at T = 0.5 / 2 / 4 (about 4 / 15 / 30 m true error),
 the second's time over the first's taken inside each round.
 
-usage: pgo_compare.py BASE_BIN OTHER_BIN [ROUNDS]   (pgo.sh runs it)
+usage: pgo_compare.py BASE_BIN OTHER_BIN [ROUNDS]   (pgo.sh runs it; the tiles come from
+terrain_mesh.py through peer.py, so it runs in the peers' venv like rounds.py)
 """
 import json
 import statistics
@@ -11,16 +12,16 @@ import subprocess
 import sys
 from pathlib import Path
 
-DEM = Path(__file__).resolve().parents[4] / "shared" / "data" / "dem"
-TILES = [("N44W072", DEM / "N44W072.hgt", "300,500,257", None),
-         ("fuji", DEM / "fuji.png", "0,0,257", "terrain-rgb"),
-         ("jacksboro", DEM / "jacksboro_fault_dem.npz", "0,0,257", None)]
+sys.dont_write_bytecode = True
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import peer  # noqa: E402  (terrain_mesh.py's tiles)
+
 THRESHOLDS = [0.5, 2.0, 4.0]
 
 
 def times(binary: str) -> dict:
     out = {}
-    for name, path, crop, encoding in TILES:
+    for name, path, crop, encoding in peer.tm.DEFAULT_TILES:
         cmd = [binary, "eval", "terrain", str(path), "--crop", crop, "--json", "--repeat", "11",
                "--threshold", ",".join(f"{t:g}" for t in THRESHOLDS)]
         if encoding:

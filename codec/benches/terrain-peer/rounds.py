@@ -43,11 +43,12 @@ def main() -> int:
     repo = Path(__file__).resolve().parents[3]
     from pymartini import Martini
 
+    pym = Martini(257)
     # Per tile: its heights, Martini's (E, true error) per budget, and those E for node.
     tiles = []
     for name, path, spec, encoding in tm.DEFAULT_TILES:
         z = np.ascontiguousarray(bl.crop(bl.load_heightmap(path, encoding)[0], spec), dtype=np.float32)
-        fair, _ = peer.fair_params(z, Martini(257).create_tile(z))
+        fair, _ = peer.fair_params(z, pym.create_tile(z))
         tiles.append((name, z, fair, sorted({e for e, _ in fair.values()})))
     # Build before the first round, so no round times a compile.
     zerotile_round(repo, 1)
@@ -56,14 +57,7 @@ def main() -> int:
         return {name: peer.node_martini(z, params, iterations) for name, z, _, params in tiles}
 
     def pymartini() -> dict:
-        # createTile + getMesh(E), the sum of their medians, as peer.martini_times takes it.
-        out = {}
-        for name, z, _, params in tiles:
-            m = Martini(257)
-            _, create = bl.median_ms(lambda: m.create_tile(z), iterations)
-            t = m.create_tile(z)
-            out[name] = {e: create + bl.median_ms(lambda: t.get_mesh(e), iterations)[1] for e in params}
-        return out
+        return {name: peer.pymartini_times(pym, z, params, iterations) for name, z, _, params in tiles}
 
     # (tile, wavelet, T) -> one (zerotile ms, @mapbox/martini ms, pymartini ms) per round.
     pairs: dict = {}

@@ -192,6 +192,23 @@ mod tests {
     }
 
     #[test]
+    fn merge_takes_more_fresh_entries_than_it_had_old_ones() {
+        // Fresh entries marked b = 1, so that an old one in their place shows.
+        let fresh: Vec<Entry> = entries(&[1, 2, 3, 4, 6, 7])
+            .into_iter()
+            .map(|e| Entry { b: 1, ..e })
+            .collect();
+        let mut out = Vec::new();
+        // One old entry among six fresh ones.
+        let dropped = merge(&mut entries(&[5]), &fresh, &mut out, 0, |_| true);
+        let keys: Vec<u32> = out.iter().map(|e| e.key).collect();
+        assert_eq!((dropped, keys), (0, vec![1, 2, 3, 4, 5, 6, 7]));
+        // Both old entries looked at and refused.
+        let dropped = merge(&mut entries(&[1, 9]), &fresh, &mut out, 2, |_| false);
+        assert_eq!((dropped, out), (2, fresh));
+    }
+
+    #[test]
     fn merge_matches_a_stable_sort_of_both_lists() {
         // Long runs of equal keys: old entries must stay ahead of fresh ones with their key.
         let old = entries(&(0..300u32).map(|i| i / 7 * 2).collect::<Vec<_>>());

@@ -489,28 +489,6 @@ fn ranking_keys_keep_fourteen_mantissa_bits() {
     );
 }
 
-#[test]
-fn merge_takes_more_fresh_entries_than_it_had_old_ones() {
-    let entries = |keys: &[u32], b: u32| -> Vec<ranked::Entry> {
-        keys.iter()
-            .map(|&key| ranked::Entry {
-                key,
-                b,
-                ..ranked::Entry::default()
-            })
-            .collect()
-    };
-    let fresh = entries(&[1, 2, 3, 4, 6, 7], 1);
-    let mut out = Vec::new();
-    // One old entry among six fresh ones.
-    let dropped = ranked::merge(&mut entries(&[5], 0), &fresh, &mut out, 0, |_| true);
-    let keys: Vec<u32> = out.iter().map(|e| e.key).collect();
-    assert_eq!((dropped, keys), (0, vec![1, 2, 3, 4, 5, 6, 7]));
-    // Both old entries looked at and refused.
-    let dropped = ranked::merge(&mut entries(&[1, 9], 0), &fresh, &mut out, 2, |_| false);
-    assert_eq!((dropped, out), (2, fresh));
-}
-
 // Unit checks of the contraction loop on meshes small enough to follow by hand (added after
 // a cargo-mutants run of contract.rs: the shared meshes pass with these slips).
 
