@@ -14,16 +14,21 @@ fn help_lists_the_commands() {
 }
 
 /// `serve` options it cannot honour are refused at start with a message: exit 2 for a value
-/// no machine could run (a usage error), 1 for data it cannot open.
+/// no machine could run (a usage error: a store URL of a scheme it has no client for, or
+/// with no bucket, is one), 1 for data it cannot open.
 #[test]
 fn serve_refuses_what_it_cannot_honour() {
+    let missing = fresh_dir("cli-serve-refuses").join("nothing-here");
+    let missing = missing.to_str().unwrap();
     for (args, code, says) in [
         (
             vec!["--data", "ftp://example.org/tiles"],
-            1,
-            "not supported",
+            2,
+            "--data ftp://example.org/tiles: scheme \"ftp\" is not supported",
         ),
-        (vec!["--data", "s3://"], 1, "data URL"),
+        (vec!["--data", "s3://"], 2, "--data s3://: no bucket"),
+        (vec!["--data", missing], 1, "nothing-here"),
+        (vec!["--render-threads", "5000"], 2, "at most 1024"),
         (vec!["--cpu-jobs", "0"], 2, "--cpu-jobs 0"),
         (vec!["--cors-origin", "example.org"], 2, "--cors-origin"),
         (

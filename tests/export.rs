@@ -176,6 +176,36 @@ fn a_failed_export_leaves_the_previous_tree_and_says_why() {
             1,
             "dataset name",
         ),
+        // A TileJSON lists PNG tiles: the flags alone rule out any other format; a png
+        // export of this geodetic dataset is refused by the dataset's scheme.
+        (
+            &[
+                "export",
+                "lux",
+                "--out",
+                "tree",
+                "--format",
+                "json",
+                "--base-url",
+                "https://a.example/",
+            ][..],
+            2,
+            "use it with --format png",
+        ),
+        (
+            &[
+                "export",
+                "lux",
+                "--out",
+                "tree",
+                "--format",
+                "png",
+                "--base-url",
+                "https://a.example/",
+            ][..],
+            1,
+            "lux: --base-url writes a TileJSON for MapLibre",
+        ),
     ] {
         let out = zerotile(args, &dir);
         assert_eq!(out.status.code(), Some(code), "{args:?}");

@@ -107,8 +107,8 @@ pub struct InfoArgs {
 
 #[derive(Args, Debug)]
 pub struct HealthArgs {
-    /// Address of the server.
-    #[arg(long, default_value = "127.0.0.1:8080")]
+    /// Address of the server, HOST:PORT.
+    #[arg(long, default_value = "127.0.0.1:8080", value_parser = host_port)]
     pub addr: String,
 }
 
@@ -206,7 +206,7 @@ pub struct ServeArgs {
     pub cpu_queue: Option<usize>,
     /// Threads that decode and mesh, shared by all renders; one render's independent parts
     /// (a cold tile's five decodes, a view's tiles) run on them side by side. Default: the
-    /// cores.
+    /// cores; at most 1024.
     #[arg(long, value_name = "N")]
     pub render_threads: Option<usize>,
     /// DEFLATE effort of terrain-RGB PNG tiles: fast | balanced | best. The same pixels;
@@ -500,6 +500,28 @@ fn listen_addr(s: &str) -> Result<std::net::SocketAddr, String> {
         .ok_or_else(|| format!("{s:?} resolves to no address"))
 }
 
+/// `healthcheck --addr`: `HOST:PORT` in form only. The name is resolved when the check
+/// runs, so one that does not resolve yet (a container still starting) fails the check,
+/// exit 1, rather than the command line.
+fn host_port(s: &str) -> Result<String, String> {
+    let bad = || format!("{s:?} is not HOST:PORT (e.g. 127.0.0.1:8080)");
+    let (host, port) = s.rsplit_once(':').ok_or_else(bad)?;
+    let host_ok = match host.strip_prefix('[').and_then(|h| h.strip_suffix(']')) {
+        Some(v6) => v6.parse::<std::net::Ipv6Addr>().is_ok(),
+        None => {
+            !host.is_empty()
+                && host
+                    .bytes()
+                    .all(|b| b.is_ascii_alphanumeric() || b == b'-' || b == b'.')
+        }
+    };
+    match port.parse::<u16>() {
+        Ok(1..) if host_ok => Ok(s.to_string()),
+        Ok(0) | Err(_) if host_ok => Err(format!("{s:?}: port {port:?} is not 1–65535")),
+        _ => Err(bad()),
+    }
+}
+
 fn healthcheck(addr: &str) -> anyhow::Result<()> {
     use anyhow::Context;
     use std::io::{Read, Write};
@@ -575,6 +597,9 @@ fn serve(a: ServeArgs) -> anyhow::Result<()> {
     })
 }
 
+/// `--render-threads`' ceiling: a pool this size starts in about a second.
+const MAX_RENDER_THREADS: usize = 1024;
+
 /// `serve`'s flags as the service's configuration, refusing what it could not honour before
 /// anything is bound or generated.
 fn serve_config(a: &ServeArgs) -> anyhow::Result<crate::serve::Config> {
@@ -589,12 +614,25 @@ fn serve_config(a: &ServeArgs) -> anyhow::Result<crate::serve::Config> {
             crate::bail_usage!("--cors-origin {o:?}: give a scheme and host, e.g. https://maps.example.org (no path, no trailing slash)");
         }
     }
+    if let Some(url) = a.data.as_deref().and_then(|d| d.to_str()) {
+        if crate::serve::storage::is_url(url) {
+            crate::serve::storage::check_url(url)
+                .map_err(|why| crate::usage::usage(format!("--data {url}: {why}")))?;
+        }
+    }
     let defaults = crate::serve::Config::default();
     if a.cpu_jobs == Some(0) {
         crate::bail_usage!("--cpu-jobs 0: at least one render must be able to run");
     }
     if a.render_threads == Some(0) {
         crate::bail_usage!("--render-threads 0: renders need at least one thread");
+    }
+    // Each thread is spawned at start: 5,000 took 47 s, 20,000 never came up.
+    if let Some(n) = a.render_threads.filter(|&n| n > MAX_RENDER_THREADS) {
+        crate::bail_usage!(
+            "--render-threads {n}: at most {MAX_RENDER_THREADS} (more threads than cores only \
+             share them)"
+        );
     }
     let public_url = match &a.public_url {
         Some(u) => Some(
@@ -655,9 +693,39 @@ fn terrain_eval(a: TerrainArgs) -> anyhow::Result<terrain::TerrainEval> {
             crate::bail_usage!("--step must be finite and > 0, got {s}");
         }
     }
-    let decode_share = a.decode_share.unwrap_or(terrain::DECODE_SHARE);
-    if !(decode_share > 0.0 && decode_share < 1.0) {
-        crate::bail_usage!("--decode-share must be in (0, 1), got {decode_share}");
+    if let Some(share) = a.decode_share {
+        if !(share > 0.0 && share < 1.0) {
+            crate::bail_usage!("--decode-share must be in (0, 1), got {share}");
+        }
+        // Taken and ignored, a share would read as measured.
+        if !matches!(sweep, terrain::Sweep::Threshold(_)) {
+            crate::bail_usage!(
+                "--decode-share applies to --threshold; --bpp, --max-error and --lossless fix \
+                 how far the stream is read themselves"
+            );
+        }
+        if a.mesher == Some(terrain::Mesher::Zerotree) {
+            crate::bail_usage!(
+                "--decode-share applies to the bintree mesher; the zerotree mesher meshes at \
+                 the threshold it decoded to"
+            );
+        }
+    }
+    // The crop fixes the grid's side, so a side the bintree cannot take is the command
+    // line's fault (without --crop the file's size decides, checked once it is read).
+    if let Some((_, _, size)) = a.crop {
+        let bintree = a.mesher == Some(terrain::Mesher::Bintree);
+        if (bintree || a.decode_share.is_some()) && !terrain::bintree_side(size) {
+            crate::bail_usage!(
+                "--crop …,{size}: the bintree mesher ({}) needs a side of 2^k + 1 (3 … 4097), \
+                 e.g. 257",
+                if bintree {
+                    "--mesher bintree"
+                } else {
+                    "which --decode-share measures"
+                }
+            );
+        }
     }
     Ok(terrain::TerrainEval {
         input: a.input,
@@ -670,7 +738,7 @@ fn terrain_eval(a: TerrainArgs) -> anyhow::Result<terrain::TerrainEval> {
         repeat: a.repeat,
         eight_bit: a.eight_bit,
         mesher: a.mesher,
-        decode_share,
+        decode_share: a.decode_share,
         out: a.out,
     })
 }

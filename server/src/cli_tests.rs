@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use clap::Parser;
 
 use super::*;
-use crate::eval::terrain::{Sweep, DECODE_SHARE};
+use crate::eval::terrain::Sweep;
 
 fn parse(args: &[&str]) -> Command {
     Cli::try_parse_from(std::iter::once("zerotile").chain(args.iter().copied()))
@@ -108,6 +108,32 @@ fn addresses_may_be_names_and_fill_heights_negative() {
         let e = Cli::try_parse_from(["zerotile", "serve", "--addr", bad]).unwrap_err();
         assert!(e.to_string().contains("--addr"), "{bad}: {e}");
     }
+    // healthcheck's address is checked in form by the parser (exit 2) and resolved when the
+    // check runs: a name that does not resolve yet is an unhealthy server (exit 1).
+    for good in [
+        "localhost:8080",
+        "127.0.0.1:1",
+        "[::1]:8081",
+        "tiles-1.internal:80",
+    ] {
+        let Command::Healthcheck(h) = parse(&["healthcheck", "--addr", good]) else {
+            panic!("not healthcheck")
+        };
+        assert_eq!(h.addr, good);
+    }
+    for bad in [
+        "bogus",
+        "127.0.0.1:99999",
+        "127.0.0.1:0",
+        ":8080",
+        "127.0.0.1:",
+        "a b:80",
+        "::1:80",
+    ] {
+        let e = Cli::try_parse_from(["zerotile", "healthcheck", "--addr", bad]).unwrap_err();
+        assert_eq!(e.exit_code(), 2, "{bad}: {e}");
+        assert!(e.to_string().contains("--addr"), "{bad}: {e}");
+    }
     let Command::Ingest(a) = parse(&["ingest", "in.hgt", "--name", "n", "--fill", "-5"]) else {
         panic!("not ingest")
     };
@@ -137,6 +163,32 @@ fn serve_refuses_origins_and_urls_it_could_not_honour() {
     assert!(msg.contains("--cpu-jobs 0"), "{msg}");
     let msg = refusal(serve_config(&serve_args(&["--render-threads", "0"])));
     assert!(msg.contains("--render-threads 0"), "{msg}");
+    // Each thread is spawned at start: a huge pool never came up, with no word said.
+    let most = MAX_RENDER_THREADS.to_string();
+    assert_eq!(
+        serve_config(&serve_args(&["--render-threads", &most]))
+            .unwrap()
+            .render_threads,
+        MAX_RENDER_THREADS
+    );
+    let e = serve_config(&serve_args(&["--render-threads", "1025"])).unwrap_err();
+    assert!(crate::usage::is_usage(&e), "{e:#}");
+    assert!(e
+        .to_string()
+        .starts_with("--render-threads 1025: at most 1024"));
+    // A store URL no store could answer is the command line's error, found before binding.
+    for (data, says) in [
+        (
+            "ftp://x/y",
+            "--data ftp://x/y: scheme \"ftp\" is not supported",
+        ),
+        ("s3://", "--data s3://: no bucket"),
+    ] {
+        let e = serve_config(&serve_args(&["--data", data])).unwrap_err();
+        assert!(crate::usage::is_usage(&e), "{data}: {e:#}");
+        assert!(e.to_string().starts_with(says), "{data}: {e:#}");
+    }
+    assert!(serve_config(&serve_args(&["--data", "s3://tiles/prod"])).is_ok());
     let msg = refusal(serve_config(&serve_args(&[
         "--public-url",
         "tiles.example.org",
@@ -148,7 +200,7 @@ fn serve_refuses_origins_and_urls_it_could_not_honour() {
 fn eval_terrain_takes_each_sweep_with_its_defaults() {
     let e = terrain_eval(terrain_args(&["--lossless"])).unwrap();
     assert_eq!(e.sweep, Sweep::Lossless);
-    assert_eq!((e.decode_share, e.repeat, e.step), (DECODE_SHARE, 3, None));
+    assert_eq!((e.decode_share, e.repeat, e.step), (None, 3, None));
     for (flag, want) in [
         ("--threshold", Sweep::Threshold(vec![1.0, 2.5])),
         ("--bpp", Sweep::Bpp(vec![1.0, 2.5])),
@@ -170,7 +222,7 @@ fn eval_terrain_takes_each_sweep_with_its_defaults() {
     .unwrap();
     assert_eq!(
         (e.step, e.decode_share, e.crop),
-        (Some(0.5), 0.25, Some((1, 2, 65)))
+        (Some(0.5), Some(0.25), Some((1, 2, 65)))
     );
 }
 
@@ -210,6 +262,36 @@ fn eval_terrain_refuses_values_no_run_could_use() {
             "--encoding gray: applies to .png",
         ),
         ("--lossless --key dem", "--key dem: applies to .npz"),
+        // Taken and ignored before: the run looked like a measured share.
+        (
+            "--lossless --decode-share 0.5",
+            "--decode-share applies to --threshold",
+        ),
+        (
+            "--bpp 1 --decode-share 0.5",
+            "--decode-share applies to --threshold",
+        ),
+        (
+            "--max-error 2 --decode-share 0.5",
+            "--decode-share applies to --threshold",
+        ),
+        (
+            "--threshold 4 --mesher zerotree --decode-share 0.5",
+            "--decode-share applies to the bintree mesher",
+        ),
+        // The crop's side is on the command line: a usage error, not a failed run.
+        (
+            "--threshold 4 --crop 300,500,64 --mesher bintree",
+            "--crop …,64: the bintree mesher (--mesher bintree) needs a side of 2^k + 1",
+        ),
+        (
+            "--threshold 4 --crop 300,500,4099 --mesher bintree",
+            "--crop …,4099: the bintree mesher",
+        ),
+        (
+            "--threshold 4 --crop 300,500,256 --decode-share 0.5",
+            "--crop …,256: the bintree mesher (which --decode-share measures)",
+        ),
     ] {
         let argv: Vec<&str> = args.split(' ').collect();
         let msg = refusal(terrain_eval(terrain_args(&argv)));

@@ -130,6 +130,13 @@ pub fn run(job: &Export) -> Result<Exported> {
         "json" => (TileFormat::Json, "json"),
         other => crate::bail_usage!("--format {other}: use terrain, png or json"),
     };
+    // The flags alone rule this out, whatever the dataset.
+    if job.base_url.is_some() && format != TileFormat::Png {
+        crate::bail_usage!(
+            "--base-url writes a TileJSON for MapLibre, which reads terrain-RGB PNG: use it \
+             with --format png"
+        );
+    }
     let variant = match format {
         // The extensions layer.json lists, which CesiumJS skips unless it asked for them.
         // Not `metadata`: CesiumJS parses that one whether it asked or not, and without a
@@ -162,8 +169,9 @@ pub fn run(job: &Export) -> Result<Exported> {
     let base_url = match &job.base_url {
         None => None,
         Some(_) if !maplibre => bail!(
-            "--base-url writes a TileJSON for MapLibre, which tiles PNG on the mercator grid: \
-             use it with --format png on a dataset ingested with --scheme mercator"
+            "{}: --base-url writes a TileJSON for MapLibre, which tiles PNG on the mercator \
+             grid: use it on a dataset ingested with --scheme mercator",
+            d.name
         ),
         Some(u) => Some(public_url::parse_base(u).map_err(|why| {
             crate::usage::usage(format!(

@@ -39,9 +39,9 @@ pub struct TerrainEval {
     pub eight_bit: bool,
     /// Which mesher; `None` picks the bintree on (2^k + 1)² grids, the zerotree elsewhere.
     pub mesher: Option<Mesher>,
-    /// Bintree in threshold mode: the share of T the decode gets ([`DECODE_SHARE`] unless
-    /// measuring another).
-    pub decode_share: f64,
+    /// Bintree in threshold mode: the share of T the decode gets (`None`: [`DECODE_SHARE`];
+    /// another only to measure it).
+    pub decode_share: Option<f64>,
     /// A folder for each point's mesh as OBJ (`--out`).
     pub out: Option<PathBuf>,
 }
@@ -138,6 +138,13 @@ pub fn load(eval: &TerrainEval) -> Result<(Grid<f64>, f64, f64)> {
     Ok((map.heights, step, peak))
 }
 
+/// A side the bintree mesher takes: 2^k + 1 for k in 1..=12 (what [`Hierarchy::new`]
+/// builds).
+pub fn bintree_side(n: usize) -> bool {
+    n.checked_sub(1)
+        .is_some_and(|m| m.is_power_of_two() && (2..=4096).contains(&m))
+}
+
 /// Integer heights in 0..=255: 8-bit data, whose PSNR peak is 255 whatever the window's
 /// range (the paper's convention).
 pub(super) fn is_8bit(g: &Grid<f64>, step: Option<f64>) -> bool {
@@ -146,10 +153,11 @@ pub(super) fn is_8bit(g: &Grid<f64>, step: Option<f64>) -> bool {
 
 /// Runs the sweep and returns one point per parameter.
 pub fn run(eval: &TerrainEval) -> Result<Vec<Point>> {
-    // Before any work: it was a bare "File exists (os error 17)" after the first point.
-    if let Some(out) = eval.out.as_ref().filter(|o| o.is_file()) {
+    // Before any work: it was a bare "File exists (os error 17)" after the first point
+    // (for /dev/null too: not a file, not a folder).
+    if let Some(out) = eval.out.as_ref().filter(|o| o.exists() && !o.is_dir()) {
         bail!(
-            "--out {}: is a file; give a folder for the meshes",
+            "--out {}: is not a folder; give a folder for the meshes",
             out.display()
         );
     }
@@ -159,6 +167,18 @@ pub fn run(eval: &TerrainEval) -> Result<Vec<Point>> {
     let hierarchy = (heights.cols() == side)
         .then(|| Hierarchy::new(side))
         .flatten();
+    // Refused before any point is measured (with --crop the command line is refused
+    // earlier, as a usage error).
+    if hierarchy.is_none() {
+        let name = eval.input.display();
+        let (rows, cols) = (heights.rows(), heights.cols());
+        if eval.mesher == Some(Mesher::Bintree) {
+            bail!("{name}: --mesher bintree needs a square (2^k + 1)-sample grid, this one is {rows}×{cols} (e.g. --crop R,C,257)");
+        }
+        if eval.decode_share.is_some() {
+            bail!("{name}: --decode-share applies to the bintree mesher, which needs a square (2^k + 1)-sample grid; this one is {rows}×{cols} (e.g. --crop R,C,257)");
+        }
+    }
     let src = Source {
         name: eval.input.display().to_string(),
         heights: &heights,
@@ -324,7 +344,7 @@ fn measure(
     // The bintree spends T on decode and mesh together (see DECODE_SHARE).
     let limit = match (mesher, limit) {
         (Mesher::Bintree, DecodeLimit::Threshold(t)) => {
-            DecodeLimit::Threshold(t * eval.decode_share)
+            DecodeLimit::Threshold(t * eval.decode_share.unwrap_or(DECODE_SHARE))
         }
         (_, l) => l,
     };

@@ -8,10 +8,11 @@ use zerotile_codec::Grid;
 
 use super::parse_list;
 use super::terrain::{
-    check_rates, errors, floor_warning, is_8bit, load, parse_crop, psnr, run, table, Point, Sweep,
-    TerrainEval, DECODE_SHARE,
+    bintree_side, check_rates, errors, floor_warning, is_8bit, load, parse_crop, psnr, run, table,
+    Mesher, Point, Sweep, TerrainEval, DECODE_SHARE,
 };
 use crate::fixtures::shared_data;
+use zerotile_codec::bintree::Hierarchy;
 
 /// A sweep over a `size`² window of N44W072 at (300, 500), with every default.
 fn n44(size: usize, sweep: Sweep) -> TerrainEval {
@@ -26,7 +27,7 @@ fn n44(size: usize, sweep: Sweep) -> TerrainEval {
         repeat: 1,
         eight_bit: false,
         mesher: None,
-        decode_share: DECODE_SHARE,
+        decode_share: None,
         out: None,
     }
 }
@@ -272,11 +273,68 @@ fn an_out_that_is_a_file_is_refused_up_front() {
     .unwrap_err()
     .to_string();
     assert!(
-        e.ends_with("afile: is a file; give a folder for the meshes"),
+        e.ends_with("afile: is not a folder; give a folder for the meshes"),
         "{e}"
     );
     assert_eq!(std::fs::read(&file).unwrap(), b"mine");
     let _ = std::fs::remove_dir_all(&dir);
+    // Neither a file nor a folder: it was "File exists (os error 17)" after the first point.
+    #[cfg(unix)]
+    {
+        let e = run(&TerrainEval {
+            out: Some("/dev/null".into()),
+            ..n44(65, Sweep::Threshold(vec![4.0]))
+        })
+        .unwrap_err()
+        .to_string();
+        assert_eq!(
+            e, "--out /dev/null: is not a folder; give a folder for the meshes",
+            "{e}"
+        );
+    }
+}
+
+#[test]
+fn bintree_sides_are_the_ones_the_hierarchy_builds() {
+    for n in 0..=600 {
+        assert_eq!(bintree_side(n), Hierarchy::new(n).is_some(), "{n}");
+    }
+    // The ends, without building a 4097² hierarchy.
+    assert!(bintree_side(4097) && bintree_side(3));
+    assert!(!bintree_side(8193) && !bintree_side(4096) && !bintree_side(2));
+}
+
+/// Without --crop the file's size decides the mesher: a bintree-only flag on a grid the
+/// bintree cannot take is refused before any point is measured, naming the grid.
+#[test]
+fn bintree_flags_on_a_grid_the_bintree_cannot_take_are_refused() {
+    let e = run(&TerrainEval {
+        mesher: Some(Mesher::Bintree),
+        ..n44(64, Sweep::Threshold(vec![4.0]))
+    })
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.ends_with("--mesher bintree needs a square (2^k + 1)-sample grid, this one is 64×64 (e.g. --crop R,C,257)"),
+        "{e}"
+    );
+    let e = run(&TerrainEval {
+        decode_share: Some(0.25),
+        ..n44(64, Sweep::Threshold(vec![4.0]))
+    })
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("--decode-share applies to the bintree mesher"),
+        "{e}"
+    );
+    // On a side it takes, the share is the decode's: T · share, and no more.
+    let p = &run(&TerrainEval {
+        decode_share: Some(0.25),
+        ..n44(65, Sweep::Threshold(vec![16.0]))
+    })
+    .unwrap()[0];
+    assert!(p.threshold <= 4.0 && p.threshold > 2.0, "{p:?}");
 }
 
 /// A window with no-data samples has no heights to measure there: refused, with the count

@@ -67,6 +67,31 @@ pub fn is_url(data: &str) -> bool {
     data.contains("://")
 }
 
+/// A store URL this server can open, in form only (nothing is reached): refused before
+/// anything is bound, as the command line's error rather than the store's.
+pub fn check_url(url: &str) -> std::result::Result<(), String> {
+    let parsed = url::Url::parse(url).map_err(|e| format!("{e}"))?;
+    match parsed.scheme() {
+        "s3" | "s3a" | "http" | "https" => {}
+        other => {
+            return Err(format!(
+                "scheme {other:?} is not supported (s3://, http(s)://)"
+            ))
+        }
+    }
+    if parsed.host_str().is_none_or(str::is_empty) {
+        return Err(format!(
+            "no {} in it",
+            if parsed.scheme().starts_with("s3") {
+                "bucket"
+            } else {
+                "host"
+            }
+        ));
+    }
+    Ok(())
+}
+
 /// The store and the prefix a URL names: `s3://bucket/prefix` (AWS or any S3-compatible
 /// server; credentials, region and endpoint from the usual `AWS_*` variables, e.g.
 /// `AWS_ENDPOINT=http://minio:9000 AWS_ALLOW_HTTP=true`) or `http(s)://host/prefix` (a
@@ -238,6 +263,29 @@ mod tests {
         }
         for dir in ["data", "/srv/tiles", "./s3", "C:/data", "s3:tiles"] {
             assert!(!is_url(dir), "{dir}");
+        }
+    }
+
+    #[test]
+    fn store_urls_are_checked_in_form_before_anything_is_reached() {
+        for url in [
+            "s3://tiles/prod",
+            "s3a://tiles",
+            "https://cdn.example/dem",
+            "http://127.0.0.1:9000/x",
+        ] {
+            assert_eq!(check_url(url), Ok(()), "{url}");
+        }
+        for (url, says) in [
+            ("ftp://x/y", "scheme \"ftp\" is not supported"),
+            ("file:///srv/tiles", "scheme \"file\" is not supported"),
+            ("s3://", "no bucket"),
+            ("s3:///prefix", "no bucket"),
+            ("https://", "empty host"),
+            ("http://[::1", "invalid IPv6"),
+        ] {
+            let e = check_url(url).unwrap_err();
+            assert!(e.contains(says), "{url}: {e}");
         }
     }
 }
