@@ -123,7 +123,16 @@ pub fn extension(path: &Path) -> String {
 
 /// Opens `path` for reading, naming it in the error.
 fn open(path: &Path) -> Result<File, RasterError> {
-    File::open(path).map_err(|e| RasterError::io(path, e))
+    let file = File::open(path).map_err(|e| RasterError::io(path, e))?;
+    // A folder opens for reading on Unix; a reader that sizes the data from the file's
+    // length (.hgt) then reported the folder's own size as the file's.
+    if file.metadata().is_ok_and(|m| m.is_dir()) {
+        return Err(RasterError::io(
+            path,
+            std::io::Error::new(std::io::ErrorKind::IsADirectory, "is a folder, not a file"),
+        ));
+    }
+    Ok(file)
 }
 
 /// Converts integer samples to heights, mapping `nodata` (when the file declares one) to NaN.

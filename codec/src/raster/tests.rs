@@ -121,6 +121,30 @@ fn a_missing_file_is_an_io_error_naming_it() {
     }
 }
 
+/// A folder named like a heightmap is said to be a folder by every reader: the .hgt
+/// reader, which sizes its data from the length, once reported the folder's own size.
+#[test]
+fn a_folder_is_not_read_as_a_heightmap() {
+    let dir = scratch_dir("raster_folder");
+    for name in [
+        "adir.hgt", "adir.tif", "adir.png", "adir.asc", "adir.npy", "adir.npz",
+    ] {
+        let path = dir.join(name);
+        std::fs::create_dir_all(&path).unwrap();
+        let err = read_heightmap(&path, &ReadOptions::default()).unwrap_err();
+        let RasterError::Io { error, .. } = &err else {
+            panic!("{name}: {err}")
+        };
+        assert_eq!(
+            error.kind(),
+            std::io::ErrorKind::IsADirectory,
+            "{name}: {err}"
+        );
+        assert!(err.to_string().contains(name), "{err}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// Cuts each real file at several lengths inside its data: every cut must be an error naming
 /// the file. (A PNG cut only in its IEND trailer still decodes, like other PNG readers.)
 #[test]
