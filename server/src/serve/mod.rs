@@ -148,7 +148,10 @@ pub fn app(state: AppState) -> Router {
             REQUEST_TIMEOUT,
         ))
         .layer(axum::middleware::from_fn(error::json_errors))
-        // Outside the layers that change the status (compression's 406, the timeout's 503).
+        .layer(cors)
+        .layer(axum::middleware::from_fn(preflight::route_methods))
+        // Outside the layers that change the status (compression's 406, the timeout's 503)
+        // and the CORS layer, which answers OPTIONS itself (those went uncounted).
         .layer(axum::middleware::from_fn_with_state(
             state.clone(),
             metrics::track,
@@ -162,8 +165,6 @@ pub fn app(state: AppState) -> Router {
                 tower_http::trace::DefaultOnFailure::new().level(tracing::Level::DEBUG),
             ),
         )
-        .layer(cors)
-        .layer(axum::middleware::from_fn(preflight::route_methods))
         .with_state(state)
 }
 

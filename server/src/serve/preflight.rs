@@ -3,19 +3,33 @@
 //! that every tile and listing took POST too, and the POST then met a 405. (A CORS layer per
 //! route would miss the answers the outer layers make, a timeout's 503 or a 406, which a
 //! browser could then not read.)
+//!
+//! The CORS layer also answers every OPTIONS itself, preflight or not, on any path: a plain
+//! OPTIONS was told POST on a route whose Allow said GET, HEAD, and one to a path with no
+//! route got a 200.
 
-use axum::extract::Request;
-use axum::http::header::{ACCESS_CONTROL_ALLOW_METHODS, ACCESS_CONTROL_REQUEST_METHOD};
+use axum::extract::{MatchedPath, Request};
+use axum::http::header::ACCESS_CONTROL_ALLOW_METHODS;
 use axum::http::{HeaderValue, Method};
 use axum::middleware::Next;
 use axum::response::Response;
 
-/// Middleware, outside the CORS layer: takes POST out of a preflight's method list on routes
-/// that take no upload (the rest of the list is the CORS layer's, as it wrote it).
+/// Middleware, outside the CORS layer: an OPTIONS to a path with no route is the 404 the
+/// request it asks about would get; on a route that takes no upload, POST is taken out of
+/// the method list (the rest of the list is the CORS layer's, as it wrote it).
 pub async fn route_methods(req: Request, next: Next) -> Response {
-    let narrow = req.method() == Method::OPTIONS
-        && req.headers().contains_key(ACCESS_CONTROL_REQUEST_METHOD)
-        && !takes_uploads(req.uri().path());
+    use axum::response::IntoResponse;
+    if req.method() != Method::OPTIONS {
+        return next.run(req).await;
+    }
+    // The router marks the route it matched before the route's layers run; its fallback
+    // has none.
+    if req.extensions().get::<MatchedPath>().is_none() {
+        return super::error::not_found(req.uri().clone())
+            .await
+            .into_response();
+    }
+    let narrow = !takes_uploads(req.uri().path());
     let mut res = next.run(req).await;
     if !narrow {
         return res;

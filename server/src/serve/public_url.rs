@@ -120,7 +120,8 @@ fn bad(header: &str, why: &str) -> ApiError {
 /// Empty, or `/`-led letters, digits and `/-._~`.
 fn valid_path(p: &str) -> bool {
     let path_char = |c: char| c.is_ascii_alphanumeric() || "/-._~".contains(c);
-    p.is_empty() || p.starts_with('/') && p.chars().all(path_char)
+    // No empty segment: `//evil.example` put a double slash into every tile URL.
+    p.is_empty() || p.starts_with('/') && !p.contains("//") && p.chars().all(path_char)
 }
 
 /// A host name (labels of letters, digits, `-` and `_`, as container names have) or IPv4
@@ -272,6 +273,11 @@ mod tests {
             headers(&[("host", "a.example"), ("x-forwarded-proto", "javascript")]),
             headers(&[("host", "a.example"), ("x-forwarded-prefix", "terrain")]),
             headers(&[("host", "a.example"), ("x-forwarded-prefix", "/a?b")]),
+            headers(&[
+                ("host", "a.example"),
+                ("x-forwarded-prefix", "//evil.example"),
+            ]),
+            headers(&[("host", "a.example"), ("x-forwarded-prefix", "/a//b")]),
         ] {
             assert!(origin(&trusting(), &h, &path()).is_err(), "{h:?}");
         }

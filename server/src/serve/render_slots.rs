@@ -35,7 +35,8 @@ impl RenderSlots {
     pub fn admit(self: &Arc<Self>) -> Option<Ticket> {
         let before = self.admitted.fetch_add(1, Relaxed);
         let ticket = Ticket(Arc::clone(self));
-        (before < self.jobs + self.queue).then_some(ticket)
+        // Saturating: `--cpu-jobs` near usize::MAX wrapped the sum to a handful of places.
+        (before < self.jobs.saturating_add(self.queue)).then_some(ticket)
     }
 
     /// Renders admitted and not yet finished.
@@ -138,6 +139,16 @@ mod tests {
         let t = s.admit().expect("one render is admitted");
         assert!(s.admit().is_none(), "a second is shed");
         assert_eq!(t.run(|| 7), 7);
+        assert_eq!(s.admitted(), 0);
+    }
+
+    /// Budgets past usize's range admit without limit instead of wrapping to a few places.
+    #[test]
+    fn a_huge_budget_does_not_wrap() {
+        let s = Arc::new(RenderSlots::new(usize::MAX, 5));
+        let tickets: Vec<_> = (0..100).map(|_| s.admit().expect("admitted")).collect();
+        assert_eq!(s.admitted(), 100);
+        drop(tickets);
         assert_eq!(s.admitted(), 0);
     }
 

@@ -304,6 +304,54 @@ async fn preflights_name_each_routes_methods() {
     }
 }
 
+/// The CORS layer answers any OPTIONS itself: a plain one (no preflight headers) was told
+/// POST on a tile route whose Allow said GET, HEAD, one to a path with no route got a 200,
+/// and neither was counted in /metrics.
+#[tokio::test]
+async fn plain_options_name_the_routes_methods_and_unrouted_ones_are_404() {
+    let app = router("options-plain");
+    let tile = "/v1/datasets/hill/tiles/0/0/0.png";
+    let (s, h, _) = send(&app, Method::OPTIONS, tile, &[]).await;
+    assert_eq!(s, StatusCode::OK);
+    let methods = h["access-control-allow-methods"].to_str().unwrap();
+    assert!(
+        !methods.contains("POST") && methods.contains("GET"),
+        "{methods}"
+    );
+    let (s, h, _) = send(&app, Method::OPTIONS, "/v1/meshes/bunny", &[]).await;
+    assert_eq!(s, StatusCode::OK);
+    assert!(h["access-control-allow-methods"]
+        .to_str()
+        .unwrap()
+        .contains("POST"));
+    let preflight = [
+        ("origin", "https://example.org"),
+        ("access-control-request-method", "GET"),
+    ];
+    for headers in [&[][..], &preflight[..]] {
+        for uri in ["/nope", "/v1/datasets/hill/tiles/0/0", "/v1/datasets/"] {
+            let (s, h, body) = send(&app, Method::OPTIONS, uri, headers).await;
+            assert_eq!(s, StatusCode::NOT_FOUND, "{uri} {headers:?}");
+            assert_eq!(error_code(&body), "not_found", "{uri}");
+            assert!(!h.contains_key("access-control-allow-methods"), "{uri}");
+        }
+    }
+    for _ in 0..3 {
+        let (s, _, _) = send(&app, Method::OPTIONS, "/healthz", &preflight).await;
+        assert_eq!(s, StatusCode::OK);
+    }
+    let (_, _, body) = get(&app, "/metrics").await;
+    let text = String::from_utf8(body).unwrap();
+    assert!(
+        text.contains("zerotile_requests_total{route=\"/healthz\",status=\"200\"} 3"),
+        "{text}"
+    );
+    assert!(
+        text.contains("zerotile_requests_total{route=\"unmatched\",status=\"404\"} 6"),
+        "{text}"
+    );
+}
+
 /// A trailing slash is a 404 whose message gives the path without it, which works.
 #[tokio::test]
 async fn a_trailing_slash_is_named_in_the_404() {
