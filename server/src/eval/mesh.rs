@@ -143,6 +143,16 @@ pub fn run(args: &MeshArgs) -> Result<()> {
 /// A budget no method can meet is answered with the fewest faces it reaches (the
 /// benchmark compares the octree at such targets): say so, or --faces would look ignored.
 pub fn budget_note(p: &MeshPoint) -> Option<String> {
+    // The other way round, the run looked like a simplification that removed nothing.
+    if let Param::Faces(n) = p.param {
+        if n >= p.faces_in {
+            return Some(format!(
+                "--faces {n}: the mesh has only {} faces, so the budget asks for no \
+                 simplification",
+                p.faces_in
+            ));
+        }
+    }
     let n = match p.param {
         Param::Faces(n) if p.faces > n => n,
         _ => return None,

@@ -226,6 +226,27 @@ fn curvature_levels_are_nested_cuts_at_the_papers_epsilon() {
         p.faces
     );
     assert!(p.faces > 10 && note.starts_with(&want), "{note:?}: {p:?}");
+    // A budget at or past the input's faces asks for nothing, and says so.
+    for method in [Method::Qem, Method::Curvature] {
+        for budget in [p.faces_in, 99_999_999] {
+            let q = evaluate(&faces("cow.obj", method, budget)).unwrap();
+            assert_eq!(q.faces, q.faces_in, "{method:?} {budget}: {q:?}");
+            assert_eq!(
+                budget_note(&q).as_deref(),
+                Some(
+                    format!(
+                        "--faces {budget}: the mesh has only {} faces, so the budget asks for \
+                         no simplification",
+                        q.faces_in
+                    )
+                    .as_str()
+                ),
+                "{method:?}"
+            );
+        }
+    }
+    let q = evaluate(&faces("cow.obj", Method::Qem, p.faces_in - 1)).unwrap();
+    assert_eq!(budget_note(&q), None, "{q:?}");
 }
 
 /// `--faces N` on the level methods: the finest level with at most N faces, or the coarsest
