@@ -200,11 +200,11 @@ fn read_header<R: BufRead>(
             "yllcorner" => header.yll = Some((value.number(path)?, false)),
             "yllcenter" | "yllcentre" => header.yll = Some((value.number(path)?, true)),
             "cellsize" => {
-                let size = value.number(path)?;
+                let size = value.size(path, "cellsize")?;
                 (header.dx, header.dy) = (Some(size), Some(size));
             }
-            "dx" => header.dx = Some(value.number(path)?),
-            "dy" => header.dy = Some(value.number(path)?),
+            "dx" => header.dx = Some(value.size(path, "dx")?),
+            "dy" => header.dy = Some(value.size(path, "dy")?),
             "nodata_value" => header.nodata = Some(value.number(path)?),
             _ => {
                 return Err(RasterError::format(
@@ -239,6 +239,22 @@ impl Token {
                 format!("line {}: {:?} is not a number", self.line, self.text),
             )
         })
+    }
+
+    /// A cell size: the grid runs east and north from the lower-left corner, so a negative
+    /// one (which GeoTIFF uses for north-up rows) would mirror the data out of the cell the
+    /// corner names.
+    fn size(&self, path: &Path, key: &str) -> Result<f64, RasterError> {
+        match self.number(path)? {
+            v if v.is_finite() && v > 0.0 => Ok(v),
+            _ => Err(RasterError::format(
+                path,
+                format!(
+                    "line {}: {key} must be a positive number, got {:?}",
+                    self.line, self.text
+                ),
+            )),
+        }
     }
 
     fn count(&self, path: &Path, key: &str) -> Result<usize, RasterError> {
@@ -401,6 +417,33 @@ mod tests {
         // y 22.5, 27.5 and 32.5, north row first.
         assert_eq!(g.position(0.0, 0.0), (11.0, 32.5));
         assert_eq!(g.position(2.0, 1.0), (13.0, 22.5));
+    }
+
+    /// A cell size of 0 or less, or not a number, is refused by its line: a negative one
+    /// mirrored the grid into the cell west and south of the corner it names.
+    #[test]
+    fn cell_sizes_must_be_positive() {
+        for (key, value, line) in [
+            ("cellsize", "-0.01", 5),
+            ("cellsize", "0", 5),
+            ("cellsize", "inf", 5),
+            ("dx", "-2", 5),
+            ("DY", "0", 6),
+        ] {
+            let header = match key {
+                "cellsize" => format!("cellsize {value}\n"),
+                "dx" => format!("dx {value}\ndy 1\n"),
+                _ => format!("dx 1\n{key} {value}\n"),
+            };
+            let text = format!("ncols 2\nnrows 1\nxllcorner 10\nyllcorner 46\n{header}1 2\n");
+            let err = read_text("neg", &text).unwrap_err();
+            let want = format!(
+                "line {line}: {} must be a positive number, got \"{value}\"",
+                key.to_ascii_lowercase()
+            );
+            assert!(err.to_string().ends_with(&want), "{key} {value}: {err}");
+            assert!(err.to_string().contains("neg.asc"), "{err}");
+        }
     }
 
     #[test]

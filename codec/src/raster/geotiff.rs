@@ -71,7 +71,7 @@ pub(super) fn read(path: &Path, opts: &ReadOptions) -> Result<Heightmap, RasterE
         DecodingResult::I32(v) => (int_heights(&v, int_nodata(nodata)), Some(1.0)),
         DecodingResult::F32(v) => {
             // The declared value as the file stores it: the f32 nearest to the text.
-            let nodata = nodata.map(|n| n as f32);
+            let nodata = nodata.map(f32_nodata);
             let heights = v
                 .iter()
                 .map(|&h| {
@@ -120,6 +120,19 @@ fn tiff_error(path: &Path, e: TiffError) -> RasterError {
             "the decoder's buffer limit (a strip, tile or tag larger than max_samples allows)",
         ),
         e => RasterError::format(path, e.to_string()),
+    }
+}
+
+/// A float32 raster's declared no-data value as a sample: the f32 nearest to it, and ±f32::MAX
+/// for a value within 10⁻⁵ of it. Writers that print with `%g` store ±FLT_MAX, the usual
+/// float void, as "-3.40282e+38", whose nearest f32 is not FLT_MAX (GDAL's own snap takes only
+/// values within 10⁻¹⁰); no height is within a factor of 10³⁰ of it.
+fn f32_nodata(n: f64) -> f32 {
+    let max = f64::from(f32::MAX);
+    if ((n.abs() - max) / max).abs() < 1e-5 {
+        f32::MAX.copysign(n as f32)
+    } else {
+        n as f32
     }
 }
 
@@ -371,6 +384,35 @@ mod tests {
         assert_eq!(g.crs, Crs::Unknown);
         assert_eq!(g.position(0.0, 0.0), (101.0, 199.0));
         assert_eq!(g.to_gdal(), [100.0, 2.0, 0.0, 200.0, 0.0, -2.0]);
+    }
+
+    #[test]
+    fn float_max_no_data_printed_short_is_float_max() {
+        for (text, want) in [
+            (-3.40282e38, -f32::MAX),
+            (3.40282e38, f32::MAX),
+            (-3.4028234663852886e38, -f32::MAX),
+            (-3.4028e38, -f32::MAX),
+            (-3.40e38, -3.40e38_f32),
+            (-9999.0, -9999.0),
+            (0.0, 0.0),
+        ] {
+            assert_eq!(f32_nodata(text), want, "{text}");
+        }
+        assert!(f32_nodata(f64::NAN).is_nan());
+    }
+
+    /// The whole reader: a float32 raster whose voids are -FLT_MAX, declared "-3.40282e+38".
+    #[test]
+    fn a_float32_void_declared_short_is_no_data() {
+        let path = scratch_dir("tiff_fltmax").join("fltmax.tif");
+        let samples = [1.5, -f32::MAX, 2.5, 3.0];
+        write_tiff_as::<colortype::Gray32Float>(&path, (2, 2), &samples, |dir| {
+            dir.write_tag(Tag::GdalNodata, "-3.40282e+38").unwrap();
+        });
+        let map = read(&path, &ReadOptions::default()).unwrap();
+        assert_eq!(map.nodata_count, 1);
+        assert_eq!(map.min_max(), Some((1.5, 3.0)));
     }
 
     #[test]
