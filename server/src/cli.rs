@@ -250,7 +250,8 @@ pub enum EvalCommand {
 pub struct TerrainArgs {
     /// Heightmap: .hgt, .tif (GeoTIFF), .png (gray, terrain-RGB, Terrarium), .asc, .npy, .npz.
     pub input: PathBuf,
-    /// Evaluate the SIZE×SIZE window whose top-left sample is (ROW, COL).
+    /// Evaluate the SIZE×SIZE window whose top-left sample is (ROW, COL); SIZE 2 … 8192.
+    /// Without it the whole file, up to 2^26 samples (one stream).
     #[arg(long, value_name = "ROW,COL,SIZE", value_parser = terrain::parse_crop)]
     pub crop: Option<(usize, usize, usize)>,
     /// How colour PNGs encode heights: terrain-rgb | terrarium | gray.

@@ -43,6 +43,13 @@ pub fn max_range_steps(wavelet: Wavelet) -> f64 {
     }
 }
 
+/// The smallest max-error bound [`encode`] takes for heights spanning `range` at `step`: a
+/// caller checks it once, with its flag's name, before work [`encode`] would refuse tile by
+/// tile.
+pub fn min_max_error(step: f64, range: f64) -> f64 {
+    step * MIN_BOUND_UNITS.max((range / step).max(1.0) * MIN_BOUND_OF_RANGE)
+}
+
 /// How to encode.
 #[derive(Clone, Debug)]
 pub struct EncodeParams {

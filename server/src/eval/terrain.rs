@@ -104,12 +104,29 @@ pub struct Point {
 
 /// Loads the input (cropped) and returns heights, the step and the PSNR peak.
 pub fn load(eval: &TerrainEval) -> Result<(Grid<f64>, f64, f64)> {
-    let opts = ReadOptions {
+    // The whole window is one stream, which the decoder takes up to its sample limit: a
+    // larger file was read, encoded and only then refused ("decoding our own stream"),
+    // after gigabytes. With --crop the window's size is checked on the command line.
+    let whole = eval.crop.is_none();
+    let mut opts = ReadOptions {
         encoding: eval.encoding,
         npz_key: eval.npz_key.clone(),
         ..ReadOptions::default()
     };
-    let mut map = raster::read_heightmap(&eval.input, &opts)?;
+    if whole {
+        opts.max_samples = ezw::DEFAULT_MAX_SAMPLES;
+    }
+    let mut map = match raster::read_heightmap(&eval.input, &opts) {
+        Err(e @ raster::RasterError::Limit { .. }) if whole => {
+            return Err(anyhow::Error::new(e).context(format!(
+                "eval terrain codes the window as one stream of at most {} samples; give \
+                 --crop ROW,COL,SIZE (SIZE up to {})",
+                ezw::DEFAULT_MAX_SAMPLES,
+                MAX_WINDOW_SIDE
+            )))
+        }
+        r => r?,
+    };
     if let Some((row, col, size)) = eval.crop {
         map = map
             .crop(row, col, size, size)
@@ -129,14 +146,22 @@ pub fn load(eval: &TerrainEval) -> Result<(Grid<f64>, f64, f64)> {
         return Ok((heights, 1.0, 255.0));
     }
     let step = eval.step.or(map.step).unwrap_or(0.01);
-    // PSNR peak: the window's height range (255 for 8-bit data, as the paper uses).
+    // PSNR peak: the window's height range (255 for 8-bit data, as the paper uses); the step
+    // only for a flat window, which has none (a --step past the range made it the peak:
+    // 545 dB beside a 1.9 km error).
     let peak = if is_8bit(&map.heights, map.step) {
         255.0
+    } else if hi > lo {
+        hi - lo
     } else {
-        (hi - lo).max(step)
+        step
     };
     Ok((map.heights, step, peak))
 }
+
+/// The largest `--crop` SIZE: a SIZE² window within the decoder's sample limit.
+pub const MAX_WINDOW_SIDE: usize = 8192;
+const _: () = assert!(MAX_WINDOW_SIDE * MAX_WINDOW_SIDE <= ezw::DEFAULT_MAX_SAMPLES);
 
 /// A side the bintree mesher takes: 2^k + 1 for k in 1..=12 (what [`Hierarchy::new`]
 /// builds).
@@ -191,7 +216,7 @@ pub fn run(eval: &TerrainEval) -> Result<Vec<Point>> {
         Sweep::Threshold(ts) | Sweep::Bpp(ts) => {
             let params = EncodeParams::new(lossy_wavelet, step);
             let (encode_ms, enc) = median_ms(eval.repeat, || ezw::encode(&heights, &params));
-            let enc = enc?;
+            let enc = enc.with_context(|| encoding(eval, None))?;
             let threshold_mode = matches!(eval.sweep, Sweep::Threshold(_));
             if !threshold_mode {
                 check_rates(ts, enc.header_len, heights.len())?;
@@ -221,7 +246,7 @@ pub fn run(eval: &TerrainEval) -> Result<Vec<Point>> {
                     ..EncodeParams::new(lossy_wavelet, step)
                 };
                 let (encode_ms, enc) = median_ms(eval.repeat, || ezw::encode(&heights, &params));
-                let enc = enc?;
+                let enc = enc.with_context(|| encoding(eval, Some(e)))?;
                 points.push(measure(
                     eval,
                     &src,
@@ -255,7 +280,7 @@ pub fn run(eval: &TerrainEval) -> Result<Vec<Point>> {
             }
             let params = EncodeParams::new(Wavelet::LeGall53, step);
             let (encode_ms, enc) = median_ms(eval.repeat, || ezw::encode(&heights, &params));
-            let enc = enc?;
+            let enc = enc.with_context(|| encoding(eval, None))?;
             let point = measure(
                 eval,
                 &src,
@@ -313,6 +338,24 @@ pub(super) fn check_rates(rates: &[f64], header_len: usize, samples: usize) -> R
         );
     }
     Ok(())
+}
+
+/// An encoder refusal's context: the file, and the flags that set what it refused (the
+/// encoder's own words are its parameters', `max_error` and `step`).
+fn encoding(eval: &TerrainEval, max_error: Option<f64>) -> String {
+    let mut flags = Vec::new();
+    if let Some(s) = eval.step {
+        flags.push(format!("--step {s}"));
+    }
+    if let Some(e) = max_error {
+        flags.push(format!("--max-error {e}"));
+    }
+    let with = if flags.is_empty() {
+        String::new()
+    } else {
+        format!(" with {}", flags.join(" "))
+    };
+    format!("{}: encoding the window{with}", eval.input.display())
 }
 
 /// What every operating point of a run is measured against.
@@ -551,7 +594,12 @@ pub fn parse_crop(s: &str) -> Result<(usize, usize, usize), String> {
         .collect::<Result<_, _>>()
         .map_err(|_| format!("--crop '{s}': expected ROW,COL,SIZE (whole numbers)"))?;
     match v.as_slice() {
-        [r, c, n] if *n >= 2 => Ok((*r, *c, *n)),
+        [r, c, n] if (2..=MAX_WINDOW_SIDE).contains(n) => Ok((*r, *c, *n)),
+        [_, _, n] if *n > MAX_WINDOW_SIDE => Err(format!(
+            "--crop '{s}': SIZE must be at most {MAX_WINDOW_SIDE} (the window is coded as one \
+             stream of at most {} samples)",
+            ezw::DEFAULT_MAX_SAMPLES
+        )),
         // One sample holds no triangle: a 1 × 1 window measured T as inf and 0 triangles.
         [_, _, _] => Err(format!(
             "--crop '{s}': SIZE must be at least 2 (a window needs 2 × 2 samples for a triangle)"

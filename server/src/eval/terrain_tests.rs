@@ -251,12 +251,90 @@ fn a_crop_is_three_whole_numbers_with_a_size_of_two_or_more() {
     assert!(parse_crop("0,0,1")
         .unwrap_err()
         .contains("SIZE must be at least 2"));
+    // One stream of at most 2^26 samples: 8192² and no more.
+    assert_eq!(parse_crop("0,0,8192"), Ok((0, 0, 8192)));
+    assert!(parse_crop("0,0,8193")
+        .unwrap_err()
+        .contains("SIZE must be at most 8192"));
     for bad in [
-        "1,2,0", "1,2,1", "1,2", "1,2,3,4", "a,b,c", "-1,2,3", "1.5,2,3",
+        "1,2,0",
+        "1,2,1",
+        "1,2",
+        "1,2,3,4",
+        "a,b,c",
+        "-1,2,3",
+        "1.5,2,3",
+        "0,0,100000",
     ] {
         let e = parse_crop(bad).unwrap_err();
         assert!(e.contains(&format!("--crop '{bad}'")), "{bad}: {e}");
     }
+}
+
+/// A whole file past the decoder's sample limit is refused from its header, before its
+/// samples are read (an 8200² PNG of 65 KB was read, encoded and then refused, at 2.7 GB),
+/// with --crop suggested: here an .npy whose header claims 8193² float32 samples and whose
+/// body is empty.
+#[test]
+fn a_file_past_one_streams_limit_is_refused_from_its_header() {
+    let dir = crate::fixtures::scratch("eval-window-limit");
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("big.npy");
+    let mut header = b"{'descr': '<f4', 'fortran_order': False, 'shape': (8193, 8193), }".to_vec();
+    while !(10 + header.len() + 1).is_multiple_of(64) {
+        header.push(b' ');
+    }
+    header.push(b'\n');
+    let mut bytes = b"\x93NUMPY\x01\x00".to_vec();
+    bytes.extend_from_slice(&(header.len() as u16).to_le_bytes());
+    bytes.extend_from_slice(&header);
+    std::fs::write(&path, &bytes).unwrap();
+    let e = run(&TerrainEval {
+        input: path,
+        crop: None,
+        ..n44(65, Sweep::Threshold(vec![4.0]))
+    })
+    .unwrap_err();
+    let e = format!("{e:#}");
+    assert!(
+        e.starts_with(
+            "eval terrain codes the window as one stream of at most 67108864 samples; give \
+             --crop ROW,COL,SIZE (SIZE up to 8192): "
+        ) && e.contains("big.npy: exceeds a limit: 8193×8193 samples"),
+        "{e}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// An encoder refusal names the file and the flag that set what it refused (it was "height
+/// range / step must be small enough for 63 bit planes …" alone).
+#[test]
+fn an_encoder_refusal_names_the_file_and_the_flag() {
+    let e = run(&TerrainEval {
+        step: Some(1e-30),
+        ..n44(65, Sweep::Threshold(vec![4.0]))
+    })
+    .unwrap_err();
+    let e = format!("{e:#}");
+    assert!(
+        e.contains(
+            "N44W072.hgt: encoding the window with --step 0.000000000000000000000000000001: "
+        ) && e.contains("63 bit planes"),
+        "{e}"
+    );
+}
+
+/// The PSNR peak is the window's height range whatever --step says (a step past the range
+/// made the step the peak: 545 dB beside a 1.9 km error).
+#[test]
+fn a_step_past_the_range_does_not_become_the_peak() {
+    let p = &run(&TerrainEval {
+        step: Some(1e6),
+        ..n44(65, Sweep::Threshold(vec![4.0]))
+    })
+    .unwrap()[0];
+    check_rate_and_psnr(p, n44_range(65));
+    assert!(p.psnr_db.is_some_and(|db| db < 20.0), "{p:?}");
 }
 
 /// An --out that is a file is refused before any work, by what it is.

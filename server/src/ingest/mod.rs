@@ -210,6 +210,18 @@ pub fn build(job: &Ingest, map: &Heightmap) -> Result<(PathBuf, Metadata)> {
     // are sea level; unless told otherwise.
     let fill = job.fill.unwrap_or(if scheme == "local" { lo } else { 0.0 });
     check_span(job, lo, hi, fill, step)?;
+    if let Some(e) = job.precision {
+        // The dataset's span bounds every tile's, so no tile refuses what passes here (`e`
+        // is finite and > 0, `check`'s).
+        let least = ezw::min_max_error(step, hi.max(fill) - lo.min(fill));
+        if e < least {
+            bail!(
+                "--precision {e}: {} has heights {lo} … {hi} in steps of {step}, which a bound \
+                 below {least:e} cannot be held to (f64 resolution); give at least that",
+                job.input.display()
+            );
+        }
+    }
     let plan = if scheme == "local" {
         // The tiling the server will open the dataset with: a grid it refuses (under 2 × 2)
         // is refused here, before anything is written.
@@ -251,13 +263,14 @@ pub fn build(job: &Ingest, map: &Heightmap) -> Result<(PathBuf, Metadata)> {
                 job.input.display(),
             );
         }
-        let source = resample::Source::new(&map.heights, &georef, fill)?;
+        let place = || job.input.display().to_string();
+        let source = resample::Source::new(&map.heights, &georef, fill).with_context(place)?;
         let scheme = if scheme == "geodetic" {
             Scheme::Geodetic
         } else {
             Scheme::Mercator
         };
-        let w = world::build(&source, scheme, job.max_zoom)?;
+        let w = world::build(&source, scheme, job.max_zoom).with_context(place)?;
         if let Some([south, north]) = w.clipped_lat {
             eprintln!(
                 "zerotile: note: {} spans latitudes {south:.4}..{north:.4}; web mercator stops at \
@@ -781,6 +794,60 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// A --precision finer than the heights' f64 resolution is refused once, naming the flag,
+    /// the file and the least bound (it was "encoding tile 1/0/0: max_error must be at
+    /// least …"); at that least bound every tile encodes.
+    #[test]
+    fn a_precision_below_what_the_heights_can_hold_is_refused_by_its_flag() {
+        let data = scratch("fine-precision");
+        // -11,000 … 8,848 m in 1 mm steps: the floor is the range's 2^-40, 1.8e-8 m.
+        let h: Vec<f64> = (0..25).map(|i| -11_000.0 + 827.0 * f64::from(i)).collect();
+        let map = Heightmap::new(Grid::new(5, 5, h).unwrap(), None, None);
+        let least = ezw::min_max_error(0.01, 19_848.0);
+        assert!((least - 19_848.0 / 2f64.powi(40)).abs() < 1e-20, "{least}");
+        let j = Ingest {
+            precision: Some(1e-9),
+            wavelet: Wavelet::Cdf97,
+            ..job("p", "local", &data)
+        };
+        let e = build(&j, &map).unwrap_err().to_string();
+        assert!(
+            e.starts_with(
+                "--precision 0.000000001: p.hgt has heights -11000 … 8848 in steps of 0.01"
+            ) && e.ends_with(&format!(
+                "below {least:e} cannot be held to (f64 resolution); give at least that"
+            )),
+            "{e}"
+        );
+        let j = Ingest {
+            precision: Some(least),
+            wavelet: Wavelet::Cdf97,
+            ..job("p", "local", &data)
+        };
+        build(&j, &map).unwrap();
+        // A coarse step's floor is the step's 2^-20.
+        assert_eq!(ezw::min_max_error(1.0, 100.0), 1.0 / 2f64.powi(20));
+    }
+
+    /// A placement off the globe names the file (it was "the source spans …" alone).
+    #[test]
+    fn a_source_off_the_globe_is_refused_by_its_file() {
+        let data = scratch("off-globe");
+        let georef =
+            zerotile_codec::raster::Georef::north_up(Crs::Geographic, 10.0, 91.0, 0.01, 0.01);
+        let map = Heightmap::new(
+            Grid::new(3, 3, vec![1.0; 9]).unwrap(),
+            Some(1.0),
+            Some(georef),
+        );
+        let e = build(&job("pole", "geodetic", &data), &map).unwrap_err();
+        let e = format!("{e:#}");
+        assert!(
+            e.starts_with("pole.hgt: the source spans") && e.contains("outside the world"),
+            "{e}"
+        );
     }
 
     /// A .hgt without a georeference (a renamed copy) is told how one is placed.
