@@ -204,6 +204,8 @@ impl State {
     }
 
     /// A fresh mark value (and the one after it, which callers may use as a second mark).
+    /// Equivalent slips: `>=` as `<` clears the marks on every call (right, only slower), and
+    /// `u32::MAX - 2` as `/ 2` clears them at 2³¹ instead.
     pub(super) fn next_generation(&mut self) -> u32 {
         if self.generation >= u32::MAX - 2 {
             self.mark.fill(0);
@@ -263,6 +265,7 @@ impl State {
                     1 => {
                         self.flags[v as usize] |= BOUNDARY;
                         self.flags[u as usize] |= BOUNDARY;
+                        // `>` as `>=` is equivalent: a weight of 0 adds planes of all zeros.
                         if options.boundary_weight > 0.0 {
                             self.add_edge_planes(v, u, &fs[..1], options.boundary_weight);
                         }
@@ -362,6 +365,8 @@ impl State {
         take: impl Fn(u32) -> bool,
         out: &mut Vec<Entry>,
     ) {
+        // `& ALIVE` as `| ALIVE` (never 0: no check) is equivalent: only vertices that have
+        // just kept a contraction are collected, and those are alive.
         if self.flags[v as usize] & ALIVE == 0 {
             return;
         }
@@ -420,6 +425,7 @@ impl State {
         for v in 0..self.partners.len() {
             for i in 0..self.partners[v].len() {
                 let u = self.partners[v][i];
+                // `>` as `>=` is equivalent: a vertex is not its own partner.
                 if u > v as u32 {
                     out.extend(self.entry(v as u32, u));
                 }
@@ -435,6 +441,7 @@ impl State {
             return;
         }
         let cell = |p: DVec3| (p / t).floor().as_i64vec3().to_array();
+        // `ALIVE | LOCKED` as `^` is equivalent: different bits.
         let free = |flags: u8| flags & (ALIVE | LOCKED) == ALIVE;
         let mut grid: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
         for v in 0..self.geo.len() as u32 {
@@ -461,6 +468,8 @@ impl State {
             let p = self.geo[v as usize].pos;
             let [x, y, z] = cell(p);
             near.clear();
+            // p's cell and those around it. `x + dx` as `x - dx` visits the same cells in
+            // another order, which reorders only candidates exactly as far from p (not tested).
             for dx in -1..=1 {
                 for dy in -1..=1 {
                     for dz in -1..=1 {
@@ -469,6 +478,7 @@ impl State {
                         };
                         for &u in bucket {
                             let d = (self.geo[u as usize].pos - p).length_squared();
+                            // `u > v` as `>=` is equivalent: v marked itself with its faces.
                             if u > v && self.mark[u as usize] != g && d < t * t {
                                 near.push((d, u));
                             }
@@ -487,6 +497,10 @@ impl State {
     /// Rewrites the reference array once dead slices make up half of it, keeping memory and
     /// cache footprint proportional to the live mesh.
     pub(super) fn maybe_compact(&mut self) {
+        // Compacting changes no result, only memory: `2 *` as `2 +` or `2 /` compacts more
+        // often (equivalent: only slower). `<=` as `>` compacts after every pass that leaves
+        // the array within twice its last compacted length, and never again after one that
+        // does not (memory only; not tested).
         if self.refs.len() <= 2 * self.refs_compact {
             return;
         }
@@ -541,13 +555,16 @@ impl State {
 fn spatial_order(positions: &[DVec3]) -> Vec<u32> {
     let bounds = Aabb::from_points(positions);
     let extent = (bounds.max - bounds.min).max_element();
+    // Equivalent: `&&` as `||` and `>` as `>=` (an infinite extent gives a scale of 0 either
+    // way, and a zero one an infinite scale times 0, NaN, which is 0 as an integer).
     let scale = if extent > 0.0 && extent.is_finite() {
         1023.0 / extent
     } else {
         0.0
     };
     let spread = |x: u64| {
-        // Two zero bits between each of the 10 low bits of x.
+        // Two zero bits between each of the 10 low bits of x. Each `|` below joins disjoint
+        // bits, so as `^` it is equivalent (4, and 2 in the key).
         let mut x = x & 0x3ff;
         x = (x | x << 16) & 0x0300_00ff;
         x = (x | x << 8) & 0x0300_f00f;
@@ -602,3 +619,7 @@ fn sort_by_first_vertex(faces: &[[u32; 3]], vertex_count: usize) -> Vec<[u32; 3]
     }
     out
 }
+
+#[cfg(test)]
+#[path = "state_tests.rs"]
+mod tests;
