@@ -454,6 +454,13 @@ fn export_notes(job: &crate::export::Export, done: &crate::export::Exported) -> 
                 .to_string(),
         );
     }
+    if let Some([lo, hi]) = done.clamped {
+        notes.push(format!(
+            "heights {lo} … {hi} m pass what terrain-RGB codes (−10,000 … 1,667,721.5 m): the \
+             PNG tiles clamp them there (the server's ?encoding=terrarium keeps −32,768 … \
+             32,768 m)"
+        ));
+    }
     if let Some((z0 @ 1.., _)) = job.zooms.filter(|_| job.format == "terrain") {
         notes.push(format!(
             "{} has no zooms below {z0}, which CesiumJS needs from level 0 on: serve it beside \

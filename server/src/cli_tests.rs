@@ -325,6 +325,7 @@ fn export_notes_say_what_was_not_written() {
         tiles: 1,
         bytes: 1,
         no_tilejson,
+        clamped: None,
     };
     assert!(export_notes(&job("terrain", None), &done(false)).is_empty());
     assert!(export_notes(&job("terrain", Some((0, 4))), &done(false)).is_empty());
@@ -338,6 +339,16 @@ fn export_notes_say_what_was_not_written() {
     let notes = export_notes(&job("png", None), &done(true));
     assert_eq!(notes.len(), 1, "{notes:?}");
     assert!(notes[0].starts_with("no tiles.json written"), "{notes:?}");
+    let clamped = crate::export::Exported {
+        clamped: Some([-10_935.0, 8_848.0]),
+        ..done(false)
+    };
+    let notes = export_notes(&job("png", None), &clamped);
+    assert_eq!(notes.len(), 1, "{notes:?}");
+    assert!(
+        notes[0].starts_with("heights -10935 … 8848 m pass what terrain-RGB codes"),
+        "{notes:?}"
+    );
 }
 
 /// `--png-compression` on a tree without PNG is said to do nothing; left out, or on png, not.

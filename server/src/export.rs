@@ -14,8 +14,9 @@ use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
 use anyhow::{bail, Context, Result};
 use rayon::prelude::*;
 use zerotile_codec::container::TileId;
-use zerotile_codec::formats::terrain_rgb::PngCompression;
+use zerotile_codec::formats::terrain_rgb::{self, PngCompression};
 use zerotile_codec::geo::{Scheme, MAX_ZOOM};
+use zerotile_codec::raster::Encoding;
 
 use crate::serve::dataset::Dataset;
 use crate::serve::negotiate::Extensions;
@@ -51,6 +52,9 @@ pub struct Exported {
     pub bytes: u64,
     /// A mercator png export written without `--base-url`, so without tiles.json.
     pub no_tilejson: bool,
+    /// A png export of heights terrain-RGB cannot hold: the dataset's range, clamped in the
+    /// tiles to [`terrain_rgb::height_range`].
+    pub clamped: Option<[f64; 2]>,
 }
 
 /// The PNG tiles an export writes (and its tiles.json lists): terrain-RGB, 512 pixels a side.
@@ -179,6 +183,15 @@ pub fn run(job: &Export) -> Result<Exported> {
             ))
         })?),
     };
+    let clamped = format == TileFormat::Png && {
+        let encoding = if PNG_TERRARIUM {
+            Encoding::Terrarium
+        } else {
+            Encoding::TerrainRgb
+        };
+        let (lo, hi) = terrain_rgb::height_range(encoding)?;
+        m.height_range[0] < lo || m.height_range[1] > hi
+    };
     let (z0, z1) = job.zooms.unwrap_or((m.min_zoom, m.max_zoom));
     if z1 > m.max_zoom || z0 < m.min_zoom {
         bail!(
@@ -293,6 +306,7 @@ pub fn run(job: &Export) -> Result<Exported> {
             tiles,
             bytes,
             no_tilejson: maplibre && tilejson.is_none(),
+            clamped: clamped.then_some(m.height_range),
         },
         Err(e) => {
             let _ = std::fs::remove_dir_all(&tmp);
@@ -378,6 +392,50 @@ mod tests {
         // No dataset has a zoom past MAX_ZOOM: refused by the parser, exit 2.
         assert_eq!(parse_zooms("28"), Ok((28, 28)));
         assert!(parse_zooms("3-29").unwrap_err().contains("0..=28"));
+    }
+
+    /// A png export of heights below terrain-RGB's −10,000 m floor reports the dataset's
+    /// range, which the CLI notes (the tiles clamped silently); one within it reports none.
+    #[test]
+    fn a_png_export_past_terrain_rgbs_range_reports_it() {
+        use zerotile_codec::raster::Heightmap;
+        use zerotile_codec::Grid;
+        let dir = crate::fixtures::scratch("export-clamped");
+        let data = dir.join("data");
+        for (name, low, clamped) in [("deep", -10_935.0, true), ("shallow", -9_000.0, false)] {
+            let h: Vec<f64> = (0..9).map(|i| low + 100.0 * f64::from(i)).collect();
+            let map = Heightmap::new(Grid::new(3, 3, h).unwrap(), Some(1.0), None);
+            let job = crate::ingest::Ingest {
+                input: PathBuf::from(format!("{name}.npy")),
+                name: name.into(),
+                data: data.clone(),
+                scheme: "local".into(),
+                wavelet: zerotile_codec::wavelet::Wavelet::LeGall53,
+                precision: None,
+                encoding: None,
+                npz_key: None,
+                fill: None,
+                max_zoom: None,
+                progress: false,
+            };
+            crate::ingest::build(&job, &map).unwrap();
+            for format in ["png", "json"] {
+                let done = run(&Export {
+                    dataset: name.into(),
+                    data: data.clone(),
+                    format: format.into(),
+                    out: dir.join(format!("{name}-{format}")),
+                    zooms: None,
+                    base_url: None,
+                    png_compression: PngCompression::Fast,
+                    progress: false,
+                })
+                .unwrap();
+                let want = (clamped && format == "png").then_some([low, low + 800.0]);
+                assert_eq!(done.clamped, want, "{name} {format}");
+            }
+        }
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     /// A symbolic link as --out is refused for what it is (the swap would replace the link).

@@ -198,6 +198,16 @@ const BEST_FILTERS: [FilterType; 4] = [
     FilterType::Avg,
 ];
 
+/// The heights, metres, an encoding's codes span: [`encode_height`] clamps past them, so a
+/// caller can say so before it happens (Mapbox's floor, −10,000 m, is above the deepest
+/// ocean trench; Terrarium's is not).
+pub fn height_range(encoding: Encoding) -> Result<(f64, f64), TerrainRgbError> {
+    Ok(match check_encoding(encoding)? {
+        Rgb::Mapbox => (-10_000.0, -10_000.0 + MAX_CODE / 10.0),
+        Rgb::Terrarium => (-32_768.0, -32_768.0 + MAX_CODE / 256.0),
+    })
+}
+
 /// The pixel for height `h` metres: rounded to the nearest code, clamped to the encodable
 /// range (±∞ clamp too; NaN is the caller's no-data and encodes as the lowest code).
 pub fn encode_height(encoding: Encoding, h: f64) -> Result<[u8; 3], TerrainRgbError> {
@@ -340,6 +350,27 @@ mod tests {
 
     const BIG: u64 = 1 << 24;
 
+    /// The ends [`height_range`] gives encode to the first and last code, and a height past
+    /// either end clamps to it.
+    #[test]
+    fn height_range_is_what_the_codes_span() {
+        for encoding in [Encoding::TerrainRgb, Encoding::Terrarium] {
+            let (lo, hi) = height_range(encoding).unwrap();
+            assert_eq!(encode_height(encoding, lo).unwrap(), [0, 0, 0]);
+            assert_eq!(encode_height(encoding, hi).unwrap(), [255, 255, 255]);
+            assert_eq!(encode_height(encoding, lo - 1000.0).unwrap(), [0, 0, 0]);
+            assert_eq!(encode_height(encoding, hi + 1000.0).unwrap(), [255; 3]);
+        }
+        assert_eq!(
+            height_range(Encoding::TerrainRgb).unwrap(),
+            (-10_000.0, 1_667_721.5)
+        );
+        assert_eq!(
+            height_range(Encoding::Terrarium).unwrap(),
+            (-32_768.0, 32_767.99609375)
+        );
+        assert!(height_range(Encoding::Gray).is_err());
+    }
     #[test]
     fn known_pixels_match_the_published_formulas() {
         assert_eq!(

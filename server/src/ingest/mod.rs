@@ -21,6 +21,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use zerotile_codec::container::{Availability, Metadata, TileId, ViewParams, Writer};
 use zerotile_codec::ezw::{self, EncodeParams};
+use zerotile_codec::formats::terrain_rgb;
 use zerotile_codec::geo::{Scheme, Tiling};
 use zerotile_codec::pyramid::Level;
 use zerotile_codec::raster::{self, Crs, Encoding, Heightmap, ReadOptions};
@@ -302,6 +303,16 @@ pub fn build(job: &Ingest, map: &Heightmap) -> Result<(PathBuf, Metadata)> {
             bounds: w.bounds,
         }
     };
+    // Said once here, where the heights are known: every PNG tile would clamp silently.
+    let (rgb_lo, rgb_hi) = terrain_rgb::height_range(Encoding::TerrainRgb)?;
+    if lo < rgb_lo || hi > rgb_hi {
+        eprintln!(
+            "zerotile: note: {} has heights {lo} … {hi} m; its terrain-RGB PNG tiles clamp them \
+             to {rgb_lo} … {rgb_hi} m (?encoding=terrarium codes −32,768 … 32,768 m; the mesh \
+             formats keep every height)",
+            job.input.display()
+        );
+    }
     let (source_lo, source_hi) = (lo, hi);
     // The fill is stored wherever there is no data, so it belongs to the range then.
     let (lo, hi) = if map.has_nodata() || scheme != "local" {
