@@ -242,7 +242,8 @@ fn world_schemes_refuse_sources_they_cannot_place() {
     let out = ingest(&utm, "v", &data, &["--scheme", "geodetic"]);
     assert_eq!(out.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&out.stderr).contains("EPSG:32632"));
-    // No georeference at all.
+    // A format that has no georeference at all: refused by its name, before it is read,
+    // as the command line's error.
     let png = shared_data().join("dem/fuji.png");
     let out = ingest(
         &png,
@@ -250,8 +251,9 @@ fn world_schemes_refuse_sources_they_cannot_place() {
         &data,
         &["--scheme", "mercator", "--encoding", "terrain-rgb"],
     );
-    assert_eq!(out.status.code(), Some(1));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("no georeference"));
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr)
+        .contains("fuji.png: a .png carries no georeference, so it cannot be placed on the globe"));
     // --max-zoom means nothing for a local grid: a usage error.
     let out = ingest(&utm, "v", &data, &["--max-zoom", "3"]);
     assert_eq!(out.status.code(), Some(2));
