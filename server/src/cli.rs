@@ -455,10 +455,14 @@ fn export_notes(job: &crate::export::Export, done: &crate::export::Exported) -> 
         );
     }
     if let Some([lo, hi]) = done.clamped {
+        use zerotile_codec::formats::terrain_rgb::height_range;
+        use zerotile_codec::raster::Encoding;
+        let range = |e| height_range(e).map_or_else(|_| "?".into(), |(a, b)| format!("{a} … {b}"));
         notes.push(format!(
-            "heights {lo} … {hi} m pass what terrain-RGB codes (−10,000 … 1,667,721.5 m): the \
-             PNG tiles clamp them there (the server's ?encoding=terrarium keeps −32,768 … \
-             32,768 m)"
+            "heights {lo} … {hi} m pass what terrain-RGB codes ({} m): the PNG tiles clamp them \
+             there (the server's ?encoding=terrarium keeps {} m)",
+            range(Encoding::TerrainRgb),
+            range(Encoding::Terrarium)
         ));
     }
     if let Some((z0 @ 1.., _)) = job.zooms.filter(|_| job.format == "terrain") {
@@ -512,21 +516,18 @@ fn listen_addr(s: &str) -> Result<std::net::SocketAddr, String> {
 /// runs, so one that does not resolve yet (a container still starting) fails the check,
 /// exit 1, rather than the command line.
 fn host_port(s: &str) -> Result<String, String> {
-    let bad = || format!("{s:?} is not HOST:PORT (e.g. 127.0.0.1:8080)");
-    let (host, port) = s.rsplit_once(':').ok_or_else(bad)?;
-    let host_ok = match host.strip_prefix('[').and_then(|h| h.strip_suffix(']')) {
-        Some(v6) => v6.parse::<std::net::Ipv6Addr>().is_ok(),
-        None => {
-            !host.is_empty()
-                && host
-                    .bytes()
-                    .all(|b| b.is_ascii_alphanumeric() || b == b'-' || b == b'.')
-        }
-    };
-    match port.parse::<u16>() {
-        Ok(1..) if host_ok => Ok(s.to_string()),
-        Ok(0) | Err(_) if host_ok => Err(format!("{s:?}: port {port:?} is not 1–65535")),
-        _ => Err(bad()),
+    // A port after the host (after the brackets of an IPv6 address), as the Host header's
+    // check takes them.
+    let port = s
+        .rsplit_once(':')
+        .filter(|(host, _)| !s.starts_with('[') || host.ends_with(']'))
+        .map(|(_, port)| port);
+    match port {
+        Some(p) if crate::serve::public_url::valid_host(s) => match p.parse::<u16>() {
+            Ok(1..) => Ok(s.to_string()),
+            _ => Err(format!("{s:?}: port {p:?} is not 1–65535")),
+        },
+        _ => Err(format!("{s:?} is not HOST:PORT (e.g. 127.0.0.1:8080)")),
     }
 }
 
@@ -723,7 +724,9 @@ fn terrain_eval(a: TerrainArgs) -> anyhow::Result<terrain::TerrainEval> {
     // line's fault (without --crop the file's size decides, checked once it is read).
     if let Some((_, _, size)) = a.crop {
         let bintree = a.mesher == Some(terrain::Mesher::Bintree);
-        if (bintree || a.decode_share.is_some()) && !terrain::bintree_side(size) {
+        if (bintree || a.decode_share.is_some())
+            && !zerotile_codec::bintree::Hierarchy::supports(size)
+        {
             crate::bail_usage!(
                 "--crop …,{size}: the bintree mesher ({}) needs a side of 2^k + 1 (3 … 4097), \
                  e.g. 257",

@@ -16,13 +16,12 @@ use rayon::prelude::*;
 use zerotile_codec::container::TileId;
 use zerotile_codec::formats::terrain_rgb::{self, PngCompression};
 use zerotile_codec::geo::{Scheme, MAX_ZOOM};
-use zerotile_codec::raster::Encoding;
 
 use crate::serve::dataset::Dataset;
 use crate::serve::negotiate::Extensions;
 use crate::serve::pipeline::Cancel;
 use crate::serve::routes::meta::{layer, raster_dem};
-use crate::serve::routes::tiles::{render_tile, TileFormat, Variant};
+use crate::serve::routes::tiles::{png_encoding, render_tile, TileFormat, Variant};
 use crate::serve::{public_url, threshold, AppState, Catalog, Config};
 
 /// The file every export writes at its root, so that a later export knows the folder is
@@ -184,12 +183,7 @@ pub fn run(job: &Export) -> Result<Exported> {
         })?),
     };
     let clamped = format == TileFormat::Png && {
-        let encoding = if PNG_TERRARIUM {
-            Encoding::Terrarium
-        } else {
-            Encoding::TerrainRgb
-        };
-        let (lo, hi) = terrain_rgb::height_range(encoding)?;
+        let (lo, hi) = terrain_rgb::height_range(png_encoding(PNG_TERRARIUM))?;
         m.height_range[0] < lo || m.height_range[1] > hi
     };
     let (z0, z1) = job.zooms.unwrap_or((m.min_zoom, m.max_zoom));
@@ -407,16 +401,7 @@ mod tests {
             let map = Heightmap::new(Grid::new(3, 3, h).unwrap(), Some(1.0), None);
             let job = crate::ingest::Ingest {
                 input: PathBuf::from(format!("{name}.npy")),
-                name: name.into(),
-                data: data.clone(),
-                scheme: "local".into(),
-                wavelet: zerotile_codec::wavelet::Wavelet::LeGall53,
-                precision: None,
-                encoding: None,
-                npz_key: None,
-                fill: None,
-                max_zoom: None,
-                progress: false,
+                ..crate::ingest::Ingest::for_test(name, "local", &data)
             };
             crate::ingest::build(&job, &map).unwrap();
             for format in ["png", "json"] {

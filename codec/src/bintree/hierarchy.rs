@@ -75,12 +75,19 @@ pub struct Hierarchy {
 }
 
 impl Hierarchy {
-    /// The hierarchy of an `n × n` grid; `None` unless `n = 2^k + 1` with `1 ≤ k ≤ 12`.
+    /// Whether [`Self::new`] builds the hierarchy of an `n × n` grid: `n = 2^k + 1` with
+    /// `1 ≤ k ≤ 12`. Callers ask before reading a grid of that side.
+    pub fn supports(n: usize) -> bool {
+        n.checked_sub(1)
+            .is_some_and(|m| m.is_power_of_two() && (2..=4096).contains(&m))
+    }
+
+    /// The hierarchy of an `n × n` grid; `None` unless [`Self::supports`] `n`.
     pub fn new(n: usize) -> Option<Self> {
-        let k = (n.checked_sub(1)?).checked_ilog2()?;
-        if n != (1usize << k) + 1 || !(1..=12).contains(&k) {
+        if !Self::supports(n) {
             return None;
         }
+        let k = (n - 1).ilog2();
         let idx = |x: usize, y: usize| (y * n + x) as u32;
         let last = n - 1;
         // Roots, counter-clockwise seen from above with north (row 0) up.

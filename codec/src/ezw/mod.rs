@@ -47,7 +47,12 @@ pub fn max_range_steps(wavelet: Wavelet) -> f64 {
 /// caller checks it once, with its flag's name, before work [`encode`] would refuse tile by
 /// tile.
 pub fn min_max_error(step: f64, range: f64) -> f64 {
-    step * MIN_BOUND_UNITS.max((range / step).max(1.0) * MIN_BOUND_OF_RANGE)
+    step * min_bound_units(range / step)
+}
+
+/// [`min_max_error`] in steps, for heights spanning `range_units` steps.
+fn min_bound_units(range_units: f64) -> f64 {
+    MIN_BOUND_UNITS.max(range_units.max(1.0) * MIN_BOUND_OF_RANGE)
 }
 
 /// How to encode.
@@ -223,7 +228,7 @@ pub fn encode(heights: &Grid<f64>, params: &EncodeParams) -> Result<Encoded, Par
     // resolution cannot hold the bound, and the pass would keep a broken promise silently.
     if let Some(e) = params.max_error {
         let e_units = e / params.step;
-        if e_units < MIN_BOUND_UNITS || e_units < (hi - lo).max(1.0) * MIN_BOUND_OF_RANGE {
+        if e_units < min_bound_units(hi - lo) {
             return Err(out_of_range(
                 "max_error",
                 "at least step x 2^-20 and height range x 2^-40 (lossless gives exact heights)",

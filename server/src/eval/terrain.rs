@@ -163,13 +163,6 @@ pub fn load(eval: &TerrainEval) -> Result<(Grid<f64>, f64, f64)> {
 pub const MAX_WINDOW_SIDE: usize = 8192;
 const _: () = assert!(MAX_WINDOW_SIDE * MAX_WINDOW_SIDE <= ezw::DEFAULT_MAX_SAMPLES);
 
-/// A side the bintree mesher takes: 2^k + 1 for k in 1..=12 (what [`Hierarchy::new`]
-/// builds).
-pub fn bintree_side(n: usize) -> bool {
-    n.checked_sub(1)
-        .is_some_and(|m| m.is_power_of_two() && (2..=4096).contains(&m))
-}
-
 /// Integer heights in 0..=255: 8-bit data, whose PSNR peak is 255 whatever the window's
 /// range (the paper's convention).
 pub(super) fn is_8bit(g: &Grid<f64>, step: Option<f64>) -> bool {

@@ -8,8 +8,8 @@ use zerotile_codec::Grid;
 
 use super::parse_list;
 use super::terrain::{
-    bintree_side, check_rates, errors, floor_warning, is_8bit, load, parse_crop, psnr, run, table,
-    Mesher, Point, Sweep, TerrainEval, DECODE_SHARE,
+    check_rates, errors, floor_warning, is_8bit, load, parse_crop, psnr, run, table, Mesher, Point,
+    Sweep, TerrainEval, DECODE_SHARE,
 };
 use crate::fixtures::shared_data;
 use zerotile_codec::bintree::Hierarchy;
@@ -163,12 +163,10 @@ fn lossless_is_exact_on_the_5_3_wavelet_and_refused_on_9_7() {
 /// them within half a step is named.
 #[test]
 fn lossless_refuses_heights_off_the_step_grid() {
-    let e = run(&TerrainEval {
+    let e = refusal(TerrainEval {
         step: Some(0.3),
         ..n44(65, Sweep::Lossless)
-    })
-    .unwrap_err()
-    .to_string();
+    });
     assert!(
         e.contains("not multiples of the height step 0.3") && e.contains("--max-error 0.15"),
         "{e}"
@@ -289,13 +287,11 @@ fn a_file_past_one_streams_limit_is_refused_from_its_header() {
     bytes.extend_from_slice(&(header.len() as u16).to_le_bytes());
     bytes.extend_from_slice(&header);
     std::fs::write(&path, &bytes).unwrap();
-    let e = run(&TerrainEval {
+    let e = refusal(TerrainEval {
         input: path,
         crop: None,
         ..n44(65, Sweep::Threshold(vec![4.0]))
-    })
-    .unwrap_err();
-    let e = format!("{e:#}");
+    });
     assert!(
         e.starts_with(
             "eval terrain codes the window as one stream of at most 67108864 samples; give \
@@ -310,12 +306,10 @@ fn a_file_past_one_streams_limit_is_refused_from_its_header() {
 /// range / step must be small enough for 63 bit planes …" alone).
 #[test]
 fn an_encoder_refusal_names_the_file_and_the_flag() {
-    let e = run(&TerrainEval {
+    let e = refusal(TerrainEval {
         step: Some(1e-30),
         ..n44(65, Sweep::Threshold(vec![4.0]))
-    })
-    .unwrap_err();
-    let e = format!("{e:#}");
+    });
     assert!(
         e.contains(
             "N44W072.hgt: encoding the window with --step 0.000000000000000000000000000001: "
@@ -337,6 +331,11 @@ fn a_step_past_the_range_does_not_become_the_peak() {
     assert!(p.psnr_db.is_some_and(|db| db < 20.0), "{p:?}");
 }
 
+/// Why `eval` is refused, with its causes (`{:#}`).
+fn refusal(eval: TerrainEval) -> String {
+    format!("{:#}", run(&eval).unwrap_err())
+}
+
 /// An --out that is a file is refused before any work, by what it is.
 #[test]
 fn an_out_that_is_a_file_is_refused_up_front() {
@@ -344,12 +343,10 @@ fn an_out_that_is_a_file_is_refused_up_front() {
     std::fs::create_dir_all(&dir).unwrap();
     let file = dir.join("afile");
     std::fs::write(&file, b"mine").unwrap();
-    let e = run(&TerrainEval {
+    let e = refusal(TerrainEval {
         out: Some(file.clone()),
         ..n44(65, Sweep::Threshold(vec![4.0]))
-    })
-    .unwrap_err()
-    .to_string();
+    });
     assert!(
         e.ends_with("afile: is not a folder; give a folder for the meshes"),
         "{e}"
@@ -359,12 +356,10 @@ fn an_out_that_is_a_file_is_refused_up_front() {
     // Neither a file nor a folder: it was "File exists (os error 17)" after the first point.
     #[cfg(unix)]
     {
-        let e = run(&TerrainEval {
+        let e = refusal(TerrainEval {
             out: Some("/dev/null".into()),
             ..n44(65, Sweep::Threshold(vec![4.0]))
-        })
-        .unwrap_err()
-        .to_string();
+        });
         assert_eq!(
             e, "--out /dev/null: is not a folder; give a folder for the meshes",
             "{e}"
@@ -375,33 +370,29 @@ fn an_out_that_is_a_file_is_refused_up_front() {
 #[test]
 fn bintree_sides_are_the_ones_the_hierarchy_builds() {
     for n in 0..=600 {
-        assert_eq!(bintree_side(n), Hierarchy::new(n).is_some(), "{n}");
+        assert_eq!(Hierarchy::supports(n), Hierarchy::new(n).is_some(), "{n}");
     }
     // The ends, without building a 4097² hierarchy.
-    assert!(bintree_side(4097) && bintree_side(3));
-    assert!(!bintree_side(8193) && !bintree_side(4096) && !bintree_side(2));
+    assert!(Hierarchy::supports(4097) && Hierarchy::supports(3));
+    assert!(!Hierarchy::supports(8193) && !Hierarchy::supports(4096) && !Hierarchy::supports(2));
 }
 
 /// Without --crop the file's size decides the mesher: a bintree-only flag on a grid the
 /// bintree cannot take is refused before any point is measured, naming the grid.
 #[test]
 fn bintree_flags_on_a_grid_the_bintree_cannot_take_are_refused() {
-    let e = run(&TerrainEval {
+    let e = refusal(TerrainEval {
         mesher: Some(Mesher::Bintree),
         ..n44(64, Sweep::Threshold(vec![4.0]))
-    })
-    .unwrap_err()
-    .to_string();
+    });
     assert!(
         e.ends_with("--mesher bintree needs a square (2^k + 1)-sample grid, this one is 64×64 (e.g. --crop R,C,257)"),
         "{e}"
     );
-    let e = run(&TerrainEval {
+    let e = refusal(TerrainEval {
         decode_share: Some(0.25),
         ..n44(64, Sweep::Threshold(vec![4.0]))
-    })
-    .unwrap_err()
-    .to_string();
+    });
     assert!(
         e.contains("--decode-share applies to the bintree mesher"),
         "{e}"

@@ -188,6 +188,27 @@ fn check(job: &Ingest) -> Result<&str> {
     Ok(scheme)
 }
 
+#[cfg(test)]
+impl Ingest {
+    /// `name` from `{name}.hgt` into `data` with every default (5/3, no flags), quiet: what
+    /// the tests that build a dataset from a heightmap in memory start from.
+    pub(crate) fn for_test(name: &str, scheme: &str, data: &Path) -> Self {
+        Self {
+            input: PathBuf::from(format!("{name}.hgt")),
+            name: name.into(),
+            data: data.to_path_buf(),
+            scheme: scheme.into(),
+            wavelet: zerotile_codec::wavelet::Wavelet::LeGall53,
+            precision: None,
+            encoding: None,
+            npz_key: None,
+            fill: None,
+            max_zoom: None,
+            progress: false,
+        }
+    }
+}
+
 /// Builds the dataset and returns where it was written and its metadata.
 pub fn run(job: &Ingest) -> Result<(PathBuf, Metadata)> {
     let scheme = check(job)?;
@@ -316,9 +337,10 @@ pub fn build(job: &Ingest, map: &Heightmap) -> Result<(PathBuf, Metadata)> {
     // Said once here, where the heights are known: every PNG tile would clamp silently.
     let (rgb_lo, rgb_hi) = terrain_rgb::height_range(Encoding::TerrainRgb)?;
     if lo < rgb_lo || hi > rgb_hi {
+        let (t_lo, t_hi) = terrain_rgb::height_range(Encoding::Terrarium)?;
         eprintln!(
             "zerotile: note: {} has heights {lo} … {hi} m; its terrain-RGB PNG tiles clamp them \
-             to {rgb_lo} … {rgb_hi} m (?encoding=terrarium codes −32,768 … 32,768 m; the mesh \
+             to {rgb_lo} … {rgb_hi} m (?encoding=terrarium codes {t_lo} … {t_hi} m; the mesh \
              formats keep every height)",
             job.input.display()
         );
@@ -763,19 +785,7 @@ mod tests {
     }
 
     fn job(name: &str, scheme: &str, data: &Path) -> Ingest {
-        Ingest {
-            input: PathBuf::from(format!("{name}.hgt")),
-            name: name.into(),
-            data: data.to_path_buf(),
-            scheme: scheme.into(),
-            wavelet: Wavelet::LeGall53,
-            precision: None,
-            encoding: None,
-            npz_key: None,
-            fill: None,
-            max_zoom: None,
-            progress: false,
-        }
+        Ingest::for_test(name, scheme, data)
     }
 
     /// A data folder not made yet: ingest makes it.

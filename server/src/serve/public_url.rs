@@ -126,7 +126,7 @@ fn valid_path(p: &str) -> bool {
 
 /// A host name (labels of letters, digits, `-` and `_`, as container names have) or IPv4
 /// address, or a bracketed IPv6 address, then an optional `:port` of digits.
-fn valid_host(h: &str) -> bool {
+pub(crate) fn valid_host(h: &str) -> bool {
     let (name_ok, port) = if let Some(rest) = h.strip_prefix('[') {
         let Some((addr, after)) = rest.split_once(']') else {
             return false;

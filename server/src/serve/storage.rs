@@ -10,7 +10,7 @@ use std::os::unix::fs::FileExt;
 use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
 use std::sync::{Arc, OnceLock};
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use object_store::path::Path as ObjectPath;
 use object_store::ObjectStore;
 
@@ -70,26 +70,37 @@ pub fn is_url(data: &str) -> bool {
 /// A store URL this server can open, in form only (nothing is reached): refused before
 /// anything is bound, as the command line's error rather than the store's.
 pub fn check_url(url: &str) -> std::result::Result<(), String> {
+    parse_store_url(url).map(|_| ())
+}
+
+/// The kinds of store [`open_url`] has a client for.
+enum StoreKind {
+    S3,
+    Http,
+}
+
+/// The URL and its store's kind, or why no store answers it.
+fn parse_store_url(url: &str) -> std::result::Result<(url::Url, StoreKind), String> {
     let parsed = url::Url::parse(url).map_err(|e| format!("{e}"))?;
-    match parsed.scheme() {
-        "s3" | "s3a" | "http" | "https" => {}
+    let kind = match parsed.scheme() {
+        "s3" | "s3a" => StoreKind::S3,
+        "http" | "https" => StoreKind::Http,
         other => {
             return Err(format!(
                 "scheme {other:?} is not supported (s3://, http(s)://)"
             ))
         }
-    }
+    };
     if parsed.host_str().is_none_or(str::is_empty) {
         return Err(format!(
             "no {} in it",
-            if parsed.scheme().starts_with("s3") {
-                "bucket"
-            } else {
-                "host"
+            match kind {
+                StoreKind::S3 => "bucket",
+                StoreKind::Http => "host",
             }
         ));
     }
-    Ok(())
+    Ok((parsed, kind))
 }
 
 /// The store and the prefix a URL names: `s3://bucket/prefix` (AWS or any S3-compatible
@@ -102,7 +113,8 @@ pub fn check_url(url: &str) -> std::result::Result<(), String> {
 pub fn open_url(url: &str) -> Result<(Arc<dyn ObjectStore>, ObjectPath)> {
     use object_store::{BackoffConfig, ClientOptions, RetryConfig};
     use std::time::Duration;
-    let parsed = url::Url::parse(url).with_context(|| format!("data URL {url:?}"))?;
+    let (parsed, kind) =
+        parse_store_url(url).map_err(|why| anyhow::anyhow!("data URL {url}: {why}"))?;
     let retry = RetryConfig {
         backoff: BackoffConfig::default(),
         max_retries: 2,
@@ -118,8 +130,8 @@ pub fn open_url(url: &str) -> Result<(Arc<dyn ObjectStore>, ObjectPath)> {
         .with_connect_timeout(Duration::from_secs(2))
         .with_timeout(Duration::from_secs(10));
     let prefix = ObjectPath::from(parsed.path().trim_matches('/'));
-    let store: Arc<dyn ObjectStore> = match parsed.scheme() {
-        "s3" | "s3a" => Arc::new(
+    let store: Arc<dyn ObjectStore> = match kind {
+        StoreKind::S3 => Arc::new(
             object_store::aws::AmazonS3Builder::from_env()
                 .with_url(url)
                 .with_retry(retry)
@@ -127,7 +139,7 @@ pub fn open_url(url: &str) -> Result<(Arc<dyn ObjectStore>, ObjectPath)> {
                 .build()
                 .with_context(|| format!("data URL {url}"))?,
         ),
-        "http" | "https" => {
+        StoreKind::Http => {
             let mut root = parsed.clone();
             root.set_path("/");
             Arc::new(
@@ -139,7 +151,6 @@ pub fn open_url(url: &str) -> Result<(Arc<dyn ObjectStore>, ObjectPath)> {
                     .with_context(|| format!("data URL {url}"))?,
             )
         }
-        other => bail!("data URL {url}: scheme {other:?} is not supported (s3://, http(s)://)"),
     };
     Ok((store, prefix))
 }

@@ -99,6 +99,15 @@ impl TileFormat {
     }
 }
 
+/// The height encoding of a PNG tile ([`Variant::Png`]'s `terrarium`).
+pub(crate) fn png_encoding(terrarium: bool) -> Encoding {
+    if terrarium {
+        Encoding::Terrarium
+    } else {
+        Encoding::TerrainRgb
+    }
+}
+
 /// Format options that change the bytes (and so the ETag).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub(crate) enum Variant {
@@ -471,11 +480,7 @@ pub(crate) fn render_tile(
         }
         (TileFormat::Png, Variant::Png { terrarium, size }) => {
             let dec = pipeline::decoded(state, d, id, Depth::for_threshold(t), cancel)?;
-            let enc = if terrarium {
-                Encoding::Terrarium
-            } else {
-                Encoding::TerrainRgb
-            };
+            let enc = png_encoding(terrarium);
             let png = render::png(&dec.heights, enc, size, state.config.png_compression)?;
             (png, None)
         }
