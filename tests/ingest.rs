@@ -356,6 +356,16 @@ fn info_verify_finds_a_flipped_bit_and_names_the_tile() {
     let out = info(&["--verify"]);
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("3/2/1") && text.contains("1 of 39"), "{text}");
+    // A truncated copy is a bad copy too (3), though the open refuses it before any tile is
+    // read; a dataset that is not there is not (1).
+    std::fs::write(&file, &bytes[..bytes.len() / 2]).unwrap();
+    let out = info(&["--verify"]);
+    assert_eq!(out.status.code(), Some(3));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("truncated copy"), "{stderr}");
+    std::fs::remove_file(&file).unwrap();
+    let out = info(&["--verify"]);
+    assert_eq!(out.status.code(), Some(1));
     // A store URL is refused with what to do instead, not "no such file".
     let out = Command::new(zerotile_bin())
         .args(["info", "s3://tiles/prod/n44.ztd"])

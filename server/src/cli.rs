@@ -37,8 +37,8 @@ pub enum Command {
     Export(ExportArgs),
     /// Describe a dataset file (tiling, zooms, bytes per zoom); with --verify, read and
     /// decode every tile (check a copy before serving it). Exit 0 when every check passes,
-    /// 3 when the file was read and a check failed (the report says which), 1 when it could
-    /// not be read.
+    /// 3 when a check failed (the report says which; a truncated or garbled header too), 1
+    /// when the system would not give the file (none there, no permission, an I/O error).
     Info(InfoArgs),
     /// Measure the codec and mesher on one input.
     #[command(subcommand)]

@@ -17,11 +17,11 @@ use zerotile_codec::ezw::{self, DecodeLimit};
 
 use crate::serve::dataset::Dataset;
 
-/// The exit code of a file that was read but failed a check, apart from 1 (could not read
-/// it), so a script can tell a bad copy from a missing one.
+/// The exit code of a file that failed a check, its header's included, apart from 1 (the
+/// system would not give it), so a script can tell a bad copy from a missing one.
 pub const CHECKS_FAILED: u8 = 3;
 
-/// The error `info` ends with when the file was read and a check failed.
+/// The error `info` ends with when a check failed.
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
 pub struct ChecksFailed(pub String);
@@ -116,7 +116,15 @@ pub fn run(job: &Info) -> Result<Report> {
         }
     }
     let path = crate::ingest::existing_dataset_path(&job.dataset, &job.data)?;
-    let d = Dataset::open(&path).with_context(|| format!("{}", path.display()))?;
+    let d = match Dataset::open(&path) {
+        Ok(d) => d,
+        // A truncated or garbled copy is a bad copy, which is what the exit code tells apart
+        // from a file the system would not give us.
+        Err(e) if !system_refused(&e) => {
+            return Err(ChecksFailed(format!("{}: {e:#}", path.display())).into())
+        }
+        Err(e) => return Err(e.context(path.display().to_string())),
+    };
     let m = d.metadata().clone();
     let side = m.tile_side as u64;
 
@@ -151,6 +159,12 @@ pub fn run(job: &Info) -> Result<Report> {
         availability_problems: absent.problems,
         failed,
     })
+}
+
+/// Whether opening failed in the operating system (no such file, no permission, an I/O
+/// error) rather than on what the file holds.
+fn system_refused(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| c.is::<std::io::Error>())
 }
 
 /// Announced tiles the file lacks.
