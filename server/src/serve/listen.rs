@@ -5,10 +5,19 @@
 //! client that never finished its request headers held its connection (and a task) for as
 //! long as it liked. Here a connection whose request headers have not all arrived within
 //! [`HEADER_READ_TIMEOUT`] is closed.
+//!
+//! Hyper also serves an HTTP/1.1 request without a `Host` header, or with two, which RFC 9112
+//! §3.2 has a server refuse (such a request names no origin, or an ambiguous one, to the
+//! caches and proxies on its way). The rule sits here, on the wire, and not in the router,
+//! whose in-process tests build requests without one.
 
 use std::future::Future;
 use std::time::Duration;
 
+use axum::extract::Request;
+use axum::http::{header::HOST, StatusCode, Version};
+use axum::middleware::Next;
+use axum::response::{IntoResponse, Response};
 use axum::Router;
 use hyper_util::rt::{TokioExecutor, TokioIo, TokioTimer};
 use hyper_util::server::conn::auto::Builder;
@@ -38,6 +47,7 @@ pub async fn serve_with(
         .http1()
         .timer(TokioTimer::new())
         .header_read_timeout(header_timeout);
+    let app = app.layer(axum::middleware::from_fn(one_host));
     let graceful = GracefulShutdown::new();
     let mut stop = std::pin::pin!(stop);
     loop {
@@ -66,6 +76,23 @@ pub async fn serve_with(
     }
     drop(listener);
     graceful.shutdown().await;
+}
+
+/// Middleware: 400 for an HTTP/1.1 request without a `Host` header, or any request with more
+/// than one (HTTP/2 names its origin in `:authority` and needs none).
+async fn one_host(req: Request, next: Next) -> Response {
+    let hosts = req.headers().get_all(HOST).iter().count();
+    let (code, problem) = match hosts {
+        0 if req.version() == Version::HTTP_11 => {
+            ("missing_host", "an HTTP/1.1 request needs a Host header")
+        }
+        0 | 1 => return next.run(req).await,
+        _ => (
+            "bad_header",
+            "a request may have one Host header, not several",
+        ),
+    };
+    super::error::ApiError::new(StatusCode::BAD_REQUEST, code, problem).into_response()
 }
 
 #[cfg(test)]
@@ -120,6 +147,51 @@ mod tests {
             String::from_utf8_lossy(&rest)
         );
 
+        tx.send(()).unwrap();
+        rt.block_on(server).unwrap();
+    }
+
+    /// RFC 9112 §3.2: an HTTP/1.1 request without a Host, or any with two, is a 400 with the
+    /// API's JSON error; HTTP/1.0, which has no such rule, and one Host are served.
+    #[test]
+    fn a_request_names_one_host() {
+        let rt = tokio::runtime::Runtime::new().unwrap();
+        let listener = rt.block_on(TcpListener::bind("127.0.0.1:0")).unwrap();
+        let addr = listener.local_addr().unwrap();
+        let (tx, rx) = tokio::sync::oneshot::channel::<()>();
+        let app = Router::new().route("/", get(|| async { "hi" }));
+        let server = rt.spawn(serve(listener, app, async {
+            let _ = rx.await;
+        }));
+        let ask = |head: &str| {
+            let mut s = std::net::TcpStream::connect(addr).unwrap();
+            s.set_read_timeout(Some(Duration::from_secs(20))).unwrap();
+            s.write_all(format!("{head}Connection: close\r\n\r\n").as_bytes())
+                .unwrap();
+            let mut answer = String::new();
+            s.read_to_string(&mut answer).unwrap();
+            answer
+        };
+        for (head, status, body) in [
+            ("GET / HTTP/1.1\r\nHost: x\r\n", "200", "hi"),
+            ("GET / HTTP/1.0\r\n", "200", "hi"),
+            ("GET / HTTP/1.1\r\n", "400", "\"missing_host\""),
+            (
+                "GET / HTTP/1.1\r\nHost: x\r\nHost: y\r\n",
+                "400",
+                "\"bad_header\"",
+            ),
+            (
+                "GET / HTTP/1.0\r\nHost: x\r\nHost: x\r\n",
+                "400",
+                "\"bad_header\"",
+            ),
+        ] {
+            let answer = ask(head);
+            let first = answer.lines().next().unwrap_or_default();
+            assert!(first.contains(&format!(" {status} ")), "{head:?}: {answer}");
+            assert!(answer.contains(body), "{head:?}: {answer}");
+        }
         tx.send(()).unwrap();
         rt.block_on(server).unwrap();
     }
