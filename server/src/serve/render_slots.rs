@@ -1,4 +1,5 @@
-//! Admission and CPU slots for renders (decode + mesh + encode).
+//! Admission and CPU slots for renders (decode + mesh + encode); mesh uploads have a budget
+//! of their own of the same kind.
 //!
 //! Admission is decided on the async side, at once: past `jobs + queue` renders in the
 //! system a request is shed with 503. An admitted render then waits for a CPU slot on its

@@ -76,6 +76,15 @@ impl Default for Config {
 #[derive(Clone)]
 pub struct AppState(Arc<Shared>);
 
+/// Uploads parsed and repaired at once. A 2M-face upload takes seconds of one core and a few
+/// hundred MB; eight at once shared the cores until every one passed the request timeout
+/// (503, none stored) with 3.4 GB held. One at a time, they finish in turn.
+pub const UPLOAD_JOBS: usize = 1;
+/// Uploads that may wait for [`UPLOAD_JOBS`], body read or arriving; more are a 503 before
+/// their body is read. Bounds what uploads hold (each body up to 64 MiB) and keeps the last
+/// in line (4 × ~5 s on a busy two-core machine) inside the request timeout.
+pub const UPLOAD_QUEUE: usize = 3;
+
 /// What [`AppState`] shares; its fields read through it (`state.cache`).
 #[derive(Clone)]
 pub struct Shared {
@@ -85,6 +94,8 @@ pub struct Shared {
     pub metrics: Arc<Metrics>,
     /// Admission and CPU slots for renders.
     pub renders: Arc<RenderSlots>,
+    /// Admission and slots for mesh uploads ([`UPLOAD_JOBS`], [`UPLOAD_QUEUE`]).
+    pub uploads: Arc<RenderSlots>,
     /// The threads renders decode and mesh on ([`Config::render_threads`]).
     pub pool: Arc<rayon::ThreadPool>,
     pub config: Arc<Config>,
@@ -114,6 +125,7 @@ impl AppState {
             responses: Arc::new(new_response_cache(config.response_cache_bytes)),
             metrics: Arc::new(Metrics::default()),
             renders: Arc::new(RenderSlots::new(config.cpu_jobs, config.cpu_queue)),
+            uploads: Arc::new(RenderSlots::new(UPLOAD_JOBS, UPLOAD_QUEUE)),
             pool: Arc::new(pool),
             meshes: Arc::new(MeshCatalog::empty(config.response_cache_bytes / 4)),
             config: Arc::new(config),
@@ -138,6 +150,21 @@ impl AppState {
                 StatusCode::SERVICE_UNAVAILABLE,
                 "overloaded",
                 "too many tiles are being rendered; retry shortly",
+            )
+        })
+    }
+
+    /// A ticket to read and store one mesh upload, or 503 + Retry-After when
+    /// [`UPLOAD_JOBS`] + [`UPLOAD_QUEUE`] uploads are already in.
+    pub fn admit_upload(&self) -> Result<Ticket, ApiError> {
+        self.uploads.admit().ok_or_else(|| {
+            ApiError::new(
+                StatusCode::SERVICE_UNAVAILABLE,
+                "overloaded",
+                format!(
+                    "{} mesh uploads are being read or stored, as many as this server takes at                      once; retry shortly",
+                    UPLOAD_JOBS + UPLOAD_QUEUE
+                ),
             )
         })
     }

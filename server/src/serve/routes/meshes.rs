@@ -638,7 +638,9 @@ pub async fn upload(
             .map(|()| t)
             .map_err(upload_error)
     });
-    let (name, format) = match target {
+    // Admitted before the body is read, so the uploads in hand bound the bodies held too.
+    let admitted = target.and_then(|t| state.admit_upload().map(|ticket| (t, ticket)));
+    let ((name, format), ticket) = match admitted {
         Ok(t) => t,
         Err(e) => {
             drain(body);
@@ -653,11 +655,12 @@ pub async fn upload(
         ));
     }
     let job_state = state.clone();
-    let (entry, replaced) =
-        tokio::task::spawn_blocking(move || job_state.meshes.upload(&name, &body, format))
-            .await
-            .map_err(ApiError::internal)?
-            .map_err(upload_error)?;
+    let (entry, replaced) = tokio::task::spawn_blocking(move || {
+        ticket.run(|| job_state.meshes.upload(&name, &body, format))
+    })
+    .await
+    .map_err(ApiError::internal)?
+    .map_err(upload_error)?;
     // RFC 9110 §15.3.2: a 201 names what it made. The mesh lives at the URL posted to, so the
     // reference is its last segment (relative: right behind a proxy's prefix too). A mesh
     // replaced was not created: 200.
