@@ -250,7 +250,8 @@ fn native_scales_give_the_same_mesh_to_the_bit() {
 /// faces' planes, at scales in and out of the native range.
 #[test]
 fn reports_the_collapse_error_as_a_fraction_of_the_diagonal() {
-    // No crease planes (every edge here is sharper than 45°): the quadrics are the faces'.
+    // Crease weight 0 below: every edge here is sharper than 45°, and without their planes
+    // the quadrics are the faces' alone.
     let unit = bipyramid(1.0);
     // Pole edge (0, 2): vertex 0's three faces and vertex 2's four, the two they share twice.
     let corner_quadric = |v: u32| {
