@@ -9,6 +9,7 @@
 mod glb;
 mod json;
 mod obj;
+mod obj_locate;
 mod ply;
 mod stl;
 

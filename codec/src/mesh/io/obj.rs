@@ -41,7 +41,10 @@ pub(super) fn read(bytes: &[u8], limits: &MeshLimits) -> Result<TriMesh, MeshErr
         // Material libraries are never opened: a mesh upload must not read other files.
         Err(tobj::LoadError::GenericFailure)
     })
-    .map_err(|e| MeshError::decode(FORMAT, e.to_string()))?;
+    .map_err(|e| {
+        let at = super::obj_locate::locate(&text, &e);
+        MeshError::decode(FORMAT, at.map_or(e.to_string(), |at| format!("{e}: {at}")))
+    })?;
     // Concatenate models; tobj gives each its own copy of the vertices it uses.
     let mut positions = Vec::new();
     let mut faces = Vec::new();

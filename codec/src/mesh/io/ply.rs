@@ -21,7 +21,7 @@ use crate::mesh::indexed::TriMesh;
 const FORMAT: &str = "PLY";
 
 pub(super) fn read(bytes: &[u8], limits: &MeshLimits) -> Result<TriMesh, MeshError> {
-    let decode = |e: ply_rs_bw::parser::ParseError| MeshError::decode(FORMAT, e.to_string());
+    let decode = |e: ply_rs_bw::parser::ParseError| MeshError::decode(FORMAT, tidy(&e.to_string()));
     let mut reader = Reader::new(bytes);
     // Header: the declared counts, checked before any payload is read.
     let header = Parser::<Skip>::new()
@@ -69,6 +69,36 @@ pub(super) fn read(bytes: &[u8], limits: &MeshLimits) -> Result<TriMesh, MeshErr
         }
     }
     Ok(TriMesh::new(positions, faces))
+}
+
+/// The parser's message on one line: for a header line it cannot parse it prints the line
+/// and then its grammar's error as Rust debug output (`ParseError { location: LineCol { …`),
+/// which says nothing to a user but the tokens it expected.
+fn tidy(message: &str) -> String {
+    let mut lines = message.lines();
+    let mut out = lines.next().unwrap_or_default().trim().to_string();
+    for line in lines.map(str::trim) {
+        if let Some(text) = line.strip_prefix("String: '") {
+            out.push_str(&format!(" `{}`", text.trim_end_matches('\'').trim()));
+        } else if let Some(set) = line.split("expected: {").nth(1) {
+            let tokens: Vec<&str> = set
+                .split('}')
+                .next()
+                .unwrap_or_default()
+                .split(", ")
+                .map(|t| t.trim_matches(|c| c == '"' || c == '\\'))
+                .filter(|t| t.chars().all(|c| c.is_ascii_alphanumeric() || c == '_'))
+                .filter(|t| !t.is_empty())
+                .collect();
+            if !tokens.is_empty() {
+                out.push_str(&format!(" (expected {})", tokens.join(", ")));
+            }
+        } else if !matches!(line, "" | "'") && !line.starts_with("Error:") {
+            out.push(' ');
+            out.push_str(line.trim_end_matches('\''));
+        }
+    }
+    out
 }
 
 /// Declared counts against the limits, the needed properties, and the body length (every
@@ -239,6 +269,19 @@ pub(super) fn write(mesh: &TriMesh, out: &mut impl Write) -> Result<(), MeshErro
         format: FORMAT,
         what: e.to_string(),
     };
+    // Past f32's range a coordinate would be written as an infinity other tools choke on,
+    // and the file would not be the mesh (GLB refuses the same).
+    if let Some((i, p)) = mesh
+        .positions
+        .iter()
+        .enumerate()
+        .find(|(_, p)| !p.as_vec3().is_finite())
+    {
+        return Err(MeshError::Encode {
+            format: FORMAT,
+            what: format!("vertex {i} at {p} is beyond f32's range"),
+        });
+    }
     let mut header = Header::new();
     header.encoding = Encoding::BinaryLittleEndian;
     header.comments.push("zerotile".into());

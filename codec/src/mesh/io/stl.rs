@@ -115,6 +115,20 @@ fn read_binary(bytes: &[u8], limits: &MeshLimits) -> Result<stl_io::IndexedMesh,
                 ),
             )
         })?;
+    // Past the records, padding (some exporters add a few bytes, or zeros) is let be; a whole
+    // record's worth of data more is a count that is too small, and reading only what it
+    // claims dropped those triangles silently.
+    let rest = &bytes[records.len() + HEADER..];
+    if rest.len() >= RECORD as usize && rest.iter().any(|&b| b != 0) {
+        return Err(MeshError::decode(
+            FORMAT,
+            format!(
+                "the binary header claims {n} triangles ({need} bytes), but the file has {}                  bytes, {} whole triangles more: a wrong count would drop them",
+                bytes.len(),
+                rest.len() / RECORD as usize
+            ),
+        ));
+    }
     limits.faces(n)?;
     let mut index: HashMap<[u32; 3], usize> = HashMap::new();
     let mut vertices = Vec::new();

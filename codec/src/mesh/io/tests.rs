@@ -306,6 +306,71 @@ fn a_padded_binary_stl_with_a_solid_header_is_binary() {
     assert!(err.to_string().starts_with("STL:"), "{err}");
 }
 
+/// A binary STL whose count is smaller than its records was read to the count, the rest
+/// dropped without a word; a count larger than them was already refused. Zero padding, or a
+/// few bytes of anything, still reads.
+#[test]
+fn a_binary_stl_count_short_of_its_records_is_refused() {
+    let mut short = binary_stl(&quad(), b"binary");
+    short[80..84].copy_from_slice(&1u32.to_le_bytes());
+    let err = read_bytes(&short, Some(Format::Stl), &limits()).expect_err("count too small");
+    let m = err.to_string();
+    assert!(
+        m.contains("claims 1 triangles") && m.contains("1 whole triangles more"),
+        "{m}"
+    );
+    // Unlabelled, its length matches no binary STL, so nothing takes it.
+    assert!(read_bytes(&short, None, &limits()).is_err());
+    for pad in [vec![0u8; 200], vec![7u8; 49]] {
+        let mut padded = binary_stl(&quad(), b"binary");
+        padded.extend_from_slice(&pad);
+        let m = read_bytes(&padded, Some(Format::Stl), &limits()).expect("padding reads");
+        assert_eq!(m.face_count(), 2);
+    }
+}
+
+/// A header line the PLY parser cannot read was told with its grammar's debug output
+/// (`ParseError { location: LineCol { … }, expected: ExpectedSet { … } }`): now the line,
+/// its text and the words it could have started with, on one line.
+#[test]
+fn a_bad_ply_header_line_is_told_in_words() {
+    let cases: [(&[u8], &str); 2] = [
+        (
+            b"ply\nformat binary_middle_endian 1.0\nelement vertex 3\nproperty float x\nend_header\n",
+            "`format binary_middle_endian 1.0` (expected ascii, binary_big_endian, binary_little_endian)",
+        ),
+        (
+            b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n0 0 0\n",
+            "`0 0 0` (expected comment, element, end_header,",
+        ),
+    ];
+    for (bytes, told) in cases {
+        let m = read_bytes(bytes, Some(Format::Ply), &limits())
+            .expect_err("bad header")
+            .to_string();
+        assert!(m.contains(told), "{m}");
+        for debug in ["ParseError", "LineCol", "ExpectedSet", "\n", "\\"] {
+            assert!(!m.contains(debug), "{debug:?} in {m}");
+        }
+    }
+}
+
+/// tobj's errors name no line ("OBJ: face vertex index out of bounds"); the reader's do.
+#[test]
+fn an_obj_error_names_its_line() {
+    let m = read_bytes(
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\n# zero-based, as a hand-written file might be\nf 0 1 2\n",
+        Some(Format::Obj),
+        &limits(),
+    )
+    .expect_err("index 0")
+    .to_string();
+    assert!(
+        m.starts_with("OBJ: face vertex index out of bounds: line 5 `f 0 1 2`: OBJ counts"),
+        "{m}"
+    );
+}
+
 fn binary_stl(m: &TriMesh, header: &[u8]) -> Vec<u8> {
     let mut b = vec![0u8; 80];
     b[..header.len()].copy_from_slice(header);
@@ -513,6 +578,27 @@ fn glb_refuses_what_gltf_cannot_hold() {
         matches!(e, MeshError::Invalid(InvalidMesh::IndexOutOfRange { .. })),
         "{e}"
     );
+}
+
+/// Binary PLY stores f32 too: a vertex past its range was written as an infinity, exit 0.
+/// OBJ and JSON keep f64 and write it.
+#[test]
+fn ply_refuses_a_coordinate_past_f32() {
+    for x in [1e39, -1e39] {
+        let mut far = quad();
+        far.positions[1] = DVec3::new(0.0, 0.0, x);
+        let e = write_bytes(&far, Format::Ply).expect_err("f32 overflow");
+        assert!(matches!(e, MeshError::Encode { format: "PLY", .. }), "{e}");
+        assert!(e.to_string().contains("vertex 1"), "{e}");
+        for ok in [Format::Obj, Format::Json] {
+            let back = read_bytes(&write_bytes(&far, ok).unwrap(), Some(ok), &limits());
+            assert_eq!(back.unwrap().positions[1].z, x, "{ok:?}");
+        }
+    }
+    // f32::MAX itself is finite, and written.
+    let mut edge = quad();
+    edge.positions[1] = DVec3::new(f64::from(f32::MAX), 0.0, 0.0);
+    assert!(write_bytes(&edge, Format::Ply).is_ok());
 }
 
 #[test]
