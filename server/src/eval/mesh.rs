@@ -191,7 +191,8 @@ pub fn evaluate(args: &MeshArgs) -> Result<MeshPoint> {
     let input = load(&args.input, args.weld)?;
     // Simplify, timed over a few runs.
     let (ms, result) = median_ms(args.repeat, || simplify(&input, args.method, param, view));
-    let (output, detail) = result?;
+    // What the mesh refuses (an octree level deeper than its octree) names the file.
+    let (output, detail) = result.with_context(|| args.input.display().to_string())?;
     // Measure against the input the way Metro does.
     let distance = measure(&input, &output, args.samples)?;
     // Write the result atomically where asked.
@@ -471,7 +472,9 @@ fn octree_level(input: &TriMesh, param: Param) -> Result<(TriMesh, serde_json::V
         Param::Faces(n) => lod.level_for_faces(n),
         Param::Error(_) => return Err(usage(OCTREE_TAKES)),
     };
-    let out = lod.level(level)?;
+    let out = lod
+        .level(level)
+        .with_context(|| format!("--level {level}"))?;
     let (boxes, plain_boxes) = lod.box_totals();
     let detail = serde_json::json!({
         "level": level,

@@ -306,6 +306,14 @@ fn level_methods_take_the_finest_level_within_a_face_budget() {
         octree.len(),
         "{p:?}"
     );
+    // A level past this mesh's octree names the flag and the file (it named neither).
+    let deeper = octree.len() as u32;
+    let e = evaluate(&level("npm-bunny.obj", Method::Octree, deeper)).unwrap_err();
+    let m = format!("{e:#}");
+    assert!(
+        m.contains("npm-bunny.obj: ") && m.contains(&format!("--level {deeper}: ")),
+        "{m}"
+    );
 }
 
 /// `--weld` merges the teapot's bit-identical patch seams before repair: fewer vertices in.

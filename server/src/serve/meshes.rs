@@ -200,7 +200,7 @@ impl MeshCatalog {
     /// is served.
     pub fn open(data: &Path, answer_bytes: u64) -> Self {
         let dir = data.join(MESH_DIR);
-        let mut entries = BTreeMap::new();
+        let mut entries: BTreeMap<String, Arc<MeshEntry>> = BTreeMap::new();
         if let Ok(rd) = std::fs::read_dir(&dir) {
             let mut paths: Vec<PathBuf> = rd.filter_map(|e| e.ok().map(|e| e.path())).collect();
             paths.sort();
@@ -211,11 +211,18 @@ impl MeshCatalog {
                 ) else {
                     continue;
                 };
-                if let Err(e) = crate::ingest::check_name(stem) {
+                if let Err(e) = crate::ingest::check_name_of("mesh", stem) {
                     tracing::warn!("skipping mesh {}: {e:#}", path.display());
                     continue;
                 }
-                if entries.contains_key(stem) {
+                if let Some(served) = entries.get(stem) {
+                    // Two files of one name only come from outside (an upload removes the
+                    // other formats'); which one is served would otherwise be a guess.
+                    tracing::warn!(
+                        "skipping mesh {}: the mesh {stem} is served from {}",
+                        path.display(),
+                        served.source.display()
+                    );
                     continue;
                 }
                 match load(&path) {

@@ -1345,6 +1345,35 @@ async fn uploads_past_their_budget_are_shed_before_the_body_is_read() {
     let _ = std::fs::remove_dir_all(&data);
 }
 
+/// `text/plain` is how many clients label any text file: a JSON mesh so labelled was read as
+/// OBJ and refused as "no faces"; it is sniffed now, OBJ when nothing is recognised. An empty
+/// Content-Type says as little as none, and is sniffed too (it was a 415).
+#[tokio::test]
+async fn text_and_empty_content_types_are_sniffed() {
+    let data = one_triangle_data("upload-labels");
+    let app = router_with_meshes("upload-labels", &data);
+    let json = r#"{"positions":[0,0,0,1,0,0,0,1,0],"indices":[0,1,2]}"#;
+    let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    // An OBJ whose first line is no OBJ statement sniffs as nothing: still OBJ as text.
+    let odd_obj = "s off\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    for (name, ct, body, stored) in [
+        ("j", "text/plain; charset=utf-8", json, "j.json"),
+        ("o", "text/plain", odd_obj, "o.obj"),
+        ("e", "", obj, "e.obj"),
+    ] {
+        let req = Request::builder()
+            .method(Method::POST)
+            .uri(format!("/v1/meshes/{name}"))
+            .header(header::CONTENT_TYPE, ct)
+            .body(Body::from(body))
+            .unwrap();
+        let res = app.clone().oneshot(req).await.unwrap();
+        assert_eq!(res.status(), StatusCode::CREATED, "{ct:?}");
+        assert!(data.join("meshes").join(stored).is_file(), "{stored}");
+    }
+    let _ = std::fs::remove_dir_all(&data);
+}
+
 #[tokio::test]
 async fn a_bad_mesh_name_is_called_a_mesh_name() {
     let app = router("mesh-name");

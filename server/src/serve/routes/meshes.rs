@@ -640,7 +640,7 @@ pub async fn upload(
     });
     // Admitted before the body is read, so the uploads in hand bound the bodies held too.
     let admitted = target.and_then(|t| state.admit_upload().map(|ticket| (t, ticket)));
-    let ((name, format), ticket) = match admitted {
+    let ((name, label), ticket) = match admitted {
         Ok(t) => t,
         Err(e) => {
             drain(body);
@@ -654,6 +654,7 @@ pub async fn upload(
             "the body must hold the mesh",
         ));
     }
+    let format = label.format(&body);
     let job_state = state.clone();
     let (entry, replaced) = tokio::task::spawn_blocking(move || {
         ticket.run(|| job_state.meshes.upload(&name, &body, format))
@@ -726,12 +727,36 @@ fn no_parameters(
     }
 }
 
+/// What an upload's Content-Type says of its format.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Label {
+    /// A mesh type: read as that format.
+    Format(Format),
+    /// None, empty or `application/octet-stream`: sniffed.
+    Sniff,
+    /// `text/plain`, how many clients label any text file: sniffed, and OBJ (the one text
+    /// format with no mark of its own) when nothing is recognised. A JSON mesh so labelled
+    /// was read as OBJ and refused as "no faces".
+    Text,
+}
+
+impl Label {
+    /// The format to read `body` as (`None`: sniff it).
+    fn format(self, body: &[u8]) -> Option<Format> {
+        match self {
+            Label::Format(f) => Some(f),
+            Label::Sniff => None,
+            Label::Text => Some(Format::sniff(body).unwrap_or(Format::Obj)),
+        }
+    }
+}
+
 /// The name and format of an upload, checked before its body is read.
 fn upload_target(
     path: Result<Path<String>, PathRejection>,
     query: Result<Query<HashMap<String, String>>, QueryRejection>,
     headers: &HeaderMap,
-) -> ApiResult<(String, Option<Format>)> {
+) -> ApiResult<(String, Label)> {
     let Path(name) = path?;
     // A parameter an upload would ignore (`?format=ply` say) is the client's mistake.
     no_parameters(&query?, "an upload", "; its Content-Type names the format")?;
@@ -771,14 +796,17 @@ fn upload_target(
                 .trim()
                 .to_ascii_lowercase()
         });
-    let format = match ct.as_deref() {
-        // OBJ is the one text format, and text/plain is how many clients label a text file.
-        Some("model/obj" | "text/plain") => Some(Format::Obj),
-        Some("application/ply" | "model/ply" | "application/x-ply") => Some(Format::Ply),
-        Some("model/stl" | "application/sla" | "application/vnd.ms-pki.stl") => Some(Format::Stl),
+    let label = match ct.as_deref() {
+        Some("model/obj") => Label::Format(Format::Obj),
+        Some("text/plain") => Label::Text,
+        Some("application/ply" | "model/ply" | "application/x-ply") => Label::Format(Format::Ply),
+        Some("model/stl" | "application/sla" | "application/vnd.ms-pki.stl") => {
+            Label::Format(Format::Stl)
+        }
         // What `?format=json` answers: {"positions": [...], "indices": [...]}.
-        Some("application/json") => Some(Format::Json),
-        None | Some("application/octet-stream") => None,
+        Some("application/json") => Label::Format(Format::Json),
+        // An empty header (`curl -H 'Content-Type;'` sends one) says as little as none.
+        None | Some("" | "application/octet-stream") => Label::Sniff,
         Some(other) => {
             // What `curl --data-binary @mesh.obj` sends unless told otherwise: say how.
             let hint = if other == "application/x-www-form-urlencoded" {
@@ -798,7 +826,7 @@ fn upload_target(
             ));
         }
     };
-    Ok((name, format))
+    Ok((name, label))
 }
 
 fn value(s: &str) -> ApiResult<HeaderValue> {
