@@ -8,7 +8,7 @@
 //! samples of the finer lattice: a tile's four children cover exactly its area.
 
 use crate::grid::Grid;
-use crate::wavelet::{self, Layout, Wavelet};
+use crate::wavelet::{self, Layout};
 
 /// One zoom level: a lattice whose sample (0, 0) is the top-left sample of tile
 /// (`tile_x0`, `tile_y0`), covering whole tiles.
@@ -47,7 +47,84 @@ impl Level {
     /// The low-pass has negative taps, so at a cliff (data beside the 0 m fill of a world
     /// scheme) it overshoots by about a tenth of the step, and again at each coarser level:
     /// unclamped, a coarse tile around N44W072 reached −190 m, a trench around the data.
+    ///
+    /// The numbers are one level of [`wavelet::forward`] (5/3) on the padded lattice, cropped
+    /// to its low-pass quarter, but neither the padded lattice nor a scratch of its size is
+    /// made: each padded row is built, lifted and its low half kept (`rows × ⌈cols/2⌉`), then
+    /// those columns are lifted (columns never mix, so the high-pass ones are not needed)
+    /// and the low rows kept. At its peak that is half this level's size beside it, where
+    /// the whole transform took two copies of it (an ingest's peak was 40 bytes a sample).
     pub fn coarser(&self, side: usize) -> Level {
+        let step = side - 1;
+        let (w, h) = self.tiles(side);
+        let (pad_left, pad_top) = ((self.tile_x0 % 2) as usize, (self.tile_y0 % 2) as usize);
+        let (tiles_x, tiles_y) = (
+            (w as usize + pad_left).div_ceil(2) * 2,
+            (h as usize + pad_top).div_ceil(2) * 2,
+        );
+        let (cols, rows) = (tiles_x * step + 1, tiles_y * step + 1);
+        let src = &self.heights;
+        let clamp = |v: isize, n: usize| v.clamp(0, n as isize - 1) as usize;
+        // What `wavelet::forward` does with one level on a `rows × cols` grid.
+        let layout = Layout::new(rows, cols, 1);
+        let low = layout.ll();
+        let (lift_rows, lift_cols) = (
+            layout.levels() > 0 && cols >= 2,
+            layout.levels() > 0 && rows >= 2,
+        );
+        // Row pass: padded row r, lifted, its low half stored as row block `split(r)`: even
+        // rows first, then odd ones, the order the column pass lifts them in.
+        let ns = rows.div_ceil(2);
+        let split = |r: usize| match (lift_cols, r % 2) {
+            (false, _) => r,
+            (true, 0) => r / 2,
+            (true, _) => ns + r / 2,
+        };
+        let mut half = vec![0.0; rows * low.cols];
+        let mut line = vec![0.0; cols];
+        let mut scratch = vec![0.0; cols];
+        let cols_of: Vec<usize> = (0..cols)
+            .map(|c| clamp(c as isize - (pad_left * step) as isize, src.cols()))
+            .collect();
+        for r in 0..rows {
+            let from = src.row(clamp(r as isize - (pad_top * step) as isize, src.rows()));
+            for (v, &c) in line.iter_mut().zip(&cols_of) {
+                *v = from[c];
+            }
+            if lift_rows {
+                wavelet::analyze_53_line(&mut line, &mut scratch);
+            }
+            let k = split(r);
+            half[k * low.cols..(k + 1) * low.cols].copy_from_slice(&line[..low.cols]);
+        }
+        drop((line, scratch, cols_of));
+        // Column pass over the kept columns, in place: the even-row block becomes the low-pass.
+        if lift_cols {
+            let (s, d) = half.split_at_mut(ns * low.cols);
+            wavelet::analyze_53_split(s, d, low.cols);
+        }
+        half.truncate(low.rows * low.cols);
+        half.shrink_to_fit();
+        if let Some((lo, hi)) = src.min_max() {
+            for v in &mut half {
+                *v = v.clamp(lo, hi);
+            }
+        }
+        let heights =
+            Grid::new(low.rows, low.cols, half).unwrap_or_else(|_| Grid::zeros(low.rows, low.cols));
+        Level {
+            zoom: self.zoom.saturating_sub(1),
+            tile_x0: (self.tile_x0 - pad_left as u32) / 2,
+            tile_y0: (self.tile_y0 - pad_top as u32) / 2,
+            heights,
+        }
+    }
+
+    /// [`Level::coarser`] as it was, the whole transform on a padded copy: the oracle the
+    /// row-by-row one must match to the bit.
+    #[cfg(test)]
+    fn coarser_whole(&self, side: usize) -> Level {
+        use crate::wavelet::Wavelet;
         let step = side - 1;
         let (w, h) = self.tiles(side);
         let (pad_left, pad_top) = ((self.tile_x0 % 2) as usize, (self.tile_y0 % 2) as usize);
@@ -161,6 +238,88 @@ mod tests {
             assert!(lo >= 0.0 && hi <= 1900.0, "zoom {}: {lo}..{hi}", level.zoom);
             assert!(hi > lo, "the cliff is still there");
         }
+    }
+
+    /// The row-by-row coarser level is the whole-lattice transform's to the bit: every tile
+    /// count odd and even, every origin parity, lattices with samples past their last whole
+    /// tile, sides down to 2, a cliff and a hole.
+    #[test]
+    fn a_coarser_level_is_the_whole_transform_to_the_bit() {
+        use crate::wavelet::testutil::grid_f64;
+        let mut seed = 1;
+        let mut checked = 0;
+        for side in [2usize, 3, 5, 9, 17] {
+            let step = side - 1;
+            for (tiles_x, tiles_y) in [
+                (0, 0),
+                (1, 1),
+                (1, 2),
+                (2, 1),
+                (3, 3),
+                (4, 3),
+                (5, 6),
+                (7, 2),
+            ] {
+                for extra in [0, 1, step.saturating_sub(1)] {
+                    for (x0, y0) in [(0, 0), (1, 0), (0, 1), (3, 5), (6, 4)] {
+                        seed += 1;
+                        let (rows, cols) = (tiles_y * step + 1 + extra, tiles_x * step + 1);
+                        let mut heights = grid_f64(rows, cols, 3000.0, seed);
+                        match seed % 4 {
+                            // A cliff down to a constant fill, as a world lattice has.
+                            0 => heights.data_mut()[..rows * cols / 2].fill(0.0),
+                            1 => heights.data_mut()[rows * cols / 3] = f64::NAN,
+                            _ => {}
+                        }
+                        let level = Level {
+                            zoom: 7,
+                            tile_x0: x0,
+                            tile_y0: y0,
+                            heights,
+                        };
+                        let (got, want) = (level.coarser(side), level.coarser_whole(side));
+                        let what = format!(
+                            "side {side}, {tiles_x}×{tiles_y} tiles + {extra}, origin ({x0}, {y0})"
+                        );
+                        assert_eq!(
+                            (
+                                got.zoom,
+                                got.tile_x0,
+                                got.tile_y0,
+                                got.heights.rows(),
+                                got.heights.cols()
+                            ),
+                            (
+                                want.zoom,
+                                want.tile_x0,
+                                want.tile_y0,
+                                want.heights.rows(),
+                                want.heights.cols()
+                            ),
+                            "{what}"
+                        );
+                        let bits = |l: &Level| {
+                            l.heights
+                                .data()
+                                .iter()
+                                .map(|v| v.to_bits())
+                                .collect::<Vec<_>>()
+                        };
+                        assert!(bits(&got) == bits(&want), "{what}");
+                        checked += 1;
+                        // And the level above that, from a lattice the low-pass made.
+                        if tiles_x > 1 && tiles_y > 1 {
+                            let (a, b) = (got.coarser(side), want.coarser_whole(side));
+                            assert!(
+                                bits(&a) == bits(&b) && a.tile_x0 == b.tile_x0,
+                                "{what}, twice"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+        assert_eq!(checked, 5 * 8 * 3 * 5);
     }
 
     #[test]

@@ -403,7 +403,7 @@ mod tests {
                 input: PathBuf::from(format!("{name}.npy")),
                 ..crate::ingest::Ingest::for_test(name, "local", &data)
             };
-            crate::ingest::build(&job, &map).unwrap();
+            crate::ingest::build(&job, map).unwrap();
             for format in ["png", "json"] {
                 let done = run(&Export {
                     dataset: name.into(),

@@ -174,7 +174,7 @@ fn shape_matches<T>(grid: &Grid<T>, layout: &Layout) -> bool {
 }
 
 /// Splits `row` (len ≥ 2) into even/odd halves in `scratch`, lifts, writes `[s | d]` back.
-fn analyze_row<T: Copy, S: Scheme<T>>(row: &mut [T], scratch: &mut [T], scheme: &S) {
+pub(crate) fn analyze_row<T: Copy, S: Scheme<T>>(row: &mut [T], scratch: &mut [T], scheme: &S) {
     let n = row.len();
     let (s, d) = scratch.split_at_mut(n.div_ceil(2));
     for ((a, b), pair) in s.iter_mut().zip(d.iter_mut()).zip(row.chunks_exact(2)) {

@@ -136,6 +136,28 @@ pub fn inverse(grid: &mut Grid<f64>, wavelet: Wavelet, layout: &Layout) {
     }
 }
 
+/// One level of the real 5/3 analysis of one line in place, exactly as [`forward`]'s row
+/// pass runs it: the line becomes `[low | high]`. `scratch` is at least as long as `line`; a
+/// line under 2 samples is left alone (as [`forward`] leaves it).
+///
+/// With [`analyze_53_split`], what lets `pyramid` keep only a level's low-pass without a
+/// padded copy of the whole level or a scratch as large.
+pub(crate) fn analyze_53_line(line: &mut [f64], scratch: &mut [f64]) {
+    let n = line.len();
+    if n >= 2 && scratch.len() >= n {
+        lifting::analyze_row(line, &mut scratch[..n], &legall53::Real);
+    }
+}
+
+/// One level of the real 5/3 analysis of `w` columns at once, exactly as [`forward`]'s column
+/// pass runs it: `s` holds the even rows and `d` the odd ones, `w` values each (`s.len() ==
+/// ns·w`, `d.len() == nd·w`, `nd ≥ 1`, `ns ∈ {nd, nd + 1}`); afterwards `s` is the low-pass.
+/// Columns never mix, so any subset of a grid's columns lifts to the same values.
+pub(crate) fn analyze_53_split(s: &mut [f64], d: &mut [f64], w: usize) {
+    use lifting::Scheme as _;
+    legall53::Real.analyze(s, d, w);
+}
+
 /// Deterministic test data without a `rand` dependency.
 #[cfg(test)]
 pub(crate) mod testutil {

@@ -56,7 +56,7 @@ pub fn ensure(data: &Path, force: bool, progress: bool) -> Result<Built> {
             max_zoom: None,
             progress,
         };
-        ingest::build(&job, &map)?;
+        ingest::build(&job, map)?;
         built.terrain = true;
     }
     let dir = data.join(MESH_DIR);

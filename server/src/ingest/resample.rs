@@ -11,9 +11,11 @@ use anyhow::{bail, Result};
 use zerotile_codec::raster::{Crs, Georef};
 use zerotile_codec::Grid;
 
-/// A source grid and the inverse of its georeference.
-pub struct Source<'a> {
-    heights: &'a Grid<f64>,
+/// A source grid and the inverse of its georeference. It owns the grid, so the world pyramid
+/// can free the source's samples once its deepest lattice is sampled.
+#[derive(Clone)]
+pub struct Source {
+    heights: Grid<f64>,
     crs: Crs,
     georef: Georef,
     /// (x, y) → (col, row): `[x0, y0, a, b, c, d]` with col = a·dx + b·dy, row = c·dx + d·dy.
@@ -21,8 +23,8 @@ pub struct Source<'a> {
     fill: f64,
 }
 
-impl<'a> Source<'a> {
-    pub fn new(heights: &'a Grid<f64>, georef: &Georef, fill: f64) -> Result<Self> {
+impl Source {
+    pub fn new(heights: Grid<f64>, georef: &Georef, fill: f64) -> Result<Self> {
         let t = georef.transform;
         let det = t[1] * t[5] - t[2] * t[4];
         if !(det.is_finite() && det != 0.0) || heights.is_empty() {
@@ -126,7 +128,7 @@ mod tests {
         let g = ramp();
         // Sample centres at lon 10 + 0.5·col, lat 50 − 0.25·row.
         let geo = Georef::north_up(Crs::Geographic, 10.0, 50.0, 0.5, 0.25);
-        let s = Source::new(&g, &geo, -1.0).unwrap();
+        let s = Source::new(g, &geo, -1.0).unwrap();
         assert_eq!(s.height_at(10.0, 50.0), 0.0);
         assert!((s.height_at(10.75, 49.625) - 16.5).abs() < 1e-12);
         assert_eq!(s.height_at(11.0, 49.5), 22.0);
@@ -146,7 +148,7 @@ mod tests {
     fn no_data_corners_drop_out() {
         let g = ramp();
         let geo = Georef::north_up(Crs::Geographic, 0.0, 0.0, 1.0, 1.0);
-        let s = Source::new(&g, &geo, -1.0).unwrap();
+        let s = Source::new(g, &geo, -1.0).unwrap();
         // Between (2,3)=23, (2,4)=24, (3,3)=33 and the no-data (3,4).
         let h = s.height_at(3.5, -2.5);
         assert!((h - (23.0 + 24.0 + 33.0) / 3.0).abs() < 1e-12, "{h}");
@@ -158,7 +160,7 @@ mod tests {
         let mut g = ramp();
         *g.get_mut(1, 1) = f64::NAN;
         let geo = Georef::north_up(Crs::Geographic, 0.0, 0.0, 1.0, 1.0);
-        let s = Source::new(&g, &geo, -1.0).unwrap();
+        let s = Source::new(g, &geo, -1.0).unwrap();
         // On sample (1, 1) all the weight is on it; the zero-weight corners still hold data:
         // (1, 2) = 12 comes first.
         assert_eq!(s.height_at(1.0, -1.0), 12.0);

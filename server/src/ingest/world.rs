@@ -38,8 +38,10 @@ pub struct WorldPyramid {
 }
 
 /// Builds the pyramid of `source` in `scheme` down to `max_zoom` (default: the shallowest
-/// zoom as fine as the source).
-pub fn build(source: &Source, scheme: Scheme, max_zoom: Option<u8>) -> Result<WorldPyramid> {
+/// zoom as fine as the source). The source is freed once the deepest lattice is sampled:
+/// the peak is the two side by side, then the lattice and a half-size scratch per coarser
+/// level (`Level::coarser`).
+pub fn build(source: Source, scheme: Scheme, max_zoom: Option<u8>) -> Result<WorldPyramid> {
     let tiling = Tiling::new(scheme, TILE_SIDE as u32)?;
     let (rows, cols) = source.size();
     let lonlat_of = |r: f64, c: f64| -> [f64; 2] {
@@ -147,7 +149,9 @@ pub fn build(source: &Source, scheme: Scheme, max_zoom: Option<u8>) -> Result<Wo
         );
     }
 
-    let deepest = lattice(source, &tiling, scheme, max_zoom, range.x0, ty0, tw, th)?;
+    let deepest = lattice(&source, &tiling, scheme, max_zoom, range.x0, ty0, tw, th)?;
+    let fill = source.fill();
+    drop(source);
     let mut levels = vec![deepest];
     while let Some(next) = levels
         .last()
@@ -160,7 +164,7 @@ pub fn build(source: &Source, scheme: Scheme, max_zoom: Option<u8>) -> Result<Wo
     // the whole world, filled beyond what the low-pass covers.
     if let Some(root) = levels.last_mut() {
         let (nx, ny0) = tiling.tiles_per_axis(0)?;
-        *root = widen(root, nx, ny0, source.fill());
+        *root = widen(root, nx, ny0, fill);
     }
 
     let mut jobs = Vec::new();
@@ -300,8 +304,8 @@ mod tests {
     fn sources_past_the_pole_are_refused() {
         let g = grid(3, 3, |_, _| 1.0);
         let georef = Georef::north_up(Crs::Geographic, 10.0, 91.0, 0.01, 0.01);
-        let source = Source::new(&g, &georef, 0.0).unwrap();
-        let err = build(&source, Scheme::Geodetic, Some(1)).err().unwrap();
+        let source = Source::new(g, &georef, 0.0).unwrap();
+        let err = build(source, Scheme::Geodetic, Some(1)).err().unwrap();
         assert!(err.to_string().contains("outside the world"), "{err}");
     }
 
@@ -312,20 +316,22 @@ mod tests {
         let g = grid(3, 3, |r, c| (r * 3 + c) as f64);
         for north in [89.9, -86.0] {
             let georef = Georef::north_up(Crs::Geographic, 10.0, north, 1.0, 1.0);
-            let source = Source::new(&g, &georef, 0.0).unwrap();
-            let err = build(&source, Scheme::Mercator, Some(2)).err().unwrap();
+            let source = Source::new(g.clone(), &georef, 0.0).unwrap();
+            let err = build(source.clone(), Scheme::Mercator, Some(2))
+                .err()
+                .unwrap();
             assert!(err.to_string().contains("--scheme geodetic"), "{err}");
-            assert!(build(&source, Scheme::Geodetic, Some(2)).is_ok());
+            assert!(build(source, Scheme::Geodetic, Some(2)).is_ok());
         }
         // Partly inside: built, its bounds what is stored, and the clip reported.
         let georef = Georef::north_up(Crs::Geographic, 10.0, 86.0, 1.0, 1.0);
-        let source = Source::new(&g, &georef, 0.0).unwrap();
-        let w = build(&source, Scheme::Mercator, Some(2)).unwrap();
+        let source = Source::new(g, &georef, 0.0).unwrap();
+        let w = build(source.clone(), Scheme::Mercator, Some(2)).unwrap();
         assert_eq!(w.bounds[3], MERCATOR_MAX_LATITUDE);
         assert_eq!(w.bounds[1], 84.0);
         assert_eq!(w.clipped_lat, Some([84.0, 86.0]));
         // Geodetic stores it all.
-        let w = build(&source, Scheme::Geodetic, Some(2)).unwrap();
+        let w = build(source, Scheme::Geodetic, Some(2)).unwrap();
         assert_eq!(
             (w.bounds[1], w.bounds[3], w.clipped_lat),
             (84.0, 86.0, None)
@@ -338,8 +344,8 @@ mod tests {
         // 10° × 10° at zoom 20: ~58 000 geodetic tiles a side.
         let g = grid(3, 3, |_, _| 1.0);
         let georef = Georef::north_up(Crs::Geographic, 0.0, 10.0, 5.0, 5.0);
-        let source = Source::new(&g, &georef, 0.0).unwrap();
-        let err = build(&source, Scheme::Geodetic, Some(20)).err().unwrap();
+        let source = Source::new(g, &georef, 0.0).unwrap();
+        let err = build(source, Scheme::Geodetic, Some(20)).err().unwrap();
         assert!(err.to_string().contains("smaller --max-zoom"), "{err}");
     }
 
@@ -351,8 +357,8 @@ mod tests {
         let (x0, y0, dx) = (1.0e6, 5.0e6, 1000.0);
         let g = grid(21, 21, |_, c| 100.0 + c as f64);
         let georef = Georef::north_up(Crs::WebMercator, x0, y0, dx, dx);
-        let source = Source::new(&g, &georef, 0.0).unwrap();
-        let w = build(&source, Scheme::Mercator, None).unwrap();
+        let source = Source::new(g, &georef, 0.0).unwrap();
+        let w = build(source, Scheme::Mercator, None).unwrap();
         // 2π · 6 378 137 m / 256 samples = 156 543 m at zoom 0; / 2^8 = 611 m ≤ 1 km < / 2^7.
         assert_eq!(w.max_zoom, 8);
         let deepest = &w.levels[0];
@@ -385,8 +391,8 @@ mod tests {
         // Lon 178..180, lat −88..−90, 1° apart; the south-east sample is 108.
         let g = grid(3, 3, |r, c| 100.0 + (r * 3 + c) as f64);
         let georef = Georef::north_up(Crs::Geographic, 178.0, -88.0, 1.0, 1.0);
-        let source = Source::new(&g, &georef, 0.0).unwrap();
-        let w = build(&source, Scheme::Geodetic, Some(1)).unwrap();
+        let source = Source::new(g, &georef, 0.0).unwrap();
+        let w = build(source, Scheme::Geodetic, Some(1)).unwrap();
         let deepest = &w.levels[0];
         let (rows, cols) = (deepest.heights.rows(), deepest.heights.cols());
         assert_eq!(*deepest.heights.get(rows - 1, cols - 1), 108.0);
@@ -398,8 +404,8 @@ mod tests {
         // 2° × 2° at lon 10..12, lat 48..50: a few samples even at zoom 0.
         let g = grid(3, 3, |r, c| 500.0 + (r * 3 + c) as f64);
         let georef = Georef::north_up(Crs::Geographic, 10.0, 50.0, 1.0, 1.0);
-        let source = Source::new(&g, &georef, 7.0).unwrap();
-        let w = build(&source, Scheme::Geodetic, Some(2)).unwrap();
+        let source = Source::new(g, &georef, 7.0).unwrap();
+        let w = build(source, Scheme::Geodetic, Some(2)).unwrap();
         let root = w.levels.last().unwrap();
         assert_eq!((root.zoom, root.tiles(TILE_SIDE)), (0, (2, 1)));
         // Lon 10° lies in the eastern tile; the western one never saw the source.
