@@ -503,6 +503,17 @@ fn a_mesh_without_area_is_refused() {
     std::fs::write(&path, "v 0 0 0\nv 1e200 0 0\nv 0 1e200 0\nf 1 2 3\n").unwrap();
     let err = format!("{:#}", load(&path, false).unwrap_err());
     assert!(err.contains("beyond the f64 range"), "{err}");
+    // Small faces far apart: every area finite, the diagonal not. QEM dropped one of the two
+    // triangles and reported a Hausdorff distance of 0 %.
+    let path = dir.join("far.obj");
+    let far = "v -1.7e308 0 0\nv -1.7e308 1 0\nv -1.7e308 0 1\n\
+               v 1.7e308 0 0\nv 1.7e308 1 0\nv 1.7e308 0 1\nf 1 2 3\nf 4 5 6\n";
+    std::fs::write(&path, far).unwrap();
+    let err = format!("{:#}", load(&path, false).unwrap_err());
+    assert!(
+        err.contains("far.obj") && err.contains("too large to measure"),
+        "{err}"
+    );
 }
 
 /// An output that is the input, by any name, is refused and the input is left as it was:

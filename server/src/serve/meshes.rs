@@ -396,11 +396,20 @@ fn repaired(mesh: &TriMesh) -> Result<TriMesh> {
     Ok(clean)
 }
 
-/// Refuses a repaired mesh without faces, or whose faces all have zero area. `eval mesh`
+/// Refuses a repaired mesh without faces, too large to measure, or whose faces all have zero
+/// area. `eval mesh`
 /// asks the same, so it never reports distances for a mesh the server would not take.
 pub(crate) fn has_surface(clean: &TriMesh) -> Result<()> {
     if clean.faces.is_empty() {
         anyhow::bail!("the mesh has no valid faces");
+    }
+    // Distances are fractions of the diagonal: past f64 (two small triangles ±1.7e308 apart)
+    // it is infinite or NaN, and a simplification that dropped one of them measured 0 %.
+    let diagonal = clean.diagonal();
+    if !diagonal.is_finite() {
+        anyhow::bail!(
+            "the mesh spans more than the f64 range (its bounding box's diagonal is              {diagonal}): too large to measure"
+        );
     }
     let areas = clean.face_areas();
     // Past ~1e77 apart a face's area overflows (uploads stop at 3.4e38; `eval mesh` does
