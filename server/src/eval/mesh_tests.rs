@@ -511,7 +511,7 @@ fn a_mesh_without_area_is_refused() {
     std::fs::write(&path, far).unwrap();
     let err = format!("{:#}", load(&path, false).unwrap_err());
     assert!(
-        err.contains("far.obj") && err.contains("too large to measure"),
+        err.contains("far.obj") && err.contains("diagonal is NaN): too large to measure"),
         "{err}"
     );
 }

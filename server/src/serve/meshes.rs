@@ -397,8 +397,8 @@ fn repaired(mesh: &TriMesh) -> Result<TriMesh> {
 }
 
 /// Refuses a repaired mesh without faces, too large to measure, or whose faces all have zero
-/// area. `eval mesh`
-/// asks the same, so it never reports distances for a mesh the server would not take.
+/// area. `eval mesh` asks the same, so it never reports distances for a mesh the server would
+/// not take.
 pub(crate) fn has_surface(clean: &TriMesh) -> Result<()> {
     if clean.faces.is_empty() {
         anyhow::bail!("the mesh has no valid faces");
@@ -408,7 +408,8 @@ pub(crate) fn has_surface(clean: &TriMesh) -> Result<()> {
     let diagonal = clean.diagonal();
     if !diagonal.is_finite() {
         anyhow::bail!(
-            "the mesh spans more than the f64 range (its bounding box's diagonal is              {diagonal}): too large to measure"
+            "the mesh spans more than the f64 range (its bounding box's diagonal is {diagonal}): \
+             too large to measure"
         );
     }
     let areas = clean.face_areas();
@@ -419,7 +420,7 @@ pub(crate) fn has_surface(clean: &TriMesh) -> Result<()> {
             "face {} has an area beyond the f64 range: the mesh is too large ({:e} across) to \
              measure",
             f + 1,
-            clean.diagonal()
+            diagonal
         );
     }
     if !areas.iter().any(|&a| a > 0.0) {

@@ -162,7 +162,8 @@ impl AppState {
                 StatusCode::SERVICE_UNAVAILABLE,
                 "overloaded",
                 format!(
-                    "{} mesh uploads are being read or stored, as many as this server takes at                      once; retry shortly",
+                    "{} mesh uploads are being read or stored, as many as this server takes at \
+                     once; retry shortly",
                     UPLOAD_JOBS + UPLOAD_QUEUE
                 ),
             )

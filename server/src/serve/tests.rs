@@ -1337,6 +1337,9 @@ async fn uploads_past_their_budget_are_shed_before_the_body_is_read() {
     let (s, body) = post_obj(&app, "/v1/meshes/b", TRI).await;
     assert_eq!(s, StatusCode::SERVICE_UNAVAILABLE);
     assert_eq!(error_code(&body), "overloaded");
+    let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
+    let m = v["message"].as_str().unwrap();
+    assert!(m.contains("this server takes at once; retry"), "{m}");
     assert!(!data.join("meshes/b.obj").exists());
     drop(held);
     let (s, _) = post_obj(&app, "/v1/meshes/b", TRI).await;

@@ -123,7 +123,8 @@ fn read_binary(bytes: &[u8], limits: &MeshLimits) -> Result<stl_io::IndexedMesh,
         return Err(MeshError::decode(
             FORMAT,
             format!(
-                "the binary header claims {n} triangles ({need} bytes), but the file has {}                  bytes, {} whole triangles more: a wrong count would drop them",
+                "the binary header claims {n} triangles ({need} bytes), but the file has {} \
+                 bytes, {} whole triangles more: a wrong count would drop them",
                 bytes.len(),
                 rest.len() / RECORD as usize
             ),

@@ -316,7 +316,9 @@ fn a_binary_stl_count_short_of_its_records_is_refused() {
     let err = read_bytes(&short, Some(Format::Stl), &limits()).expect_err("count too small");
     let m = err.to_string();
     assert!(
-        m.contains("claims 1 triangles") && m.contains("1 whole triangles more"),
+        m.contains(
+            "claims 1 triangles (134 bytes), but the file has 184 bytes, 1 whole triangles more"
+        ),
         "{m}"
     );
     // Unlabelled, its length matches no binary STL, so nothing takes it.
