@@ -41,6 +41,34 @@ impl Level {
             .ok()
     }
 
+    /// The lattice a coarser level is the low-pass of: this one padded to an even tile
+    /// origin and an even tile count.
+    fn padding(&self, side: usize) -> Padding {
+        let step = side - 1;
+        let (w, h) = self.tiles(side);
+        let (left, top) = ((self.tile_x0 % 2) as usize, (self.tile_y0 % 2) as usize);
+        let (tiles_x, tiles_y) = (
+            (w as usize + left).div_ceil(2) * 2,
+            (h as usize + top).div_ceil(2) * 2,
+        );
+        Padding {
+            left: left * step,
+            top: top * step,
+            rows: tiles_y * step + 1,
+            cols: tiles_x * step + 1,
+        }
+    }
+
+    /// The coarser level of `heights`, the low-pass of this level padded by `pad`.
+    fn parent(&self, pad: &Padding, heights: Grid<f64>) -> Level {
+        Level {
+            zoom: self.zoom.saturating_sub(1),
+            tile_x0: (self.tile_x0 - u32::from(pad.left > 0)) / 2,
+            tile_y0: (self.tile_y0 - u32::from(pad.top > 0)) / 2,
+            heights,
+        }
+    }
+
     /// The next coarser level: pad to an even tile origin and an even tile count with the
     /// edge samples repeated, then keep the 5/3 low-pass, clamped to this level's range.
     ///
@@ -55,16 +83,9 @@ impl Level {
     /// and the low rows kept. At its peak that is half this level's size beside it, where
     /// the whole transform took two copies of it (an ingest's peak was 40 bytes a sample).
     pub fn coarser(&self, side: usize) -> Level {
-        let step = side - 1;
-        let (w, h) = self.tiles(side);
-        let (pad_left, pad_top) = ((self.tile_x0 % 2) as usize, (self.tile_y0 % 2) as usize);
-        let (tiles_x, tiles_y) = (
-            (w as usize + pad_left).div_ceil(2) * 2,
-            (h as usize + pad_top).div_ceil(2) * 2,
-        );
-        let (cols, rows) = (tiles_x * step + 1, tiles_y * step + 1);
+        let pad = self.padding(side);
+        let (rows, cols) = (pad.rows, pad.cols);
         let src = &self.heights;
-        let clamp = |v: isize, n: usize| v.clamp(0, n as isize - 1) as usize;
         // What `wavelet::forward` does with one level on a `rows × cols` grid.
         let layout = Layout::new(rows, cols, 1);
         let low = layout.ll();
@@ -83,11 +104,9 @@ impl Level {
         let mut half = vec![0.0; rows * low.cols];
         let mut line = vec![0.0; cols];
         let mut scratch = vec![0.0; cols];
-        let cols_of: Vec<usize> = (0..cols)
-            .map(|c| clamp(c as isize - (pad_left * step) as isize, src.cols()))
-            .collect();
+        let cols_of: Vec<usize> = (0..cols).map(|c| pad.source_col(c, src.cols())).collect();
         for r in 0..rows {
-            let from = src.row(clamp(r as isize - (pad_top * step) as isize, src.rows()));
+            let from = src.row(pad.source_row(r, src.rows()));
             for (v, &c) in line.iter_mut().zip(&cols_of) {
                 *v = from[c];
             }
@@ -112,12 +131,7 @@ impl Level {
         }
         let heights =
             Grid::new(low.rows, low.cols, half).unwrap_or_else(|_| Grid::zeros(low.rows, low.cols));
-        Level {
-            zoom: self.zoom.saturating_sub(1),
-            tile_x0: (self.tile_x0 - pad_left as u32) / 2,
-            tile_y0: (self.tile_y0 - pad_top as u32) / 2,
-            heights,
-        }
+        self.parent(&pad, heights)
     }
 
     /// [`Level::coarser`] as it was, the whole transform on a padded copy: the oracle the
@@ -125,21 +139,15 @@ impl Level {
     #[cfg(test)]
     fn coarser_whole(&self, side: usize) -> Level {
         use crate::wavelet::Wavelet;
-        let step = side - 1;
-        let (w, h) = self.tiles(side);
-        let (pad_left, pad_top) = ((self.tile_x0 % 2) as usize, (self.tile_y0 % 2) as usize);
-        let (tiles_x, tiles_y) = (
-            (w as usize + pad_left).div_ceil(2) * 2,
-            (h as usize + pad_top).div_ceil(2) * 2,
-        );
-        let (cols, rows) = (tiles_x * step + 1, tiles_y * step + 1);
+        let pad = self.padding(side);
+        let (rows, cols) = (pad.rows, pad.cols);
         let src = &self.heights;
-        let clamp = |v: isize, n: usize| v.clamp(0, n as isize - 1) as usize;
         let padded: Vec<f64> = (0..rows * cols)
             .map(|k| {
-                let r = clamp((k / cols) as isize - (pad_top * step) as isize, src.rows());
-                let c = clamp((k % cols) as isize - (pad_left * step) as isize, src.cols());
-                *src.get(r, c)
+                *src.get(
+                    pad.source_row(k / cols, src.rows()),
+                    pad.source_col(k % cols, src.cols()),
+                )
             })
             .collect();
         let mut g = Grid::new(rows, cols, padded).unwrap_or_else(|_| Grid::zeros(rows, cols));
@@ -153,12 +161,28 @@ impl Level {
             Some((lo, hi)) => heights.map(|&v| v.clamp(lo, hi)),
             None => heights,
         };
-        Level {
-            zoom: self.zoom.saturating_sub(1),
-            tile_x0: (self.tile_x0 - pad_left as u32) / 2,
-            tile_y0: (self.tile_y0 - pad_top as u32) / 2,
-            heights,
-        }
+        self.parent(&pad, heights)
+    }
+}
+
+/// A level padded with its edge samples repeated: `left`/`top` samples before it, `rows × cols`
+/// in all.
+struct Padding {
+    left: usize,
+    top: usize,
+    rows: usize,
+    cols: usize,
+}
+
+impl Padding {
+    /// The level's row that padded row `r` repeats (of `n`).
+    fn source_row(&self, r: usize, n: usize) -> usize {
+        r.saturating_sub(self.top).min(n - 1)
+    }
+
+    /// The level's column that padded column `c` repeats (of `n`).
+    fn source_col(&self, c: usize, n: usize) -> usize {
+        c.saturating_sub(self.left).min(n - 1)
     }
 }
 

@@ -104,23 +104,46 @@ mod tests {
 
     use super::*;
 
+    /// `serve_with` answering "hi" on `/` at a free local port, on its own runtime.
+    struct Running {
+        rt: tokio::runtime::Runtime,
+        addr: std::net::SocketAddr,
+        stop: tokio::sync::oneshot::Sender<()>,
+        server: tokio::task::JoinHandle<()>,
+    }
+
+    impl Running {
+        fn start(header_timeout: Duration) -> Self {
+            let rt = tokio::runtime::Runtime::new().unwrap();
+            let listener = rt.block_on(TcpListener::bind("127.0.0.1:0")).unwrap();
+            let addr = listener.local_addr().unwrap();
+            let (stop, rx) = tokio::sync::oneshot::channel::<()>();
+            let app = Router::new().route("/", get(|| async { "hi" }));
+            let stopped = async {
+                let _ = rx.await;
+            };
+            let server = rt.spawn(serve_with(listener, app, stopped, header_timeout));
+            Self {
+                rt,
+                addr,
+                stop,
+                server,
+            }
+        }
+
+        /// Ends the accept loop and waits for it.
+        fn stop(self) {
+            self.stop.send(()).unwrap();
+            self.rt.block_on(self.server).unwrap();
+        }
+    }
+
     /// A client that stops sending halfway through its headers is cut off at the timeout;
     /// one that sends a whole request is answered; the stop ends the loop.
     #[test]
     fn unfinished_headers_are_cut_off_and_whole_requests_answered() {
-        let rt = tokio::runtime::Runtime::new().unwrap();
-        let listener = rt.block_on(TcpListener::bind("127.0.0.1:0")).unwrap();
-        let addr = listener.local_addr().unwrap();
-        let (tx, rx) = tokio::sync::oneshot::channel::<()>();
-        let app = Router::new().route("/", get(|| async { "hi" }));
-        let server = rt.spawn(serve_with(
-            listener,
-            app,
-            async {
-                let _ = rx.await;
-            },
-            Duration::from_millis(500),
-        ));
+        let s = Running::start(Duration::from_millis(500));
+        let addr = s.addr;
 
         let mut whole = std::net::TcpStream::connect(addr).unwrap();
         whole
@@ -147,24 +170,16 @@ mod tests {
             String::from_utf8_lossy(&rest)
         );
 
-        tx.send(()).unwrap();
-        rt.block_on(server).unwrap();
+        s.stop();
     }
 
     /// RFC 9112 §3.2: an HTTP/1.1 request without a Host, or any with two, is a 400 with the
     /// API's JSON error; HTTP/1.0, which has no such rule, and one Host are served.
     #[test]
     fn a_request_names_one_host() {
-        let rt = tokio::runtime::Runtime::new().unwrap();
-        let listener = rt.block_on(TcpListener::bind("127.0.0.1:0")).unwrap();
-        let addr = listener.local_addr().unwrap();
-        let (tx, rx) = tokio::sync::oneshot::channel::<()>();
-        let app = Router::new().route("/", get(|| async { "hi" }));
-        let server = rt.spawn(serve(listener, app, async {
-            let _ = rx.await;
-        }));
+        let server = Running::start(HEADER_READ_TIMEOUT);
         let ask = |head: &str| {
-            let mut s = std::net::TcpStream::connect(addr).unwrap();
+            let mut s = std::net::TcpStream::connect(server.addr).unwrap();
             s.set_read_timeout(Some(Duration::from_secs(20))).unwrap();
             s.write_all(format!("{head}Connection: close\r\n\r\n").as_bytes())
                 .unwrap();
@@ -192,7 +207,6 @@ mod tests {
             assert!(first.contains(&format!(" {status} ")), "{head:?}: {answer}");
             assert!(answer.contains(body), "{head:?}: {answer}");
         }
-        tx.send(()).unwrap();
-        rt.block_on(server).unwrap();
+        server.stop();
     }
 }

@@ -8,26 +8,12 @@ use glam::DVec3;
 
 use super::*;
 
-/// A triangular bipyramid as in `tests.rs`: poles 0 (z = 1) and 1 (z = −1) around the
-/// equator 2, 3, 4 (unit circle, z = 0), outward. Its diagonal is √9.25 ≈ 3.04.
+/// `tests.rs`' triangular bipyramid (poles 0 and 1 at z = ±1, the equator 2, 3, 4 on the unit
+/// circle), scaled. Its diagonal is √9.25 ≈ 3.04 times the scale.
 fn bipyramid(scale: f64) -> TriMesh {
-    let e = |k: f64| {
-        let a = k * std::f64::consts::TAU / 3.0;
-        DVec3::new(a.cos(), a.sin(), 0.0)
-    };
-    TriMesh::new(
-        [DVec3::Z, -DVec3::Z, e(0.0), e(1.0), e(2.0)]
-            .map(|p| p * scale)
-            .to_vec(),
-        vec![
-            [0, 2, 3],
-            [0, 3, 4],
-            [0, 4, 2],
-            [1, 3, 2],
-            [1, 4, 3],
-            [1, 2, 4],
-        ],
-    )
+    let mut m = super::tests::bipyramid();
+    m.positions.iter_mut().for_each(|p| *p *= scale);
+    m
 }
 
 /// The plane of a triangle worked out apart: unit normal by the right-hand rule, offset, and
@@ -45,6 +31,7 @@ fn options_are_checked_at_their_documented_bounds() {
     let base = QemOptions::to_faces(10);
     let ok = |o: QemOptions| assert_eq!(o.check(), Ok(()), "{o:?}");
     let bad = |o: QemOptions| assert!(o.check().is_err(), "{o:?}");
+    let expect = |o: QemOptions, good: bool| if good { ok(o) } else { bad(o) };
     ok(base.clone());
     ok(QemOptions::to_error(0.0));
     ok(QemOptions::to_error(0.01));
@@ -87,11 +74,7 @@ fn options_are_checked_at_their_documented_bounds() {
             crease_angle_deg: deg,
             ..base.clone()
         };
-        if good {
-            ok(o);
-        } else {
-            bad(o);
-        }
+        expect(o, good);
     }
     for (deg, good) in [
         (1e-9, true),
@@ -105,11 +88,7 @@ fn options_are_checked_at_their_documented_bounds() {
             max_normal_turn_deg: deg,
             ..base.clone()
         };
-        if good {
-            ok(o);
-        } else {
-            bad(o);
-        }
+        expect(o, good);
     }
     for (t, good) in [
         (0.0, true),
@@ -122,11 +101,7 @@ fn options_are_checked_at_their_documented_bounds() {
             aggregation: t,
             ..base.clone()
         };
-        if good {
-            ok(o);
-        } else {
-            bad(o);
-        }
+        expect(o, good);
     }
 }
 
@@ -177,22 +152,10 @@ fn unit_scale_brings_the_longest_side_near_one() {
 /// A 13×13-vertex height field z = 0.3 sin(x) cos(0.7 y) on [0, 4]², scaled: its errors
 /// grow gradually, so an error limit stops it part way.
 fn wavy(scale: f64) -> TriMesh {
-    let n = 13u32;
-    let positions = (0..n * n)
-        .map(|i| {
-            let (x, y) = (f64::from(i % n) / 3.0, f64::from(i / n) / 3.0);
-            DVec3::new(x, y, 0.3 * x.sin() * (0.7 * y).cos()) * scale
-        })
-        .collect();
-    let mut faces = Vec::new();
-    for y in 0..n - 1 {
-        for x in 0..n - 1 {
-            let v = |dx: u32, dy: u32| (x + dx) + n * (y + dy);
-            faces.push([v(0, 0), v(1, 0), v(1, 1)]);
-            faces.push([v(0, 0), v(1, 1), v(0, 1)]);
-        }
-    }
-    TriMesh::new(positions, faces)
+    super::tests::grid(13, |x, y| {
+        let (x, y) = (f64::from(x) / 3.0, f64::from(y) / 3.0);
+        DVec3::new(x, y, 0.3 * x.sin() * (0.7 * y).cos()) * scale
+    })
 }
 
 /// Two bipyramids, pole to pole 0.15 apart (3.2 % of the diagonal of both, 4.74).
@@ -331,16 +294,7 @@ fn aggregation_distance_is_a_fraction_of_the_diagonal() {
 #[test]
 fn a_mesh_without_extent_simplifies_with_no_error() {
     let p = DVec3::new(1.0, -2.0, 3.0);
-    let grid = |at: DVec3| {
-        let faces = (0..4u32)
-            .flat_map(|k| {
-                let (x, y) = (k % 2, k / 2);
-                let v = |dx: u32, dy: u32| (x + dx) + 3 * (y + dy);
-                [[v(0, 0), v(1, 0), v(1, 1)], [v(0, 0), v(1, 1), v(0, 1)]]
-            })
-            .collect();
-        TriMesh::new(vec![at; 9], faces)
-    };
+    let grid = |at: DVec3| super::tests::grid(3, |_, _| at);
     for (what, m) in [
         ("at the origin", grid(DVec3::ZERO)),
         ("away from it", grid(p)),

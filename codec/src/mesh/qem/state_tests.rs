@@ -119,6 +119,11 @@ fn faces_sort_stably_by_their_smallest_vertex() {
 }
 
 /// The state after setup: quadrics, flags, edges.
+/// An `n × n` grid of unit cells in the plane z = 0.
+fn flat_grid(n: u32) -> TriMesh {
+    crate::mesh::qem::tests::grid(n, |x, y| DVec3::new(f64::from(x), f64::from(y), 0.0))
+}
+
 fn state(m: &TriMesh, options: &QemOptions) -> State {
     let mut s = State::new(m, options, m.diagonal()).expect("fits");
     s.classify_edges(options);
@@ -495,16 +500,7 @@ fn flat_pairs_rank_by_their_length_alone() {
     // A flat 3×3 grid without boundary planes: every pair's error is 0 (to rounding, far
     // below 10⁻¹²), so its key is the tie break alone, 10⁻⁸ · length²: 10⁻⁸ on the sides,
     // 2 · 10⁻⁸ on the diagonals.
-    let positions = (0..9u32)
-        .map(|i| DVec3::new(f64::from(i % 3), f64::from(i / 3), 0.0))
-        .collect();
-    let mut faces = Vec::new();
-    for (x, y) in [(0u32, 0u32), (1, 0), (0, 1), (1, 1)] {
-        let v = |dx: u32, dy: u32| (x + dx) + 3 * (y + dy);
-        faces.push([v(0, 0), v(1, 0), v(1, 1)]);
-        faces.push([v(0, 0), v(1, 1), v(0, 1)]);
-    }
-    let m = TriMesh::new(positions, faces);
+    let m = flat_grid(3);
     let options = QemOptions {
         boundary_weight: 0.0,
         ..QemOptions::to_faces(1)
@@ -539,19 +535,7 @@ fn a_mesh_left_whole_comes_back_as_it_went_in() {
     // Above it the vertices follow a Morton curve while simplifying: a 257² grid (66,049
     // vertices) already at its face target comes back with its vertices in input order and
     // the same faces, now in the working order.
-    let n = 257u32;
-    let positions = (0..n * n)
-        .map(|i| DVec3::new(f64::from(i % n), f64::from(i / n), 0.0))
-        .collect();
-    let mut faces = Vec::new();
-    for y in 0..n - 1 {
-        for x in 0..n - 1 {
-            let v = |dx: u32, dy: u32| (x + dx) + n * (y + dy);
-            faces.push([v(0, 0), v(1, 0), v(1, 1)]);
-            faces.push([v(0, 0), v(1, 1), v(0, 1)]);
-        }
-    }
-    let grid = TriMesh::new(positions, faces);
+    let grid = flat_grid(257);
     let (out, report) = simplify(&grid, &QemOptions::to_faces(grid.face_count())).expect("runs");
     assert_eq!(report.collapses, 0);
     assert_eq!(out.positions, grid.positions);
@@ -569,19 +553,7 @@ fn compaction_keeps_the_reference_array_near_the_live_mesh() {
     // array: a 60² grid taken to 100 faces writes well over twice the array's first length,
     // so it must have been compacted (to its live references, or 4096), and after a last
     // check at most half of it is dead. Every vertex's slice still holds its live faces.
-    let n = 60u32;
-    let positions = (0..n * n)
-        .map(|i| DVec3::new(f64::from(i % n), f64::from(i / n), 0.0))
-        .collect();
-    let mut faces = Vec::new();
-    for y in 0..n - 1 {
-        for x in 0..n - 1 {
-            let v = |dx: u32, dy: u32| (x + dx) + n * (y + dy);
-            faces.push([v(0, 0), v(1, 0), v(1, 1)]);
-            faces.push([v(0, 0), v(1, 1), v(0, 1)]);
-        }
-    }
-    let grid = TriMesh::new(positions, faces);
+    let grid = flat_grid(60);
     let mut s = state(&grid, &QemOptions::to_faces(100));
     let first = s.refs.len();
     assert_eq!(first, 3 * grid.face_count());

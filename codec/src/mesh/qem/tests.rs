@@ -492,9 +492,24 @@ fn ranking_keys_keep_fourteen_mantissa_bits() {
 // Unit checks of the contraction loop on meshes small enough to follow by hand (added after
 // a cargo-mutants run of contract.rs: the shared meshes pass with these slips).
 
+/// An `n × n`-vertex grid, vertex `x + n·y` at `at(x, y)`, each cell split into two
+/// triangles along its (0, 0)–(1, 1) diagonal.
+pub(super) fn grid(n: u32, at: impl Fn(u32, u32) -> DVec3) -> TriMesh {
+    let positions = (0..n * n).map(|i| at(i % n, i / n)).collect();
+    let mut faces = Vec::new();
+    for y in 0..n - 1 {
+        for x in 0..n - 1 {
+            let v = |dx: u32, dy: u32| (x + dx) + n * (y + dy);
+            faces.push([v(0, 0), v(1, 0), v(1, 1)]);
+            faces.push([v(0, 0), v(1, 1), v(0, 1)]);
+        }
+    }
+    TriMesh::new(positions, faces)
+}
+
 /// A triangular bipyramid: poles 0 (z = 1) and 1 (z = −1) around the equator 2, 3, 4 (unit
 /// circle, z = 0), outward. Each pole has three neighbours, the equator vertices four.
-fn bipyramid() -> TriMesh {
+pub(super) fn bipyramid() -> TriMesh {
     let e = |k: f64| {
         let a = k * std::f64::consts::TAU / 3.0;
         DVec3::new(a.cos(), a.sin(), 0.0)
