@@ -29,6 +29,11 @@ fn serve_refuses_what_it_cannot_honour() {
         (vec!["--data", "s3://"], 2, "--data s3://: no bucket"),
         (vec!["--data", missing], 1, "nothing-here"),
         (vec!["--render-threads", "5000"], 2, "at most 1024"),
+        (
+            vec!["--rescan", "100000"],
+            2,
+            "--rescan 100000: at most 86400",
+        ),
         (vec!["--cpu-jobs", "0"], 2, "--cpu-jobs 0"),
         (vec!["--cors-origin", "example.org"], 2, "--cors-origin"),
         (

@@ -638,6 +638,132 @@ fn a_corrupt_dataset_is_skipped_and_the_others_serve() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// Polls `path` until `done` holds for its reply, failing after 20 s.
+fn wait_for(
+    s: &Server,
+    path: &str,
+    what: &str,
+    done: impl Fn(&zerotile_tests::server::Reply) -> bool,
+) {
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(20);
+    loop {
+        if done(&s.get(path, &[])) {
+            return;
+        }
+        assert!(
+            std::time::Instant::now() < deadline,
+            "{what}: not within 20 s"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+}
+
+/// The data folder as a user changes it while the server runs: a dataset ingested by the
+/// real binary is served at the next rescan, one re-ingested is served anew (a new
+/// version, so new ETags), one with half a copy moved over it stays served as it was and
+/// the copy is listed as skipped, one removed is gone.
+#[test]
+fn datasets_follow_the_folder_while_serving() {
+    let dir = fresh_dir("serve-rescan");
+    std::fs::copy(data_dir().join("crop.ztd"), dir.join("crop.ztd")).unwrap();
+    let mut s = Server::start_flags(&dir, &["--rescan", "1"]);
+    s.get("/v1/datasets/late", &[])
+        .assert_error(404, "unknown_dataset", "not ingested yet");
+
+    let hgt = shared_data().join("dem/N44W072.hgt");
+    run_ok(&mut ingest_command(
+        &hgt,
+        "late",
+        &dir,
+        &["--scheme", "geodetic", "--max-zoom", "3"],
+    ));
+    wait_for(&s, "/v1/datasets/late", "an ingested dataset served", |r| {
+        r.status == 200
+    });
+    assert_eq!(s.get("/v1/datasets/late/layer.json", &[]).status, 200);
+    let tile = "/v1/datasets/late/tiles/0/0/0.terrain";
+    let first = s.get(tile, &[]);
+    assert_eq!(first.status, 200);
+
+    // Re-ingested (ingest renames its file over the old one): a new build, new ETags.
+    let v0 = s.get("/v1/datasets/late", &[]).json()["version"].clone();
+    run_ok(&mut ingest_command(
+        &hgt,
+        "late",
+        &dir,
+        &["--scheme", "geodetic", "--max-zoom", "2"],
+    ));
+    wait_for(
+        &s,
+        "/v1/datasets/late",
+        "a re-ingested dataset served anew",
+        |r| r.json()["version"] != v0,
+    );
+    assert_eq!(s.get("/v1/datasets/late", &[]).json()["maxzoom"], 2);
+    assert_ne!(s.get(tile, &[]).header("etag"), first.header("etag"));
+
+    // Half a copy moved over a dataset: the build before, which reads its own file, stays
+    // served.
+    s.warnings_expected = true;
+    let whole = std::fs::read(dir.join("late.ztd")).unwrap();
+    let half = dir.join("half-copy");
+    std::fs::write(&half, &whole[..whole.len() / 2]).unwrap();
+    std::fs::rename(&half, dir.join("crop.ztd")).unwrap();
+    wait_for(&s, "/v1/datasets", "a half copy listed as skipped", |r| {
+        !r.json()["skipped"].as_array().unwrap().is_empty()
+    });
+    let list = s.get("/v1/datasets", &[]).json();
+    let why = list["skipped"][0]["error"].as_str().unwrap();
+    assert!(
+        why.contains("truncated") && why.contains("still served"),
+        "{why}"
+    );
+    assert_eq!(s.get("/v1/datasets/crop/tiles/0/0/0.png", &[]).status, 200);
+
+    std::fs::remove_file(dir.join("late.ztd")).unwrap();
+    wait_for(&s, "/v1/datasets/late", "a removed dataset gone", |r| {
+        r.status == 404
+    });
+    assert!(
+        s.log_text()
+            .contains("datasets rescanned: removed late.ztd"),
+        "{}",
+        s.log_text()
+    );
+    drop(s);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// With `--rescan 0` the folder is read at start and on SIGHUP only.
+#[test]
+fn sighup_rescans_when_the_timer_is_off() {
+    let dir = fresh_dir("serve-sighup");
+    std::fs::copy(data_dir().join("crop.ztd"), dir.join("first.ztd")).unwrap();
+    let s = Server::start_flags(&dir, &["--rescan", "0"]);
+    let tmp = dir.join(".crop.ztd.tmp");
+    std::fs::copy(data_dir().join("crop.ztd"), &tmp).unwrap();
+    std::fs::rename(&tmp, dir.join("crop.ztd")).unwrap();
+    // A timer of a second would have found it by now.
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    assert_eq!(s.get("/v1/datasets/crop", &[]).status, 404, "no timer");
+    let pid = s.child.id().to_string();
+    assert!(Command::new("kill")
+        .args(["-HUP", &pid])
+        .status()
+        .unwrap()
+        .success());
+    wait_for(&s, "/v1/datasets/crop", "SIGHUP's rescan", |r| {
+        r.status == 200
+    });
+    assert!(
+        s.log_text().contains("SIGHUP: rescanning"),
+        "{}",
+        s.log_text()
+    );
+    drop(s);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn a_missing_data_folder_is_a_clear_error() {
     let out = Command::new(zerotile_bin())

@@ -233,6 +233,12 @@ pub struct ServeArgs {
     /// served whatever they hold [default: 10000000]
     #[arg(long, value_name = "FACES")]
     pub mesh_quota: Option<u64>,
+    /// Rescan the datasets every SECS seconds: a dataset ingested, replaced or removed is
+    /// served, served anew or gone without a restart (SIGHUP rescans at once). 0: only on
+    /// SIGHUP. Default: 5 for a folder; for a store URL only on SIGHUP (each listing is a
+    /// request the store bills).
+    #[arg(long, value_name = "SECS")]
+    pub rescan: Option<u64>,
 }
 
 #[derive(Subcommand, Debug)]
@@ -603,8 +609,14 @@ fn serve(a: ServeArgs) -> anyhow::Result<()> {
         data,
         addr: a.addr,
         config,
+        rescan: a
+            .rescan
+            .map(|s| (s > 0).then(|| std::time::Duration::from_secs(s))),
     })
 }
+
+/// `--rescan`'s ceiling, a day: past it the flag is a typo more likely than a wish.
+const MAX_RESCAN: u64 = 86_400;
 
 /// `--render-threads`' ceiling: a pool this size starts in about a second.
 const MAX_RENDER_THREADS: usize = 1024;
@@ -641,6 +653,11 @@ fn serve_config(a: &ServeArgs) -> anyhow::Result<crate::serve::Config> {
         crate::bail_usage!(
             "--render-threads {n}: at most {MAX_RENDER_THREADS} (more threads than cores only \
              share them)"
+        );
+    }
+    if let Some(s) = a.rescan.filter(|&s| s > MAX_RESCAN) {
+        crate::bail_usage!(
+            "--rescan {s}: at most {MAX_RESCAN} seconds (a day; 0 rescans only on SIGHUP)"
         );
     }
     let public_url = match &a.public_url {

@@ -176,6 +176,17 @@ fn serve_refuses_origins_and_urls_it_could_not_honour() {
     assert!(e
         .to_string()
         .starts_with("--render-threads 1025: at most 1024"));
+    // A day at most; 0 (SIGHUP only) and a day itself are taken.
+    for ok in ["0", "86400"] {
+        assert!(serve_config(&serve_args(&["--rescan", ok])).is_ok(), "{ok}");
+    }
+    let e = serve_config(&serve_args(&["--rescan", "86401"])).unwrap_err();
+    assert!(crate::usage::is_usage(&e), "{e:#}");
+    assert!(
+        e.to_string()
+            .starts_with("--rescan 86401: at most 86400 seconds"),
+        "{e}"
+    );
     // A store URL no store could answer is the command line's error, found before binding.
     for (data, says) in [
         (

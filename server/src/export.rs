@@ -245,7 +245,7 @@ pub fn run(job: &Export) -> Result<Exported> {
     };
     let state = AppState::new(catalog, config)?;
     let d = state
-        .catalog
+        .catalog()
         .iter()
         .next()
         .context("dataset vanished")?

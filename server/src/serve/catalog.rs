@@ -1,17 +1,20 @@
-//! Every dataset of a data folder, by name.
+//! Every dataset of a data folder (or store prefix), by name.
 //!
-//! A folder is scanned once at start. A file that fails to open is logged and skipped: one
-//! corrupt or half-copied dataset must not take the others down.
+//! A folder is scanned at start and rescanned while serving ([`super::reload`]). A file that
+//! fails to open is logged and skipped: one corrupt or half-copied dataset must not take the
+//! others down. A rescan reopens only the files whose stamp changed. A file renamed over
+//! that does not open keeps the build opened before it in service (it still reads its own
+//! file); one written over in place is refused while half written, and served once whole.
 
 use std::collections::BTreeMap;
+use std::hash::{Hash, Hasher};
 use std::path::Path;
 use std::sync::Arc;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 
 use super::dataset::Dataset;
-use super::storage;
-use crate::ingest::EXTENSION;
+use super::reload::Origin;
 
 /// The datasets a server answers for.
 #[derive(Debug, Default)]
@@ -19,67 +22,177 @@ pub struct Catalog {
     datasets: BTreeMap<String, Arc<Dataset>>,
     /// Files that could not be opened, with the reason: shown by `/v1/datasets`.
     pub skipped: Vec<(String, String)>,
+    /// Every dataset file as last scanned, by file name: what a rescan compares against.
+    files: BTreeMap<String, Entry>,
+}
+
+/// What a file or object is, as far as a rescan can tell without reading it: for a file its
+/// device, inode, length and modification time (a rename over it or a write to it changes
+/// one of them); for an object its size, modification time and entity tag.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Stamp {
+    hash: u64,
+    /// A file's device and inode.
+    file: Option<(u64, u64)>,
+}
+
+impl Stamp {
+    pub fn of(file: Option<(u64, u64)>, parts: impl Hash) -> Self {
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        file.hash(&mut h);
+        parts.hash(&mut h);
+        Self {
+            hash: h.finish(),
+            file,
+        }
+    }
+}
+
+/// A dataset file a scan found: its name in the folder, its stamp, and how to open it.
+pub struct Found {
+    pub file: String,
+    pub stamp: Stamp,
+    pub open: Box<dyn FnOnce() -> Result<Dataset> + Send>,
+}
+
+#[derive(Clone, Debug)]
+struct Entry {
+    stamp: Stamp,
+    /// The dataset served for this file: the one it opened to, or, when it now fails to
+    /// open, the build it opened to before.
+    dataset: Option<Arc<Dataset>>,
+    /// Why the file as it is now does not open.
+    error: Option<String>,
+}
+
+/// What a rescan changed, by file name, for the log.
+#[derive(Debug, Default, PartialEq, Eq)]
+pub struct Changes {
+    pub added: Vec<String>,
+    pub replaced: Vec<String>,
+    pub removed: Vec<String>,
+    /// Files that now fail to open (a build opened before stays in service).
+    pub failed: Vec<String>,
+}
+
+impl Changes {
+    pub fn is_empty(&self) -> bool {
+        self.added.is_empty()
+            && self.replaced.is_empty()
+            && self.removed.is_empty()
+            && self.failed.is_empty()
+    }
+}
+
+impl std::fmt::Display for Changes {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let parts = [
+            ("added", &self.added),
+            ("replaced", &self.replaced),
+            ("removed", &self.removed),
+            ("failed to open", &self.failed),
+        ];
+        let said: Vec<String> = parts
+            .iter()
+            .filter(|(_, files)| !files.is_empty())
+            .map(|(what, files)| format!("{what} {}", files.join(", ")))
+            .collect();
+        if said.is_empty() {
+            f.write_str("no change")
+        } else {
+            f.write_str(&said.join("; "))
+        }
+    }
 }
 
 impl Catalog {
     /// Opens every `*.ztd` in `dir`. A missing or unreadable folder is an error; a bad file
     /// is not.
     pub fn open_dir(dir: &Path) -> Result<Self> {
-        let entries =
-            std::fs::read_dir(dir).with_context(|| format!("data folder {}", dir.display()))?;
-        let mut paths: Vec<_> = entries
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            // Any case, as mesh files are read: a `.ZTD` copied from elsewhere was neither
-            // opened nor listed as skipped.
-            .filter(|p| {
-                p.extension()
-                    .is_some_and(|e| e.eq_ignore_ascii_case(EXTENSION))
-            })
+        Origin::Dir(dir.to_path_buf()).open()
+    }
+
+    /// The catalog `found` makes, reusing this one's datasets whose files kept their stamp;
+    /// `None` when nothing changed (no file added, removed or restamped). `found` is in
+    /// file-name order; of two files with one dataset name the later is served.
+    pub fn rescan(&self, found: Vec<Found>) -> Option<(Self, Changes)> {
+        let unchanged = found.len() == self.files.len()
+            && found
+                .iter()
+                .all(|f| self.files.get(&f.file).is_some_and(|e| e.stamp == f.stamp));
+        if unchanged {
+            return None;
+        }
+        let mut changes = Changes::default();
+        let mut files = BTreeMap::new();
+        for Found { file, stamp, open } in found {
+            let before = self.files.get(&file);
+            if let Some(e) = before.filter(|e| e.stamp == stamp) {
+                files.insert(file, e.clone());
+                continue;
+            }
+            // Renamed over, the build before still has its own file to read; written over in
+            // place, it has lost its bytes too.
+            let kept = before
+                .and_then(|e| e.dataset.clone())
+                .filter(|d| d.file_id().is_some_and(|id| Some(id) != stamp.file));
+            let entry = match open() {
+                Ok(d) => {
+                    tracing::info!(
+                        dataset = %d.name,
+                        tiles = d.container.len(),
+                        scheme = %d.metadata().scheme,
+                        "opened {}",
+                        d.location
+                    );
+                    if before.is_some_and(|e| e.dataset.is_some()) {
+                        changes.replaced.push(file.clone());
+                    } else {
+                        changes.added.push(file.clone());
+                    }
+                    Entry {
+                        stamp,
+                        dataset: Some(Arc::new(d)),
+                        error: None,
+                    }
+                }
+                Err(e) => {
+                    let mut why = format!("{e:#}");
+                    if kept.is_some() {
+                        why.push_str(" (the build opened before is still served)");
+                    }
+                    tracing::warn!("skipping {file}: {why}");
+                    changes.failed.push(file.clone());
+                    Entry {
+                        stamp,
+                        dataset: kept,
+                        error: Some(why),
+                    }
+                }
+            };
+            files.insert(file, entry);
+        }
+        changes.removed = self
+            .files
+            .keys()
+            .filter(|f| !files.contains_key(*f))
+            .cloned()
             .collect();
-        paths.sort();
         let mut catalog = Self::default();
-        for path in paths {
-            let file = path
-                .file_name()
-                .map(|f| f.to_string_lossy().into_owned())
-                .unwrap_or_default();
-            catalog.add(file, Dataset::open(&path));
-        }
-        Ok(catalog)
-    }
-
-    /// Opens every `*.ztd` object directly under a store URL's prefix (see
-    /// [`storage::open_url`]). An unreachable store or prefix is an error; a bad object is
-    /// not.
-    pub fn open_url(url: &str) -> Result<Self> {
-        let (store, prefix) = storage::open_url(url)?;
-        let mut catalog = Self::default();
-        for meta in storage::list(&store, &prefix, EXTENSION)? {
-            let file = meta.location.filename().unwrap_or_default().to_string();
-            catalog.add(file, Dataset::open_object(&store, &meta));
-        }
-        Ok(catalog)
-    }
-
-    fn add(&mut self, file: String, opened: Result<Dataset>) {
-        match opened {
-            Ok(d) => {
-                tracing::info!(
-                    dataset = %d.name,
-                    tiles = d.container.len(),
-                    scheme = %d.metadata().scheme,
-                    "opened {}",
-                    d.location
-                );
-                self.insert(d);
+        for (file, e) in &files {
+            if let Some(d) = &e.dataset {
+                catalog.datasets.insert(d.name.clone(), Arc::clone(d));
             }
-            Err(e) => {
-                tracing::warn!("skipping {file}: {e:#}");
-                self.skipped.push((file, format!("{e:#}")));
+            if let Some(why) = &e.error {
+                catalog.skipped.push((file.clone(), why.clone()));
             }
         }
+        catalog.files = files;
+        Some((catalog, changes))
     }
 
+    /// Adds a dataset that no file of the catalog's stands for (tests, `export`): a rescan
+    /// does not keep it.
     pub fn insert(&mut self, d: Dataset) {
         self.datasets.insert(d.name.clone(), Arc::new(d));
     }
@@ -104,6 +217,7 @@ impl Catalog {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::ingest::EXTENSION;
 
     /// A corrupt dataset file is listed as skipped with its reason, files that are not
     /// datasets are ignored, and neither stops the folder from opening.

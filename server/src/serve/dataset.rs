@@ -139,6 +139,18 @@ impl Dataset {
         format!("{:016x}", self.version)
     }
 
+    /// The device and inode of the file this dataset reads (`None` for an object): a rescan
+    /// keeps this build in service past a new file that fails to open only when the new one
+    /// is another file, renamed over it; written over in place, the old build's bytes are
+    /// gone with it.
+    pub fn file_id(&self) -> Option<(u64, u64)> {
+        use std::os::unix::fs::MetadataExt;
+        match &self.source {
+            Source::File(f) => f.metadata().ok().map(|m| (m.dev(), m.ino())),
+            Source::Object { .. } => None,
+        }
+    }
+
     pub fn has_tile(&self, id: TileId) -> bool {
         self.container.entry(id).is_some()
     }

@@ -2,7 +2,7 @@
 //!
 //! | module | concern |
 //! |---|---|
-//! | [`catalog`], [`dataset`], [`storage`] | datasets of a folder or store URL, opened once, tiles read by range |
+//! | [`catalog`], [`dataset`], [`storage`], [`reload`] | datasets of a folder or store URL, rescanned while serving, tiles read by range |
 //! | [`threshold`], [`view_plane`] | T from `threshold`, `ratio`, a camera (eq. 4) or the zoom |
 //! | [`pipeline`], [`tile_cache`] | decode (cached by bytes), stitch, off the async threads |
 //! | [`render`] | quantized-mesh, PNG, ZTM1, OBJ/GLB/JSON bytes |
@@ -25,6 +25,7 @@ pub mod pipeline;
 pub mod plain_names;
 pub mod preflight;
 pub mod public_url;
+pub mod reload;
 pub mod render;
 pub mod render_slots;
 pub mod revalidate;
@@ -35,6 +36,8 @@ pub mod threshold;
 pub mod tile_cache;
 pub mod view_plane;
 
+#[cfg(test)]
+mod reload_tests;
 #[cfg(test)]
 mod site_tests;
 #[cfg(test)]
@@ -174,6 +177,9 @@ pub struct ServeOptions {
     pub data: PathBuf,
     pub addr: SocketAddr,
     pub config: Config,
+    /// How often the datasets are rescanned (`None`: only on SIGHUP); unset, a folder's
+    /// every [`reload::DEFAULT_RESCAN`] and a store's only on SIGHUP.
+    pub rescan: Option<Option<Duration>>,
 }
 
 /// Binds, opens the datasets, prints the URL and serves until SIGTERM or Ctrl-C, then lets
@@ -189,18 +195,21 @@ pub fn run(opts: ServeOptions) -> Result<()> {
         .set_nonblocking(true)
         .context("making the listener non-blocking")?;
     let data = opts.data.to_string_lossy().into_owned();
-    let (catalog, meshes) = if storage::is_url(&data) {
+    let (origin, meshes, rescan) = if storage::is_url(&data) {
         // Object meshes are served from local folders only.
         (
-            Catalog::open_url(&data)?,
+            reload::Origin::url(&data)?,
             meshes::MeshCatalog::empty(opts.config.response_cache_bytes),
+            opts.rescan.unwrap_or(None),
         )
     } else {
         (
-            Catalog::open_dir(&opts.data)?,
+            reload::Origin::Dir(opts.data.clone()),
             meshes::MeshCatalog::open(&opts.data, opts.config.response_cache_bytes),
+            opts.rescan.unwrap_or(Some(reload::DEFAULT_RESCAN)),
         )
     };
+    let catalog = origin.open()?;
     let meshes = meshes.with_quota(opts.config.mesh_quota);
     let meshes = if opts.config.read_only {
         meshes.read_only()
@@ -210,8 +219,12 @@ pub fn run(opts: ServeOptions) -> Result<()> {
     let n = catalog.len();
     if catalog.is_empty() && meshes.list().is_empty() {
         tracing::warn!(
-            "no datasets or meshes in {} (build a dataset with `zerotile ingest`)",
-            opts.data.display()
+            "no datasets or meshes in {} (build a dataset with `zerotile ingest`: {})",
+            opts.data.display(),
+            match rescan {
+                Some(every) => format!("it is served within {} s", every.as_secs_f64()),
+                None => "SIGHUP has it served".to_owned(),
+            }
         );
     }
     let state = AppState::new(catalog, opts.config)?.with_meshes(meshes);
@@ -229,6 +242,7 @@ pub fn run(opts: ServeOptions) -> Result<()> {
         );
         use std::io::Write;
         let _ = std::io::stdout().flush();
+        tokio::spawn(reload::watch(state.clone(), origin, rescan));
         listen::serve(listener, app(state), shutdown_signal()).await;
         tracing::info!("shut down cleanly");
         Ok(())

@@ -4,6 +4,7 @@
 use std::sync::Arc;
 
 use anyhow::Context;
+use arc_swap::ArcSwap;
 use axum::http::StatusCode;
 use zerotile_codec::formats::terrain_rgb::PngCompression;
 
@@ -88,7 +89,9 @@ pub const UPLOAD_QUEUE: usize = 3;
 /// What [`AppState`] shares; its fields read through it (`state.cache`).
 #[derive(Clone)]
 pub struct Shared {
-    pub catalog: Arc<Catalog>,
+    /// The datasets, swapped whole by a rescan ([`super::reload`]): read it through
+    /// [`AppState::catalog`].
+    datasets: Arc<ArcSwap<Catalog>>,
     pub cache: Arc<TileCache>,
     pub responses: Arc<ResponseCache>,
     pub metrics: Arc<Metrics>,
@@ -120,7 +123,7 @@ impl AppState {
             .build()
             .context("starting the render threads")?;
         Ok(Self(Arc::new(Shared {
-            catalog: Arc::new(catalog),
+            datasets: Arc::new(ArcSwap::from_pointee(catalog)),
             cache: Arc::new(new_cache(config.cache_bytes)),
             responses: Arc::new(new_response_cache(config.response_cache_bytes)),
             metrics: Arc::new(Metrics::default()),
@@ -130,6 +133,22 @@ impl AppState {
             meshes: Arc::new(MeshCatalog::empty(config.response_cache_bytes / 4)),
             config: Arc::new(config),
         })))
+    }
+
+    /// The datasets as they are now: a request keeps the one catalog it read, whatever a
+    /// rescan swaps in meanwhile.
+    pub fn catalog(&self) -> arc_swap::Guard<Arc<Catalog>> {
+        self.datasets.load()
+    }
+
+    /// [`Self::catalog`] to keep past a short borrow (a rescan compares against it).
+    pub fn catalog_now(&self) -> Arc<Catalog> {
+        self.datasets.load_full()
+    }
+
+    /// Serves `catalog` from now on.
+    pub fn replace_catalog(&self, catalog: Catalog) {
+        self.datasets.store(Arc::new(catalog));
     }
 
     /// Serves `meshes` too.

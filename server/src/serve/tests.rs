@@ -53,7 +53,7 @@ fn hill_dataset_in(tag: &str, scheme: &str, tiles: &[TileId], bounds: [f64; 4]) 
 }
 
 /// [`hill_dataset`]'s container file, `TMP/…/TAG.ztd`, not opened.
-fn hill_file(tag: &str, scheme: &str, tiles: &[TileId]) -> std::path::PathBuf {
+pub(super) fn hill_file(tag: &str, scheme: &str, tiles: &[TileId]) -> std::path::PathBuf {
     hill_file_in(tag, scheme, tiles, default_bounds(scheme))
 }
 
@@ -63,7 +63,7 @@ fn hill_file_in(tag: &str, scheme: &str, tiles: &[TileId], bounds: [f64; 4]) -> 
 }
 
 /// [`hill_file`] with its metadata changed by `edit` before it is written.
-fn hill_file_with(
+pub(super) fn hill_file_with(
     tag: &str,
     scheme: &str,
     tiles: &[TileId],

@@ -26,7 +26,7 @@ use crate::serve::state::AppState;
 use crate::serve::threshold;
 
 pub async fn healthz(State(state): State<AppState>) -> Json<Value> {
-    Json(json!({ "status": "ok", "datasets": state.catalog.len() }))
+    Json(json!({ "status": "ok", "datasets": state.catalog().len() }))
 }
 
 pub async fn metrics(State(state): State<AppState>) -> Response {
@@ -43,7 +43,7 @@ pub const MANIFEST_CACHE_CONTROL: &str = "public, max-age=60";
 
 /// Looks a dataset up by the name in the path.
 pub fn dataset(state: &AppState, name: &str) -> ApiResult<Arc<Dataset>> {
-    state.catalog.get(name).cloned().ok_or_else(|| {
+    state.catalog().get(name).cloned().ok_or_else(|| {
         // What a client asks for when its base URL lost the dataset's trailing slash.
         let hint = match name {
             "layer.json" | "tiles.json" | "view" | "tiles" => {
@@ -59,9 +59,9 @@ pub fn dataset(state: &AppState, name: &str) -> ApiResult<Arc<Dataset>> {
 }
 
 pub async fn list(State(state): State<AppState>, headers: HeaderMap) -> ApiResult<Response> {
-    let datasets: Vec<Value> = state.catalog.iter().map(|d| summary(d)).collect();
-    let skipped: Vec<Value> = state
-        .catalog
+    let catalog = state.catalog();
+    let datasets: Vec<Value> = catalog.iter().map(|d| summary(d)).collect();
+    let skipped: Vec<Value> = catalog
         .skipped
         .iter()
         .map(|(file, why)| json!({ "file": file, "error": why }))

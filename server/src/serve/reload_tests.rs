@@ -1,0 +1,179 @@
+//! Rescans of a data folder: what a server picks up, keeps and drops while it runs.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use zerotile_codec::container::TileId;
+
+use super::catalog::{Catalog, Changes};
+use super::reload::{self, Origin};
+use super::tests::hill_file_with;
+use super::{AppState, Config};
+
+const ROOT: TileId = TileId { z: 0, x: 0, y: 0 };
+
+/// A one-tile dataset file whose header (and so build) `created` tells apart.
+fn build(tag: &str, created: &str) -> PathBuf {
+    hill_file_with(tag, "local", &[ROOT], |m| m.created = created.into())
+}
+
+/// Puts `from` in `dir` as `name`, the way ingest does: a whole file renamed over the name.
+fn place(from: &Path, dir: &Path, name: &str) {
+    let tmp = dir.join(format!(".{name}.tmp"));
+    std::fs::copy(from, &tmp).unwrap();
+    std::fs::rename(&tmp, dir.join(name)).unwrap();
+}
+
+fn rescan(c: &Catalog, dir: &Path) -> Option<(Catalog, Changes)> {
+    c.rescan(Origin::Dir(dir.to_path_buf()).scan().unwrap())
+}
+
+fn names(files: &[&str]) -> Vec<String> {
+    files.iter().map(|f| (*f).to_owned()).collect()
+}
+
+/// A rescan with nothing changed makes no new catalog; one with a file added, one renamed
+/// over and one removed opens the first two only, keeps the untouched dataset as it was
+/// (the same open handle), and says which is which.
+#[test]
+fn a_rescan_opens_only_what_changed() {
+    let dir = crate::fixtures::scratch("rescan-changes");
+    let (old, new) = (
+        build("rescan-a", "2026-01-01"),
+        build("rescan-b", "2026-02-02"),
+    );
+    place(&old, &dir, "a.ztd");
+    place(&old, &dir, "b.ztd");
+    let first = Origin::Dir(dir.clone()).open().unwrap();
+    assert_eq!(first.len(), 2);
+    assert!(rescan(&first, &dir).is_none(), "nothing changed");
+
+    place(&new, &dir, "a.ztd");
+    place(&old, &dir, "c.ztd");
+    std::fs::remove_file(dir.join("b.ztd")).unwrap();
+    let (second, changes) = rescan(&first, &dir).unwrap();
+    assert_eq!(
+        changes,
+        Changes {
+            added: names(&["c.ztd"]),
+            replaced: names(&["a.ztd"]),
+            removed: names(&["b.ztd"]),
+            failed: vec![],
+        }
+    );
+    assert_eq!(
+        changes.to_string(),
+        "added c.ztd; replaced a.ztd; removed b.ztd"
+    );
+    let served: Vec<&str> = second.iter().map(|d| d.name.as_str()).collect();
+    assert_eq!(served, ["a", "c"]);
+    let version = |c: &Catalog, n: &str| c.get(n).unwrap().version;
+    assert_ne!(version(&second, "a"), version(&first, "a"), "a new build");
+    assert_eq!(
+        version(&second, "c"),
+        version(&first, "a"),
+        "c is a's old bytes"
+    );
+    assert!(second.skipped.is_empty());
+    assert!(rescan(&second, &dir).is_none());
+
+    // Untouched: carried over, not reopened.
+    place(&old, &dir, "d.ztd");
+    let (third, changes) = rescan(&second, &dir).unwrap();
+    assert_eq!(changes.added, names(&["d.ztd"]));
+    for n in ["a", "c"] {
+        assert!(Arc::ptr_eq(third.get(n).unwrap(), second.get(n).unwrap()));
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A file renamed over a dataset's that does not open (a half copy moved in) is listed as
+/// skipped while the build before it, which still reads its own file, stays in service; a
+/// bad file that stays as it was is not reopened at every rescan. Written over in place, the
+/// build before has lost its bytes too and goes; once whole again the file is served anew.
+#[test]
+fn a_file_that_stops_opening_keeps_the_build_before_it_if_renamed_over() {
+    let dir = crate::fixtures::scratch("rescan-failed");
+    let good = build("rescan-good", "2026-03-03");
+    place(&good, &dir, "a.ztd");
+    let first = Origin::Dir(dir.clone()).open().unwrap();
+    let before = Arc::clone(first.get("a").unwrap());
+
+    let bytes = std::fs::read(&good).unwrap();
+    let half = dir.join("half");
+    std::fs::write(&half, &bytes[..bytes.len() / 2]).unwrap();
+    place(&half, &dir, "a.ztd");
+    let (second, changes) = rescan(&first, &dir).unwrap();
+    assert_eq!(changes.failed, names(&["a.ztd"]));
+    assert!(Arc::ptr_eq(second.get("a").unwrap(), &before));
+    let (file, why) = &second.skipped[0];
+    assert_eq!(file, "a.ztd");
+    assert!(
+        why.contains("truncated") && why.ends_with("(the build opened before is still served)"),
+        "{why}"
+    );
+    assert!(
+        rescan(&second, &dir).is_none(),
+        "the same bad file is not reopened"
+    );
+
+    // Served from its own file: the path now names another.
+    let cat = second.get("a").unwrap();
+    assert!(cat.read_tile(ROOT).is_ok());
+
+    // Whole again, renamed in: served anew.
+    place(&good, &dir, "a.ztd");
+    let (third, changes) = rescan(&second, &dir).unwrap();
+    assert_eq!(changes.replaced, names(&["a.ztd"]));
+    assert!(third.skipped.is_empty());
+    assert!(
+        !Arc::ptr_eq(third.get("a").unwrap(), &before),
+        "opened anew"
+    );
+
+    // Written over in place: nothing left to serve.
+    std::fs::write(dir.join("a.ztd"), &bytes[..bytes.len() / 2]).unwrap();
+    let (fourth, changes) = rescan(&third, &dir).unwrap();
+    assert_eq!(changes.failed, names(&["a.ztd"]));
+    assert!(fourth.get("a").is_none());
+    assert!(
+        !fourth.skipped[0].1.contains("still served"),
+        "{:?}",
+        fourth.skipped
+    );
+
+    std::fs::write(dir.join("a.ztd"), &bytes).unwrap();
+    let (fifth, changes) = rescan(&fourth, &dir).unwrap();
+    assert_eq!(changes.added, names(&["a.ztd"]));
+    assert!(fifth.skipped.is_empty());
+    assert_eq!(fifth.get("a").unwrap().version, before.version);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The watcher swaps a changed catalog into the state the handlers read, and a scan that
+/// fails (the folder gone) leaves the datasets served as they were.
+#[tokio::test]
+async fn the_watcher_swaps_the_catalog_in() {
+    let dir = crate::fixtures::scratch("rescan-watch");
+    let file = build("rescan-watch", "2026-04-04");
+    place(&file, &dir, "a.ztd");
+    let origin = Origin::Dir(dir.clone());
+    let state = AppState::new(origin.open().unwrap(), Config::default()).unwrap();
+    let watcher = tokio::spawn(reload::watch(
+        state.clone(),
+        origin,
+        Some(Duration::from_millis(20)),
+    ));
+    place(&file, &dir, "b.ztd");
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while state.catalog().get("b").is_none() {
+        assert!(Instant::now() < deadline, "b.ztd not picked up in 20 s");
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+    // Several periods with the folder gone: still served.
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    assert_eq!(state.catalog().len(), 2);
+    watcher.abort();
+}
