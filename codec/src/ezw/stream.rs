@@ -528,6 +528,37 @@ mod tests {
         assert_eq!(h.plane_threshold(0), 0.1 / 16.0);
     }
 
+    /// The header's first bytes as docs/ezw-stream.md lays them out for other decoders: the
+    /// wavelet byte's two values are read from the doc's layout line, so the doc and the
+    /// writer cannot drift apart (the doc once had them swapped).
+    #[test]
+    fn the_wavelet_byte_is_as_documented() {
+        let doc = include_str!("../../../docs/ezw-stream.md");
+        let line = doc
+            .lines()
+            .find(|l| l.starts_with("\"ZTW2\" | wavelet u8 ("))
+            .expect("the layout line");
+        let named = |w: &str| -> u8 {
+            let at = line.find(&format!(" = {w}")).expect(w);
+            line[..at]
+                .rsplit(['(', ' '])
+                .next()
+                .unwrap()
+                .parse()
+                .unwrap()
+        };
+        for (w, doc_name) in [(Wavelet::Cdf97, "9/7"), (Wavelet::LeGall53, "5/3")] {
+            let mut out = Vec::new();
+            Header {
+                wavelet: w,
+                ..sample()
+            }
+            .write(&mut out);
+            assert_eq!(&out[..4], MAGIC);
+            assert_eq!(out[4], named(doc_name), "{doc_name}: {line}");
+        }
+    }
+
     #[test]
     fn empty_grids_are_refused() {
         for (rows, cols) in [(0, 300), (257, 0), (0, 0)] {
