@@ -229,7 +229,12 @@ async function loadTerrain() {
     if (my !== ticket) return;
     const [w, s, e, n] = dataset.bounds;
     const [kx, ky] = horizontalScale(dataset, (s + n) / 2);
-    const [x0, y0] = meshXY(dataset, w, s), [x1, y1] = meshXY(dataset, e, n);
+    // West past east: the data crosses the antimeridian. It is drawn unwrapped, its east edge
+    // a turn on, as is every tile west of the meridian opposite the data's middle.
+    const turn = dataset.scheme !== "local" && w > e ? 360 : 0;
+    const [x0, y0] = meshXY(dataset, w, s), [x1, y1] = meshXY(dataset, e + turn, n);
+    const period = meshXY(dataset, turn, 0)[0] - meshXY(dataset, 0, 0)[0];
+    const cut = meshXY(dataset, (w + e + turn) / 2 - 180, 0)[0];
     const cx = (x0 + x1) / 2, cy = (y0 + y1) / 2;
     const exag = Number($("exag").value);
     const [lo, hi] = dataset.height_range || [0, 0];
@@ -239,9 +244,12 @@ async function loadTerrain() {
     for (const a of answers) {
       const p = a.json.positions;
       const out = new Float32Array(p.length);
+      let [west, east] = [Infinity, -Infinity];
+      for (let i = 0; i < p.length; i += 3) [west, east] = [Math.min(west, p[i]), Math.max(east, p[i])];
+      const shift = period && (west + east) / 2 < cut ? period : 0;
       // Zerotile meshes are z-up; three.js is y-up: (x, y, z) → (x, z, −y), in km.
       for (let i = 0; i < p.length; i += 3) {
-        out[i] = ((p[i] - cx) * kx) / 1000;
+        out[i] = ((p[i] + shift - cx) * kx) / 1000;
         out[i + 1] = (p[i + 2] * exag) / 1000;
         out[i + 2] = (-(p[i + 1] - cy) * ky) / 1000;
       }

@@ -344,7 +344,12 @@ pub fn render(r: &Report) -> String {
         let _ = writeln!(s, "source grid {rows} × {cols} samples");
     } else {
         let [w, so, e, n] = m.bounds;
-        let _ = writeln!(s, "bounds (W, S, E, N) {w}, {so}, {e}, {n} degrees");
+        let across = if w > e {
+            " (across the antimeridian)"
+        } else {
+            ""
+        };
+        let _ = writeln!(s, "bounds (W, S, E, N) {w}, {so}, {e}, {n} degrees{across}");
     }
     // "none" is what the metadata records for a source without a CRS.
     let crs = match m.source_crs.as_str() {

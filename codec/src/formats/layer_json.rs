@@ -107,7 +107,9 @@ pub struct LayerJson {
 impl LayerJson {
     /// A manifest for data covering `bounds` (degrees) on `tiling`, levels `minzoom` to
     /// `maxzoom`: `available` lists the tiles over `bounds` per level, and both level-0
-    /// tiles of the geodetic grid (Cesium needs every root tile).
+    /// tiles of the geodetic grid (Cesium needs every root tile). Bounds whose west is past
+    /// their east cross the antimeridian (Cesium's `Rectangle` convention): the tiles either
+    /// side of it are listed, and the manifest's own `bounds` span every longitude.
     pub fn for_tiling(
         tiling: &Tiling,
         bounds: Bounds,
@@ -122,25 +124,47 @@ impl LayerJson {
             return Err(parameter("minzoom", "≤ maxzoom", minzoom.to_string()));
         }
 
+        // Across the antimeridian: the parts west and east of it.
+        let (bounds, parts) = if bounds.min_x > bounds.max_x {
+            let west = Bounds {
+                max_x: 180.0,
+                ..bounds
+            };
+            let east = Bounds {
+                min_x: -180.0,
+                ..bounds
+            };
+            (
+                Bounds {
+                    max_x: 180.0,
+                    ..east
+                },
+                vec![west, east],
+            )
+        } else {
+            (bounds, vec![bounds])
+        };
         // Availability: every root tile at level 0, the bbox's tiles below.
         let mut available = Vec::with_capacity(usize::from(maxzoom) + 1);
         for z in 0..=maxzoom {
-            let range = if z == 0 {
+            let mut level = Vec::new();
+            if z == 0 {
                 let (nx, ny) = tiling.tiles_per_axis(0)?;
-                Some(TileRange {
+                let roots = TileRange {
                     z,
                     x0: 0,
                     y0: 0,
                     x1: nx - 1,
                     y1: ny - 1,
-                })
+                };
+                level.push(to_tms(tiling, roots)?);
             } else {
-                tiling.tile_range(z, &bounds)?
-            };
-            let level = match range {
-                Some(r) => vec![to_tms(tiling, r)?],
-                None => Vec::new(),
-            };
+                for part in &parts {
+                    if let Some(r) = tiling.tile_range(z, part)? {
+                        level.push(to_tms(tiling, r)?);
+                    }
+                }
+            }
             available.push(level);
         }
         Ok(Self {
@@ -367,6 +391,32 @@ mod tests {
         let ranges: Vec<Vec<AvailableRange>> =
             serde_json::from_value(back["available"].clone()).unwrap();
         assert_eq!(ranges, layer.available);
+    }
+
+    /// West past east crosses the antimeridian: the tiles either side are listed, and the
+    /// manifest's bounds (which may not wrap) take every longitude.
+    #[test]
+    fn bounds_across_the_antimeridian_list_both_sides() {
+        let fiji = Bounds {
+            min_x: 177.0,
+            min_y: -19.0,
+            max_x: -179.0,
+            max_y: -16.0,
+        };
+        let layer = LayerJson::for_tiling(&geodetic(), fiji, 0, 3).unwrap();
+        // Zoom 3 is 16 × 8 tiles of 22.5°: x 15 west of 180°, x 0 east; TMS y 3.
+        let range = |x0, x1| AvailableRange {
+            start_x: x0,
+            start_y: 3,
+            end_x: x1,
+            end_y: 3,
+        };
+        assert_eq!(layer.available[3], vec![range(15, 15), range(0, 0)]);
+        let j = layer.to_value().unwrap();
+        assert_eq!(
+            j["bounds"],
+            serde_json::json!([-180.0, -19.0, 180.0, -16.0])
+        );
     }
 
     #[test]

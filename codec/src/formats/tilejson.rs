@@ -129,21 +129,28 @@ impl RasterDem {
         let lat = MAX_MERCATOR_LATITUDE + 1e-9;
         let ok = self.bounds.iter().all(|v| v.is_finite())
             && (-180.0..=180.0).contains(&w)
-            && w <= e
-            && e <= 180.0
+            && (-180.0..=180.0).contains(&e)
             && (-lat..=lat).contains(&s)
             && s <= n
             && n <= lat;
         if !ok {
             return Err(error(
                 "bounds",
-                "west ≤ east, south ≤ north, degrees within Web Mercator",
+                "south ≤ north, degrees within Web Mercator",
                 format!("{:?}", self.bounds),
             ));
         }
         if !(1..=4096).contains(&self.tile_size) {
             return Err(error("tileSize", "1..=4096 pixels", self.tile_size));
         }
+        // West past east crosses the antimeridian (Cesium's convention); TileJSON's bounds
+        // may not wrap, so they take every longitude, the centre still the data's.
+        let (west, east, centre) = if w > e {
+            let mid = (w + e + 360.0) / 2.0;
+            (-180.0, 180.0, if mid > 180.0 { mid - 360.0 } else { mid })
+        } else {
+            (w, e, (w + e) / 2.0)
+        };
         let encoding = match self.encoding {
             DemEncoding::Mapbox => "mapbox",
             DemEncoding::Terrarium => "terrarium",
@@ -158,8 +165,8 @@ impl RasterDem {
             "tiles": self.tiles,
             "minzoom": self.minzoom,
             "maxzoom": self.maxzoom,
-            "bounds": self.bounds,
-            "center": [(w + e) / 2.0, (s + n) / 2.0, self.maxzoom],
+            "bounds": [west, s, east, n],
+            "center": [centre, (s + n) / 2.0, self.maxzoom],
             "tileSize": self.tile_size,
             "encoding": encoding,
         }))
@@ -220,7 +227,7 @@ mod tests {
         };
         assert_eq!(zooms.to_value().unwrap_err().name, "minzoom..maxzoom");
         for bounds in [
-            [-72.0, 44.0, -73.0, 45.0],
+            [-72.0, 44.0, 181.0, 45.0],
             [-72.0, 86.0, -71.0, 87.0],
             [f64::NAN, 44.0, -71.0, 45.0],
         ] {
@@ -233,6 +240,24 @@ mod tests {
             ..valid()
         };
         assert!(world.to_value().is_ok());
+    }
+
+    /// West past east crosses the antimeridian: the bounds, which may not wrap, take every
+    /// longitude; the centre is the data's.
+    #[test]
+    fn bounds_across_the_antimeridian_span_every_longitude() {
+        let fiji = RasterDem {
+            bounds: [177.0, -19.0, -179.0, -16.0],
+            ..valid()
+        };
+        let v = fiji.to_value().unwrap();
+        assert_eq!(v["bounds"], json!([-180.0, -19.0, 180.0, -16.0]));
+        assert_eq!(v["center"], json!([179.0, -17.5, 8]));
+        let east_of_it = RasterDem {
+            bounds: [179.0, -19.0, -177.0, -16.0],
+            ..valid()
+        };
+        assert_eq!(east_of_it.to_value().unwrap()["center"][0], json!(-179.0));
     }
 
     #[test]

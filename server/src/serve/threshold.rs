@@ -236,7 +236,13 @@ pub fn view_plane(d: &Dataset, q: &HashMap<String, String>) -> Result<ViewPlane,
         ((east - west) * (south - north)).abs()
     } else {
         let mid = ((south + north) / 2.0).to_radians().cos();
-        ((east - west) * mid * (north - south)).abs() * METRES_PER_DEGREE.powi(2)
+        // West past east: across the antimeridian, the width eastwards from west over 180°.
+        let width = if east < west {
+            east + 360.0 - west
+        } else {
+            east - west
+        };
+        (width * mid * (north - south)).abs() * METRES_PER_DEGREE.powi(2)
     };
     let cam = Camera {
         eye: to_plane(eye),
