@@ -1,10 +1,16 @@
-//! The accept loop: hyper's HTTP/1 and HTTP/2 server with a header-read timeout, and a
-//! graceful stop.
+//! The accept loop: hyper's HTTP/1 and HTTP/2 server with a header-read timeout, a
+//! write-stall timeout, and a graceful stop with a deadline.
 //!
 //! `axum::serve` runs hyper without a timer, which leaves hyper's header-read timeout off: a
 //! client that never finished its request headers held its connection (and a task) for as
 //! long as it liked. Here a connection whose request headers have not all arrived within
 //! [`HEADER_READ_TIMEOUT`] is closed.
+//!
+//! A client that asks and then stops reading held its answer, a tile of up to a few MB, for
+//! as long as it kept the connection open: 400 such clients asking for distinct tiles held
+//! 1.3 GB, and one of them kept SIGTERM from ending the process. A connection whose writes
+//! make no progress for [`WRITE_STALL_TIMEOUT`] is closed (a slow reader that takes bytes
+//! is not), and a stop waits at most [`DRAIN_TIMEOUT`] for the connections to finish.
 //!
 //! Hyper also serves an HTTP/1.1 request without a `Host` header, or with two, which RFC 9112
 //! §3.2 has a server refuse (such a request names no origin, or an ambiguous one, to the
@@ -24,29 +30,58 @@ use hyper_util::server::conn::auto::Builder;
 use hyper_util::server::graceful::GracefulShutdown;
 use hyper_util::service::TowerToHyperService;
 use tokio::net::TcpListener;
+use tokio_io_timeout::TimeoutStream;
 
 /// How long a client may take to send a request's headers (hyper's own default, which it
 /// applies only with a timer). Bodies have their own limit (`408` after 20 s).
 pub const HEADER_READ_TIMEOUT: Duration = Duration::from_secs(30);
 
-/// Serves `app` on `listener` until `stop` resolves, then stops accepting and waits for the
-/// connections' in-flight requests to finish.
-pub async fn serve(listener: TcpListener, app: Router, stop: impl Future<Output = ()>) {
-    serve_with(listener, app, stop, HEADER_READ_TIMEOUT).await;
+/// How long a write to a client may wait for the client to take bytes before the connection
+/// is closed: nginx's `send_timeout` is 60 s; a tile is a few MB at most, and a client that
+/// takes none of it for 30 s has gone.
+pub const WRITE_STALL_TIMEOUT: Duration = Duration::from_secs(30);
+
+/// How long a stop waits for open connections to finish their requests before closing them:
+/// under the 30 s an orchestrator commonly gives a process between SIGTERM and SIGKILL, and
+/// long enough for any render (tiles take milliseconds, a 2M-face upload seconds).
+pub const DRAIN_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// The accept loop's time limits.
+#[derive(Clone, Copy, Debug)]
+pub struct Limits {
+    pub header_read: Duration,
+    pub write_stall: Duration,
+    pub drain: Duration,
 }
 
-/// [`serve`] with another header-read timeout (the tests').
+impl Default for Limits {
+    fn default() -> Self {
+        Self {
+            header_read: HEADER_READ_TIMEOUT,
+            write_stall: WRITE_STALL_TIMEOUT,
+            drain: DRAIN_TIMEOUT,
+        }
+    }
+}
+
+/// Serves `app` on `listener` until `stop` resolves, then stops accepting and waits for the
+/// connections' in-flight requests to finish, at most [`DRAIN_TIMEOUT`].
+pub async fn serve(listener: TcpListener, app: Router, stop: impl Future<Output = ()>) {
+    serve_with(listener, app, stop, Limits::default()).await;
+}
+
+/// [`serve`] with other time limits (the tests').
 pub async fn serve_with(
     listener: TcpListener,
     app: Router,
     stop: impl Future<Output = ()>,
-    header_timeout: Duration,
+    limits: Limits,
 ) {
     let mut builder = Builder::new(TokioExecutor::new());
     builder
         .http1()
         .timer(TokioTimer::new())
-        .header_read_timeout(header_timeout);
+        .header_read_timeout(limits.header_read);
     let app = app.layer(axum::middleware::from_fn(one_host));
     let graceful = GracefulShutdown::new();
     let mut stop = std::pin::pin!(stop);
@@ -63,9 +98,13 @@ pub async fn serve_with(
             },
             () = &mut stop => break,
         };
+        // A write pending this long fails the connection, which hyper then closes, dropping
+        // the answer it held.
+        let mut stream = TimeoutStream::new(stream);
+        stream.set_write_timeout(Some(limits.write_stall));
         let service = TowerToHyperService::new(app.clone());
         let conn = builder
-            .serve_connection_with_upgrades(TokioIo::new(stream), service)
+            .serve_connection_with_upgrades(TokioIo::new(Box::pin(stream)), service)
             .into_owned();
         let conn = graceful.watch(conn);
         tokio::spawn(async move {
@@ -75,7 +114,17 @@ pub async fn serve_with(
         });
     }
     drop(listener);
-    graceful.shutdown().await;
+    if tokio::time::timeout(limits.drain, graceful.shutdown())
+        .await
+        .is_err()
+    {
+        // Their tasks end with the runtime.
+        tracing::warn!(
+            "connections still open {} s after the stop (a client not reading its answer, or \
+             a request half sent): closing them",
+            limits.drain.as_secs_f64()
+        );
+    }
 }
 
 /// Middleware: 400 for an HTTP/1.1 request without a `Host` header, or any request with more
@@ -113,16 +162,18 @@ mod tests {
     }
 
     impl Running {
-        fn start(header_timeout: Duration) -> Self {
+        fn start(limits: Limits) -> Self {
             let rt = tokio::runtime::Runtime::new().unwrap();
             let listener = rt.block_on(TcpListener::bind("127.0.0.1:0")).unwrap();
             let addr = listener.local_addr().unwrap();
             let (stop, rx) = tokio::sync::oneshot::channel::<()>();
-            let app = Router::new().route("/", get(|| async { "hi" }));
+            let app = Router::new()
+                .route("/", get(|| async { "hi" }))
+                .route("/big", get(|| async { vec![b'x'; BIG] }));
             let stopped = async {
                 let _ = rx.await;
             };
-            let server = rt.spawn(serve_with(listener, app, stopped, header_timeout));
+            let server = rt.spawn(serve_with(listener, app, stopped, limits));
             Self {
                 rt,
                 addr,
@@ -142,7 +193,10 @@ mod tests {
     /// one that sends a whole request is answered; the stop ends the loop.
     #[test]
     fn unfinished_headers_are_cut_off_and_whole_requests_answered() {
-        let s = Running::start(Duration::from_millis(500));
+        let s = Running::start(Limits {
+            header_read: Duration::from_millis(500),
+            ..Limits::default()
+        });
         let addr = s.addr;
 
         let mut whole = std::net::TcpStream::connect(addr).unwrap();
@@ -173,11 +227,88 @@ mod tests {
         s.stop();
     }
 
+    /// `/big`'s length: more than the socket buffers of both ends take from a client that
+    /// reads none (Linux's defaults grow to 4 MB sending, 6 MB receiving).
+    const BIG: usize = 32 << 20;
+
+    /// Sends `GET path` on a new connection.
+    fn ask(addr: std::net::SocketAddr, path: &str) -> std::net::TcpStream {
+        let mut c = std::net::TcpStream::connect(addr).unwrap();
+        c.set_read_timeout(Some(Duration::from_secs(20))).unwrap();
+        c.write_all(format!("GET {path} HTTP/1.1\r\nHost: x\r\n\r\n").as_bytes())
+            .unwrap();
+        c
+    }
+
+    /// Reads until the server closes (or resets) the connection; what arrived.
+    fn drain(c: &mut std::net::TcpStream) -> usize {
+        let mut buf = vec![0; 1 << 20];
+        let mut got = 0;
+        loop {
+            match c.read(&mut buf) {
+                Ok(0) => return got,
+                Ok(n) => got += n,
+                Err(e) if e.kind() == std::io::ErrorKind::ConnectionReset => return got,
+                Err(e) => panic!("not closed: {e} after {got} bytes"),
+            }
+        }
+    }
+
+    /// A client that asks and stops reading is cut off once its writes stall, with most of
+    /// the answer never sent (the server no longer holds it); one that reads slowly, never
+    /// stalling the writes that long, gets all of it.
+    #[test]
+    fn a_client_that_stops_reading_is_cut_off_and_a_slow_one_is_not() {
+        let s = Running::start(Limits {
+            write_stall: Duration::from_millis(1000),
+            ..Limits::default()
+        });
+        let mut gone = ask(s.addr, "/big");
+        std::thread::sleep(Duration::from_millis(3000));
+        let got = drain(&mut gone);
+        assert!(got < BIG / 2, "{got} bytes of {BIG}");
+
+        let mut slow = ask(s.addr, "/big");
+        let mut chunk = vec![0; 4 << 20];
+        let mut got = 0;
+        while got < BIG {
+            std::thread::sleep(Duration::from_millis(300));
+            match slow.read(&mut chunk).unwrap() {
+                0 => break,
+                n => got += n,
+            }
+        }
+        assert!(got > BIG, "the whole answer and its head: {got} bytes");
+        s.stop();
+    }
+
+    /// A stop ends within the drain deadline while a client holds an answer it does not read
+    /// and another has sent half a request (each kept the process up: 30 s and for ever).
+    #[test]
+    fn a_stop_waits_for_open_connections_only_so_long() {
+        let s = Running::start(Limits {
+            drain: Duration::from_millis(1000),
+            ..Limits::default()
+        });
+        let _stalled = ask(s.addr, "/big");
+        let mut half = std::net::TcpStream::connect(s.addr).unwrap();
+        half.write_all(b"GET / HTTP/1.1\r\nHost: x\r\n").unwrap();
+        std::thread::sleep(Duration::from_millis(300));
+        let started = Instant::now();
+        s.stop();
+        let took = started.elapsed();
+        assert!(took < Duration::from_secs(8), "{took:?}");
+        assert!(
+            took >= Duration::from_millis(900),
+            "waited for them: {took:?}"
+        );
+    }
+
     /// RFC 9112 §3.2: an HTTP/1.1 request without a Host, or any with two, is a 400 with the
     /// API's JSON error; HTTP/1.0, which has no such rule, and one Host are served.
     #[test]
     fn a_request_names_one_host() {
-        let server = Running::start(HEADER_READ_TIMEOUT);
+        let server = Running::start(Limits::default());
         let ask = |head: &str| {
             let mut s = std::net::TcpStream::connect(server.addr).unwrap();
             s.set_read_timeout(Some(Duration::from_secs(20))).unwrap();
