@@ -37,7 +37,7 @@ pub struct Metrics {
 }
 
 impl Metrics {
-    pub fn observe(&self, route: &str, status: u16, elapsed: Duration, bytes: u64) {
+    pub fn observe(&self, route: &str, status: u16, elapsed: Duration) {
         if let Ok(mut m) = self.requests.lock() {
             *m.entry((route.to_string(), status)).or_default() += 1;
         }
@@ -53,7 +53,6 @@ impl Metrics {
         self.latency_sum_micros
             .fetch_add(elapsed.as_micros() as u64, Relaxed);
         self.latency_count.fetch_add(1, Relaxed);
-        self.bytes_out.fetch_add(bytes, Relaxed);
     }
 
     /// The exposition text.
@@ -98,7 +97,7 @@ impl Metrics {
             ),
             (
                 "zerotile_response_bytes_total",
-                "Response body bytes before transfer compression.",
+                "Response body bytes sent, as sent (compressed where they were; none for HEAD).",
                 &self.bytes_out,
             ),
             (
@@ -154,39 +153,52 @@ pub async fn track(State(state): State<AppState>, req: Request, next: Next) -> R
         .get::<MatchedPath>()
         .map_or_else(|| "unmatched".to_string(), |p| p.as_str().to_string());
     let res = next.run(req).await;
-    // The handler's body size, noted before compression; an answer a layer made instead (a
-    // timeout's 503, a 406 for the coding) is counted as it goes out.
-    let bytes = res
-        .extensions()
-        .get::<BodyBytes>()
-        .map_or_else(|| body_len(&res), |b| b.0);
     state
         .metrics
-        .observe(&route, res.status().as_u16(), started.elapsed(), bytes);
-    res
+        .observe(&route, res.status().as_u16(), started.elapsed());
+    // Outside the compression and timeout layers (a 406 from the compression layer was
+    // counted as the handler's 200, and a request the timeout ended not at all), so the body
+    // here is what goes out: counted as hyper takes it, its bytes after any compression, none
+    // for a HEAD (whose body is never read) or for what a client that left did not take.
+    // Counted from the handler's body before, it was the compressed size for tiles gzipped
+    // when rendered, the plain size for those compressed on the fly, and the full size for a
+    // HEAD.
+    let metrics = std::sync::Arc::clone(&state.metrics);
+    res.map(|inner| axum::body::Body::new(Counted { inner, metrics }))
 }
 
-/// A response body's size as its handler made it: compressed on the fly, its size is not
-/// known by the time [`track`] sees it.
-#[derive(Clone, Copy, Debug)]
-struct BodyBytes(u64);
-
-/// Middleware inside the compression layer: notes the body's size for [`track`], which sits
-/// outside the compression and timeout layers so that it counts the status that goes out
-/// (a 406 from the compression layer was counted as the handler's 200, and a request the
-/// timeout ended was not counted at all).
-pub async fn note_body_bytes(req: Request, next: Next) -> Response {
-    let mut res = next.run(req).await;
-    let bytes = body_len(&res);
-    res.extensions_mut().insert(BodyBytes(bytes));
-    res
+/// A response body that adds its data frames to `bytes_out` as they are taken, and keeps
+/// the body's size hint: hyper writes `Content-Length` from it (a wrapper without one turned
+/// every answer chunked).
+struct Counted {
+    inner: axum::body::Body,
+    metrics: std::sync::Arc<Metrics>,
 }
 
-/// The body's length when it is known before it is sent (0 for a stream).
-fn body_len(res: &Response) -> u64 {
-    axum::body::HttpBody::size_hint(res.body())
-        .exact()
-        .unwrap_or(0)
+impl http_body::Body for Counted {
+    type Data = bytes::Bytes;
+    type Error = axum::Error;
+
+    fn poll_frame(
+        mut self: std::pin::Pin<&mut Self>,
+        cx: &mut std::task::Context<'_>,
+    ) -> std::task::Poll<Option<Result<http_body::Frame<Self::Data>, Self::Error>>> {
+        let polled = std::pin::Pin::new(&mut self.inner).poll_frame(cx);
+        if let std::task::Poll::Ready(Some(Ok(frame))) = &polled {
+            if let Some(data) = frame.data_ref() {
+                self.metrics.bytes_out.fetch_add(data.len() as u64, Relaxed);
+            }
+        }
+        polled
+    }
+
+    fn is_end_stream(&self) -> bool {
+        self.inner.is_end_stream()
+    }
+
+    fn size_hint(&self) -> http_body::SizeHint {
+        self.inner.size_hint()
+    }
 }
 
 #[cfg(test)]
@@ -207,8 +219,8 @@ mod tests {
     #[test]
     fn a_request_on_a_bucket_bound_counts_in_that_bucket() {
         let m = Metrics::default();
-        m.observe("/a", 200, Duration::from_millis(10), 0);
-        m.observe("/a", 200, Duration::from_secs(60), 0);
+        m.observe("/a", 200, Duration::from_millis(10));
+        m.observe("/a", 200, Duration::from_secs(60));
         let text = m.render();
         let bucket = |le: &str| {
             value(
@@ -223,16 +235,15 @@ mod tests {
         assert_eq!(value(&text, "zerotile_request_duration_seconds_count"), 2.0);
     }
 
-    /// The latency sum is in seconds, kept to the microsecond, and bytes add up.
+    /// The latency sum is in seconds, kept to the microsecond.
     #[test]
-    fn latency_sums_in_seconds_and_bytes_add_up() {
+    fn latency_sums_in_seconds() {
         let m = Metrics::default();
-        m.observe("/a", 200, Duration::from_micros(1_500), 100);
-        m.observe("/b", 404, Duration::from_micros(2_500), 250);
+        m.observe("/a", 200, Duration::from_micros(1_500));
+        m.observe("/b", 404, Duration::from_micros(2_500));
         let text = m.render();
         let sum = value(&text, "zerotile_request_duration_seconds_sum");
         assert!((sum - 0.004).abs() < 1e-9, "{sum}");
-        assert_eq!(value(&text, "zerotile_response_bytes_total"), 350.0);
     }
 
     /// Each counter is written under its own name: hits and misses are not confused.
@@ -257,7 +268,7 @@ mod tests {
     #[test]
     fn route_labels_are_escaped() {
         let m = Metrics::default();
-        m.observe("/a\"b\\c\nd", 200, Duration::ZERO, 0);
+        m.observe("/a\"b\\c\nd", 200, Duration::ZERO);
         let text = m.render();
         assert!(
             text.contains(r#"zerotile_requests_total{route="/a\"b\\c\nd",status="200"} 1"#),

@@ -143,7 +143,6 @@ pub fn app(state: AppState) -> Router {
         ]);
     routes
         .layer(axum::middleware::from_fn(plain_names::plain_names))
-        .layer(axum::middleware::from_fn(metrics::note_body_bytes))
         .layer(axum::middleware::from_fn(codings::refuse_unacceptable))
         .layer(codings::layer().compress_when(compress))
         .layer(TimeoutLayer::with_status_code(

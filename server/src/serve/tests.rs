@@ -304,6 +304,39 @@ async fn preflights_name_each_routes_methods() {
     }
 }
 
+/// `zerotile_response_bytes_total` counts body bytes as they go out: a tile whole, gzipped
+/// (compressed when rendered), br (compressed on the fly), none for a HEAD. Counted from the
+/// handler's body it was the plain size for br and the full size for a HEAD.
+#[tokio::test]
+async fn response_bytes_count_what_is_sent() {
+    let state = state_over(
+        hill_dataset("bytes-sent", "local", &[ROOT]),
+        Config::default(),
+    );
+    let app = app(state.clone());
+    let sent = || state.metrics.bytes_out.load(Relaxed);
+    let tile = "/v1/datasets/hill/tiles/0/0/0.json?threshold=1";
+    for (method, coding) in [
+        (Method::GET, "identity"),
+        (Method::GET, "gzip"),
+        (Method::GET, "br"),
+        (Method::HEAD, "gzip"),
+        (Method::HEAD, "identity"),
+    ] {
+        let before = sent();
+        let (s, h, body) = send(&app, method.clone(), tile, &[("accept-encoding", coding)]).await;
+        assert_eq!(s, StatusCode::OK, "{method} {coding}");
+        assert_eq!(sent() - before, body.len() as u64, "{method} {coding}");
+        let encoding = h.get("content-encoding").map(|v| v.to_str().unwrap());
+        if method == Method::HEAD {
+            assert!(body.is_empty());
+        } else {
+            assert_eq!(encoding.unwrap_or("identity"), coding);
+            assert!(body.len() > 100, "{coding}: {} bytes", body.len());
+        }
+    }
+}
+
 /// The CORS layer answers any OPTIONS itself: a plain one (no preflight headers) was told
 /// POST on a tile route whose Allow said GET, HEAD, one to a path with no route got a 200,
 /// and neither was counted in /metrics.
