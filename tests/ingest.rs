@@ -234,6 +234,180 @@ fn mercator_ingest_uses_xyz_rows_from_the_north() {
     let _ = std::fs::remove_dir_all(&data);
 }
 
+/// N44W072's north-west 601 × 301 samples (lon −72..−71.5, lat 45..44.75) written as an ESRI
+/// ASCII grid with a WGS 84 `.prj`, its corner moved to lon 179.75: across the antimeridian.
+fn srtm_across_the_antimeridian(dir: &Path) -> PathBuf {
+    std::fs::create_dir_all(dir).unwrap();
+    let source = srtm();
+    let (rows, cols) = (301, 601);
+    let mut text = format!(
+        "ncols {cols}\nnrows {rows}\nxllcenter 179.75\nyllcenter 44.75\ncellsize {}\n",
+        1.0 / 1200.0
+    );
+    for r in 0..rows {
+        let row: Vec<String> = (0..cols)
+            .map(|c| source[r * 1201 + c].to_string())
+            .collect();
+        text += &(row.join(" ") + "\n");
+    }
+    let asc = dir.join("seam.asc");
+    std::fs::write(&asc, text).unwrap();
+    std::fs::write(
+        dir.join("seam.prj"),
+        r#"GEOGCS["GCS_WGS_1984",DATUM["D_WGS_1984",SPHEROID["WGS_1984",6378137.0,298.257223563]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]]"#,
+    )
+    .unwrap();
+    asc
+}
+
+#[test]
+fn a_source_across_the_antimeridian_is_ingested_on_both_sides() {
+    let data = scratch("antimeridian");
+    let asc = srtm_across_the_antimeridian(&data.parent().unwrap().join("src"));
+    let out = ingest(
+        &asc,
+        "seam",
+        &data,
+        &["--scheme", "geodetic", "--wavelet", "53"],
+    );
+    assert_success(&out);
+    let bytes = std::fs::read(data.join("seam.ztd")).unwrap();
+    let c = Container::parse(&bytes, &Limits::default()).unwrap();
+    let m = &c.metadata;
+    assert_eq!(m.max_zoom, 10);
+    // Cesium's convention: west past east when the rectangle crosses the antimeridian.
+    for (got, want) in m.bounds.iter().zip([179.75, 44.75, -179.75, 45.0]) {
+        assert!((got - want).abs() < 1e-9, "{:?}", m.bounds);
+    }
+    // At zoom 10 (2048 across) lon 179.75..180 is x 2046..2047 (2046.6..2048) and
+    // −180..−179.75 is x 0..1 (0..1.4); lat 44.75..45 is TMS y 766..767 (766.6..768).
+    let xs: Vec<(u32, u32, u32, u32)> = m.available[10]
+        .iter()
+        .map(|a| (a.start_x, a.end_x, a.start_y, a.end_y))
+        .collect();
+    assert_eq!(xs, [(2046, 2047, 766, 767), (0, 1, 766, 767)]);
+    assert_eq!(c.len() as u64, c.tiles().count() as u64);
+
+    // The tiles on either side hold the source (lossless 5/3: the rounding alone), read
+    // from N44W072 at the place the moved corner puts each sample.
+    let source = srtm();
+    let y = 767u32;
+    let (mut worst, mut checked) = (0f64, 0);
+    for x in [2046u32, 2047, 0, 1] {
+        let h = decode_tile(&bytes, &c, TileId { z: 10, x, y });
+        for r in (0..257).step_by(4) {
+            for col in (0..257).step_by(4) {
+                let lon = -180.0 + 360.0 * f64::from(x * 256 + col) / (2048.0 * 256.0);
+                let lat = 90.0 - 180.0 * f64::from((1023 - y) * 256 + r) / (1024.0 * 256.0);
+                let east = if lon < 0.0 { lon + 360.0 } else { lon };
+                if !(179.75..=180.25).contains(&east) || !(44.75..=45.0).contains(&lat) {
+                    continue;
+                }
+                let want = srtm_height(&source, -72.0 + (east - 179.75), lat);
+                worst = worst.max((h.get(r as usize, col as usize) - want).abs());
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked > 2000, "{checked} samples");
+    assert!(worst <= 0.5 + 1e-9, "max error {worst} m");
+
+    // The seam is one column: the last tile's east edge is the first tile's west edge, at
+    // every zoom down to the roots.
+    for z in 0..=10u8 {
+        let (nx, y) = (2u32 << z, 767 >> (10 - z));
+        let west = decode_tile(&bytes, &c, TileId { z, x: nx - 1, y });
+        let east = decode_tile(&bytes, &c, TileId { z, x: 0, y });
+        for r in 0..257 {
+            assert_eq!(west.get(r, 256), east.get(r, 0), "zoom {z} row {r}");
+        }
+    }
+
+    // Mercator goes round the same way: the last column and the first at zoom 9.
+    let out = ingest(
+        &asc,
+        "seam-m",
+        &data,
+        &["--scheme", "mercator", "--max-zoom", "9", "--wavelet", "53"],
+    );
+    assert_success(&out);
+    let bytes = std::fs::read(data.join("seam-m.ztd")).unwrap();
+    let c = Container::parse(&bytes, &Limits::default()).unwrap();
+    let ranges = &c.metadata.available[9];
+    assert_eq!(ranges.len(), 2, "{ranges:?}");
+    assert_eq!((ranges[0].end_x, ranges[1].start_x), (511, 0));
+    let y = ranges[0].start_y;
+    let west = decode_tile(&bytes, &c, TileId { z: 9, x: 511, y });
+    let east = decode_tile(&bytes, &c, TileId { z: 9, x: 0, y });
+    for r in 0..257 {
+        assert_eq!(west.get(r, 256), east.get(r, 0), "mercator row {r}");
+    }
+    let out = Command::new(zerotile_bin())
+        .args(["info", "seam", "--verify", "--data"])
+        .arg(&data)
+        .output()
+        .unwrap();
+    assert_success(&out);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains(
+            "bounds (W, S, E, N) 179.75, 44.75, -179.75, 45 degrees (across the antimeridian)"
+        ),
+        "{text}"
+    );
+
+    // Served: the bounds as stored, the manifests' (which may not wrap) every longitude with
+    // both sides listed, tiles either side, and a view east of the seam over 0.5° × 0.25°.
+    let s = zerotile_tests::server::Server::start(&data);
+    let d = s.get("/v1/datasets/seam", &[]).json();
+    assert_eq!(
+        d["bounds"],
+        serde_json::json!([179.75, 44.75, -179.75, 45.0])
+    );
+    let layer = s.get("/v1/datasets/seam/layer.json", &[]).json();
+    assert_eq!(
+        layer["bounds"],
+        serde_json::json!([-180.0, 44.75, 180.0, 45.0])
+    );
+    let starts: Vec<u64> = layer["available"][10]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["startX"].as_u64().unwrap())
+        .collect();
+    assert_eq!(starts, [2046, 0]);
+    let tj = s.get("/v1/datasets/seam-m/tiles.json", &[]).json();
+    assert_eq!(
+        (tj["bounds"][0].as_f64(), tj["bounds"][2].as_f64()),
+        (Some(-180.0), Some(180.0))
+    );
+    for x in [2047, 0] {
+        let r = s.get(&format!("/v1/datasets/seam/tiles/10/{x}/767.terrain"), &[]);
+        assert_eq!(r.status, 200, "tile {x}");
+    }
+    // Looking almost straight down east of the seam: the footprint, some 200 m across, lies
+    // wholly within −180..−179.75.
+    let v = s.get(
+        "/v1/datasets/seam/view?eye=-179.9,44.9,3000&target=-179.9,44.8999,500&fov=10",
+        &[],
+    );
+    assert_eq!(v.status, 200, "{}", String::from_utf8_lossy(&v.body));
+    let v = v.json();
+    let lons: Vec<f64> = v["footprint"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p[0].as_f64().unwrap())
+        .collect();
+    assert!(lons.iter().all(|&x| x < -179.75), "{lons:?}");
+    assert!(v["triangles"].as_u64().unwrap() > 0, "{v}");
+    let a_t = v["a_t"].as_f64().unwrap();
+    let want = 0.5 * 0.25 * 44.875f64.to_radians().cos() * 111_319.490_793_273_57f64.powi(2);
+    assert!((a_t / want - 1.0).abs() < 1e-6, "A_t {a_t} m², want {want}");
+    drop(s);
+    let _ = std::fs::remove_dir_all(data.parent().unwrap());
+}
+
 #[test]
 fn world_schemes_refuse_sources_they_cannot_place() {
     let data = scratch("crs");

@@ -64,13 +64,36 @@ impl Source {
         t[1].hypot(t[4]).min(t[2].hypot(t[5]))
     }
 
-    /// The height at (`x`, `y`) in the source's CRS units.
-    pub fn height_at(&self, x: f64, y: f64) -> f64 {
+    /// The fractional (row, col) of (`x`, `y`) in the source's CRS units, and whether that
+    /// lies within half a sample of the grid (where [`Source::height_at`] reads the grid).
+    fn locate(&self, x: f64, y: f64) -> (f64, f64, bool) {
         let [x0, y0, a, b, c, d] = self.inverse;
         let (dx, dy) = (x - x0, y - y0);
         let (col, row) = (a * dx + b * dy, c * dx + d * dy);
         let (rows, cols) = (self.heights.rows() as f64, self.heights.cols() as f64);
-        if !(row >= -0.5 && col >= -0.5 && row <= rows - 0.5 && col <= cols - 0.5) {
+        let inside = row >= -0.5 && col >= -0.5 && row <= rows - 0.5 && col <= cols - 0.5;
+        (row, col, inside)
+    }
+
+    /// Whether (`x`, `y`) lies within half a sample of the grid: where [`Source::height_at`]
+    /// reads the source rather than giving the fill.
+    pub fn covers(&self, x: f64, y: f64) -> bool {
+        self.locate(x, y).2
+    }
+
+    /// Whether (`x`, `y`) lies among the sample centres, not in the half-sample border
+    /// where [`Source::height_at`] repeats the edge.
+    pub fn holds(&self, x: f64, y: f64) -> bool {
+        let (row, col, _) = self.locate(x, y);
+        let (rows, cols) = (self.heights.rows() as f64, self.heights.cols() as f64);
+        (0.0..=rows - 1.0).contains(&row) && (0.0..=cols - 1.0).contains(&col)
+    }
+
+    /// The height at (`x`, `y`) in the source's CRS units.
+    pub fn height_at(&self, x: f64, y: f64) -> f64 {
+        let (row, col, inside) = self.locate(x, y);
+        let (rows, cols) = (self.heights.rows() as f64, self.heights.cols() as f64);
+        if !inside {
             return self.fill;
         }
         let (row, col) = (row.clamp(0.0, rows - 1.0), col.clamp(0.0, cols - 1.0));

@@ -31,7 +31,8 @@ pub struct WorldPyramid {
     pub jobs: Vec<(usize, u32, u32, TileId)>,
     pub available: Vec<Vec<Availability>>,
     /// West, south, east, north of the source as stored, degrees: on mercator, within
-    /// ±85.05°.
+    /// ±85.05°; west past east when the source crosses the antimeridian (Cesium's
+    /// `Rectangle` convention), −180 and 180 when it goes all the way round.
     pub bounds: [f64; 4],
     /// The source's latitudes (south, north) when mercator could not store all of them.
     pub clipped_lat: Option<[f64; 2]>,
@@ -65,25 +66,25 @@ pub fn build(source: Source, scheme: Scheme, max_zoom: Option<u8>) -> Result<Wor
             .filter_map(|p| p.get(k))
             .fold(init, |a, &b| f(a, b))
     };
-    let bounds = [
+    let raw = [
         fold(f64::min, 0, f64::INFINITY),
         fold(f64::min, 1, f64::INFINITY),
         fold(f64::max, 0, f64::NEG_INFINITY),
         fold(f64::max, 1, f64::NEG_INFINITY),
     ];
-    if bounds[0] < -180.0 - 1e-9
-        || bounds[2] > 180.0 + 1e-9
-        || bounds[1] < -90.0 - 1e-9
-        || bounds[3] > 90.0 + 1e-9
-    {
+    if !raw.iter().all(|v| v.is_finite()) || raw[1] < -90.0 - 1e-9 || raw[3] > 90.0 + 1e-9 {
         bail!(
             "the source spans lon {:.4}..{:.4}, lat {:.4}..{:.4}: outside the world",
-            bounds[0],
-            bounds[2],
-            bounds[1],
-            bounds[3]
+            raw[0],
+            raw[2],
+            raw[1],
+            raw[3]
         );
     }
+    // Longitudes go round: a source written past ±180° is placed a whole turn over.
+    let (west, east) = place_longitudes(raw[0], raw[2])?;
+    let crosses = east > 180.0 + 1e-9;
+    let bounds = [west, raw[1], east, raw[3]];
 
     let max_zoom = match max_zoom {
         Some(z) => z,
@@ -121,12 +122,33 @@ pub fn build(source: Source, scheme: Scheme, max_zoom: Option<u8>) -> Result<Wor
     let bbox = Bounds {
         min_x: bounds[0],
         min_y: bounds[1],
-        max_x: bounds[2],
+        max_x: bounds[2].min(180.0),
         max_y: bounds[3],
     };
     let range = tiling
         .tile_range(max_zoom, &bbox)?
         .context("the source lies outside the tiling (beyond mercator's ±85.05°?)")?;
+    // Tile columns from `x0` to `x1`, counted on past the last (`nx`) round the world when
+    // the source crosses the antimeridian: its part east of 180° is in columns `nx` on.
+    let (nx, _) = tiling.tiles_per_axis(max_zoom)?;
+    let (x0, x1) = if crosses {
+        let past = Bounds {
+            min_x: -180.0,
+            max_x: bounds[2] - 360.0,
+            ..bbox
+        };
+        let past = tiling
+            .tile_range(max_zoom, &past)?
+            .context("the source's part east of 180° lies outside the tiling")?;
+        (range.x0, past.x1 + nx)
+    } else {
+        (range.x0, range.x1)
+    };
+    // Coarser zooms halve the columns: where one would hold a column of tiles twice (a
+    // source reaching into one tile from both sides), the lattice is the world's width from
+    // −180° instead, each column sampled once.
+    let whole_world = crosses && holds_a_column_twice(x0, x1, nx, max_zoom);
+    let (x0, x1) = if whole_world { (0, nx - 1) } else { (x0, x1) };
 
     // Rows from the north.
     let (_, ny) = tiling.tiles_per_axis(max_zoom)?;
@@ -138,7 +160,7 @@ pub fn build(source: Source, scheme: Scheme, max_zoom: Option<u8>) -> Result<Wor
         let (a, b) = (north_row(range.y0), north_row(range.y1));
         (a.min(b), a.max(b))
     };
-    let (tw, th) = (range.x1 - range.x0 + 1, ty1 - ty0 + 1);
+    let (tw, th) = (x1 - x0 + 1, ty1 - ty0 + 1);
     let cells = (TILE_SIDE - 1) as u64;
     let (lat_cols, lat_rows) = (u64::from(tw) * cells + 1, u64::from(th) * cells + 1);
     if lat_cols * lat_rows > MAX_LATTICE_SAMPLES {
@@ -149,29 +171,43 @@ pub fn build(source: Source, scheme: Scheme, max_zoom: Option<u8>) -> Result<Wor
         );
     }
 
-    let deepest = lattice(&source, &tiling, scheme, max_zoom, range.x0, ty0, tw, th)?;
+    let round = Round::of(&source, raw);
+    let deepest = lattice(&source, &round, &tiling, scheme, max_zoom, x0, ty0, tw, th)?;
     let fill = source.fill();
     drop(source);
     let mut levels = vec![deepest];
-    while let Some(next) = levels
-        .last()
-        .filter(|l| l.zoom > 0)
-        .map(|l| l.coarser(TILE_SIDE))
-    {
+    while let Some(level) = levels.last_mut() {
+        // A level across the antimeridian as wide as the world has its two ends on one
+        // meridian, neighbours: one column of heights, not the two a low-pass left there.
+        if crosses && level.tiles(TILE_SIDE).0 == tiling.tiles_per_axis(level.zoom)?.0 {
+            join_ends(level);
+        }
+        if level.zoom == 0 {
+            break;
+        }
+        let next = level.coarser(TILE_SIDE);
         levels.push(next);
     }
     // Clients ask for every root tile (CesiumJS requests both geodetic ones): give zoom 0
-    // the whole world, filled beyond what the low-pass covers.
+    // the whole world, filled beyond what the low-pass covers. Across the antimeridian the
+    // root goes round, cut opposite the data (mid-way round from its east edge to its west).
     if let Some(root) = levels.last_mut() {
-        let (nx, ny0) = tiling.tiles_per_axis(0)?;
-        *root = widen(root, nx, ny0, fill);
+        let (nx0, ny0) = tiling.tiles_per_axis(0)?;
+        let gap = (bounds[2] + bounds[0] + 360.0) / 2.0;
+        *root = widen(root, nx0, ny0, fill, gap);
     }
 
     let mut jobs = Vec::new();
     let mut available = vec![Vec::new(); usize::from(max_zoom) + 1];
     for (k, level) in levels.iter().enumerate() {
         let (w, h) = level.tiles(TILE_SIDE);
-        let (_, ny) = tiling.tiles_per_axis(level.zoom)?;
+        let (nx, ny) = tiling.tiles_per_axis(level.zoom)?;
+        if w > nx {
+            bail!(
+                "zoom {} would hold a column of tiles twice ({w} of {nx})",
+                level.zoom
+            );
+        }
         let id_y = |row: u32| match scheme {
             Scheme::Geodetic => ny - 1 - row,
             _ => row,
@@ -180,18 +216,35 @@ pub fn build(source: Source, scheme: Scheme, max_zoom: Option<u8>) -> Result<Wor
         let Some(at_zoom) = available.get_mut(usize::from(level.zoom)) else {
             anyhow::bail!("level zoom {} past --max-zoom {max_zoom}", level.zoom);
         };
-        at_zoom.push(Availability {
-            start_x: level.tile_x0,
-            start_y: ya.min(yb),
-            end_x: level.tile_x0 + w - 1,
-            end_y: ya.max(yb),
-        });
+        // Columns past the last are the world's first again: a range across the
+        // antimeridian is published as its two parts.
+        let (first, last) = (level.tile_x0, level.tile_x0 + w - 1);
+        let parts = if last < nx {
+            vec![(first, last)]
+        } else {
+            vec![(first, nx - 1), (0, last - nx)]
+        };
+        for (start_x, end_x) in parts {
+            at_zoom.push(Availability {
+                start_x,
+                start_y: ya.min(yb),
+                end_x,
+                end_y: ya.max(yb),
+            });
+        }
         for ly in level.tile_y0..level.tile_y0 + h {
             for lx in level.tile_x0..level.tile_x0 + w {
-                jobs.push((k, lx, ly, TileId::new(level.zoom, lx, id_y(ly))));
+                jobs.push((k, lx, ly, TileId::new(level.zoom, lx % nx, id_y(ly))));
             }
         }
     }
+    // What is published: west past east when the source crosses the antimeridian (Cesium's
+    // Rectangle convention), the whole circle when it spans all of it.
+    let bounds = match crosses {
+        false => bounds,
+        true if bounds[2] - bounds[0] >= 360.0 - 1e-9 => [-180.0, bounds[1], 180.0, bounds[3]],
+        true => [bounds[0], bounds[1], bounds[2] - 360.0, bounds[3]],
+    };
     Ok(WorldPyramid {
         levels,
         max_zoom,
@@ -202,14 +255,83 @@ pub fn build(source: Source, scheme: Scheme, max_zoom: Option<u8>) -> Result<Wor
     })
 }
 
-/// The deepest lattice: `tw × th` tiles from tile (`x0`, `y0`) (rows from the north),
-/// every sample taken from the source at the tiling's position for it.
+/// The source's longitudes (`west`, `east`, degrees) placed on the world: as they are within
+/// ±180°; else shifted by whole turns so `west` is in [−180°, 180°), `east` then past 180°
+/// when the source crosses the antimeridian (a source in 0..360° east of 180° is just west
+/// of it). More than 360° is refused: the world would hold those meridians twice.
+fn place_longitudes(west: f64, east: f64) -> Result<(f64, f64)> {
+    if west >= -180.0 - 1e-9 && east <= 180.0 + 1e-9 {
+        return Ok((west, east));
+    }
+    if east - west > 360.0 + 1e-9 {
+        bail!(
+            "the source spans lon {west:.4}..{east:.4}, {:.4}° round: more than the world's \
+             360°, so it would hold some meridians twice; crop it to 360° at most",
+            east - west
+        );
+    }
+    let turns = ((west + 180.0) / 360.0).floor();
+    Ok((west - 360.0 * turns, east - 360.0 * turns))
+}
+
+/// Whether tile columns `x0..=x1` of zoom `z` (`nx` across, columns past it round the world
+/// again) would hold some column twice at zoom `z` or any coarser one but 0, where each
+/// zoom halves the columns. Zoom 0 is made whole by [`widen`].
+fn holds_a_column_twice(x0: u32, x1: u32, nx: u32, z: u8) -> bool {
+    (0..u32::from(z)).any(|k| (x1 >> k) - (x0 >> k) + 1 > nx >> k)
+}
+
+/// Where the source is read when it is written past ±180°: a point it does not cover is
+/// looked for a whole turn east or west, in the source's own CRS units.
+struct Round {
+    /// One turn: 360° or the web mercator world's width in metres.
+    period: f64,
+    /// The middle of the source's x extent.
+    middle: f64,
+}
+
+impl Round {
+    fn of(source: &Source, lonlat_bounds: [f64; 4]) -> Self {
+        let to_crs = |lon: f64| match source.crs() {
+            Crs::WebMercator => lonlat_to_mercator([lon, 0.0])[0],
+            _ => lon,
+        };
+        Self {
+            period: to_crs(180.0) - to_crs(-180.0),
+            middle: to_crs((lonlat_bounds[0] + lonlat_bounds[2]) / 2.0),
+        }
+    }
+
+    /// The source's height at (`x`, `y`), read where the source holds that point: at `x`
+    /// itself when the source has it among its samples (so sources within ±180° read as
+    /// before), else a whole turn away; then, as for any source, within half a sample of its
+    /// edge (the edge repeated); the fill where it is nowhere. A global grid's edge border
+    /// at one end is the other end's data.
+    fn height_at(&self, source: &Source, x: f64, y: f64) -> f64 {
+        if source.holds(x, y) {
+            return source.height_at(x, y);
+        }
+        // The source spans at most a turn, so a copy it holds is within one turn of the
+        // turn nearest its middle.
+        let near = ((self.middle - x) / self.period).round();
+        let copies = [0.0, near - 1.0, near, near + 1.0].map(|k| x + k * self.period);
+        [Source::holds, Source::covers]
+            .into_iter()
+            .find_map(|has| copies.into_iter().find(|&xk| has(source, xk, y)))
+            .map_or(source.fill(), |xk| source.height_at(xk, y))
+    }
+}
+
+/// The deepest lattice: `tw × th` tiles from tile (`x0`, `y0`) (rows from the north; columns
+/// past the tiling's last are its first again), every sample taken from the source at the
+/// tiling's position for it.
 #[allow(
     clippy::too_many_arguments,
     reason = "one call site; a struct would only rename them"
 )]
 fn lattice(
     source: &Source,
+    round: &Round,
     tiling: &Tiling,
     scheme: Scheme,
     z: u8,
@@ -223,7 +345,7 @@ fn lattice(
         tw as usize * TILE_SIDE - (tw as usize - 1),
         th as usize * TILE_SIDE - (th as usize - 1),
     );
-    let (_, ny) = tiling.tiles_per_axis(z)?;
+    let (nx, ny) = tiling.tiles_per_axis(z)?;
     // Which tile and in-tile sample a lattice index falls on: the last tile owns the end.
     let split = |i: usize, n: u32| -> (u32, u32) {
         let t = ((i / last as usize) as u32).min(n - 1);
@@ -241,7 +363,7 @@ fn lattice(
             };
             for (c, h) in out.iter_mut().enumerate() {
                 let (tc, col) = split(c, tw);
-                let p = tiling.sample_position(TileId::new(z, x0 + tc, y), row, col)?;
+                let p = tiling.sample_position(TileId::new(z, (x0 + tc) % nx, y), row, col)?;
                 let lonlat = match scheme {
                     Scheme::Mercator => mercator_to_lonlat(p),
                     _ => p,
@@ -250,7 +372,7 @@ fn lattice(
                     Crs::WebMercator => lonlat_to_mercator(lonlat),
                     _ => lonlat,
                 };
-                *h = source.height_at(sx, sy);
+                *h = round.height_at(source, sx, sy);
             }
             Ok(())
         })?;
@@ -262,17 +384,44 @@ fn lattice(
     })
 }
 
-/// `level` placed in a lattice of `nx × ny` tiles from tile (0, 0), filled elsewhere.
-fn widen(level: &Level, nx: u32, ny: u32, fill: f64) -> Level {
+/// The two end columns of a level as wide as the world, one meridian, made one: their mean.
+fn join_ends(level: &mut Level) {
+    let (rows, cols) = (level.heights.rows(), level.heights.cols());
+    for r in 0..rows {
+        let mean = (*level.heights.get(r, 0) + *level.heights.get(r, cols - 1)) / 2.0;
+        *level.heights.get_mut(r, 0) = mean;
+        *level.heights.get_mut(r, cols - 1) = mean;
+    }
+}
+
+/// `level` placed in a lattice of `nx × ny` tiles from tile (0, 0), filled elsewhere. A level
+/// reaching past column `nx` (a source across the antimeridian) goes round the world: each
+/// column takes the level's column at its meridian within the turn that ends at longitude
+/// `gap` (opposite the data), so the columns at ±180° are one.
+fn widen(level: &Level, nx: u32, ny: u32, fill: f64, gap: f64) -> Level {
     let step = TILE_SIDE - 1;
     let (cols, rows) = (nx as usize * step + 1, ny as usize * step + 1);
     let (c0, r0) = (level.tile_x0 as usize * step, level.tile_y0 as usize * step);
     let src = &level.heights;
+    // The level's column for lattice column `c`: itself, or the one of its meridian in the
+    // turn [cut − width, cut) when the level goes round.
+    let width = cols as i64 - 1;
+    let goes_round = c0 + src.cols() > cols;
+    let cut = ((gap + 180.0) / 360.0 * width as f64).round() as i64;
+    let column = |c: usize| -> Option<usize> {
+        let c = if goes_round {
+            let start = cut - width;
+            usize::try_from(start + (c as i64 - start).rem_euclid(width)).ok()?
+        } else {
+            c
+        };
+        c.checked_sub(c0).filter(|&lc| lc < src.cols())
+    };
     let data = (0..rows * cols)
         .map(|k| {
             let (r, c) = (k / cols, k % cols);
-            match (r.checked_sub(r0), c.checked_sub(c0)) {
-                (Some(lr), Some(lc)) if lr < src.rows() && lc < src.cols() => *src.get(lr, lc),
+            match (r.checked_sub(r0), column(c)) {
+                (Some(lr), Some(lc)) if lr < src.rows() => *src.get(lr, lc),
                 _ => fill,
             }
         })
@@ -288,6 +437,7 @@ fn widen(level: &Level, nx: u32, ny: u32, fill: f64) -> Level {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::collections::HashMap;
     use zerotile_codec::raster::Georef;
 
     fn grid(rows: usize, cols: usize, f: impl Fn(usize, usize) -> f64) -> Grid<f64> {
@@ -396,6 +546,250 @@ mod tests {
         let deepest = &w.levels[0];
         let (rows, cols) = (deepest.heights.rows(), deepest.heights.cols());
         assert_eq!(*deepest.heights.get(rows - 1, cols - 1), 108.0);
+    }
+
+    /// A geographic source `cols` × `rows` from (`west`, `north`) (sample centres), `step`
+    /// degrees apart, holding the plane 100 + 3·col + 2·row (bilinear keeps a plane exact).
+    #[derive(Clone, Copy)]
+    struct Plane {
+        west: f64,
+        north: f64,
+        step: f64,
+        rows: usize,
+        cols: usize,
+    }
+
+    impl Plane {
+        fn height(col: f64, row: f64) -> f64 {
+            100.0 + 3.0 * col + 2.0 * row
+        }
+
+        fn source(self) -> Source {
+            let g = grid(self.rows, self.cols, |r, c| {
+                Self::height(c as f64, r as f64)
+            });
+            let georef =
+                Georef::north_up(Crs::Geographic, self.west, self.north, self.step, self.step);
+            Source::new(g, &georef, -7.0).unwrap()
+        }
+
+        fn build(self, scheme: Scheme, max_zoom: u8) -> WorldPyramid {
+            build(self.source(), scheme, Some(max_zoom)).unwrap()
+        }
+    }
+
+    /// Every tile of `w` by id, with its samples.
+    fn tiles(w: &WorldPyramid) -> HashMap<TileId, Grid<f64>> {
+        w.jobs
+            .iter()
+            .map(|&(k, x, y, id)| (id, w.levels[k].tile(x, y, TILE_SIDE).unwrap()))
+            .collect()
+    }
+
+    /// What every world pyramid must be, wherever its source lies: one job a tile; each
+    /// zoom's availability exactly its tiles; tiles side by side, across the antimeridian
+    /// too, sharing their edge column to the bit; the deepest tiles holding `p`'s plane at
+    /// every sample within its sample centres, a whole turn round where it is written past
+    /// ±180°. Returns how many samples held the source.
+    fn check_world(w: &WorldPyramid, scheme: Scheme, p: Plane) -> usize {
+        let tiling = Tiling::new(scheme, TILE_SIDE as u32).unwrap();
+        let all = tiles(w);
+        assert_eq!(all.len(), w.jobs.len(), "a tile encoded twice");
+        for (z, ranges) in w.available.iter().enumerate() {
+            let at_z: Vec<&TileId> = all.keys().filter(|id| usize::from(id.z) == z).collect();
+            let listed: u128 = ranges.iter().map(Availability::tile_count).sum();
+            assert_eq!(listed, at_z.len() as u128, "zoom {z}: {ranges:?}");
+            for id in at_z {
+                let inside = |a: &Availability| {
+                    (a.start_x..=a.end_x).contains(&id.x) && (a.start_y..=a.end_y).contains(&id.y)
+                };
+                assert!(ranges.iter().any(inside), "{id:?} not in {ranges:?}");
+            }
+        }
+        let last = TILE_SIDE - 1;
+        for (id, west_tile) in &all {
+            let (nx, _) = tiling.tiles_per_axis(id.z).unwrap();
+            let east_id = TileId::new(id.z, (id.x + 1) % nx, id.y);
+            if let Some(east_tile) = all.get(&east_id) {
+                for r in 0..TILE_SIDE {
+                    assert_eq!(
+                        west_tile.get(r, last).to_bits(),
+                        east_tile.get(r, 0).to_bits(),
+                        "{id:?} / {east_id:?} row {r}"
+                    );
+                }
+            }
+        }
+        let mut held = 0;
+        for (id, t) in all.iter().filter(|(id, _)| id.z == w.max_zoom) {
+            for r in (0..TILE_SIDE).step_by(4) {
+                for c in (0..TILE_SIDE).step_by(4) {
+                    let xy = tiling.sample_position(*id, r as u32, c as u32).unwrap();
+                    let [lon, lat] = match scheme {
+                        Scheme::Mercator => mercator_to_lonlat(xy),
+                        _ => xy,
+                    };
+                    let row = (p.north - lat) / p.step;
+                    // The source's columns at this meridian (two where it holds it twice).
+                    let cols: Vec<f64> = [-720.0, -360.0, 0.0, 360.0, 720.0]
+                        .map(|turn| (lon + turn - p.west) / p.step)
+                        .into_iter()
+                        .filter(|&col| (0.0..=(p.cols - 1) as f64).contains(&col))
+                        .collect();
+                    if !(0.0..=(p.rows - 1) as f64).contains(&row) || cols.is_empty() {
+                        continue;
+                    }
+                    let got = *t.get(r, c);
+                    assert!(
+                        cols.iter()
+                            .any(|&col| (got - Plane::height(col, row)).abs() < 1e-6),
+                        "{id:?} ({r}, {c}) at {lon}, {lat}: {got}, source columns {cols:?}"
+                    );
+                    held += 1;
+                }
+            }
+        }
+        held
+    }
+
+    /// A source across the antimeridian, written past 180° or before −180°, is ingested on
+    /// both sides of it: the deepest tiles west and east of the seam hold its heights, the
+    /// seam column is one on both sides at every zoom, the availability is two rectangles,
+    /// and the bounds cross (west > east).
+    #[test]
+    fn a_source_across_the_antimeridian_goes_round_the_world() {
+        // Lon 178..182 (or −182..−178), lat 10..6, 0.25° apart.
+        for west in [178.0, -182.0] {
+            let p = Plane {
+                west,
+                north: 10.0,
+                step: 0.25,
+                rows: 17,
+                cols: 17,
+            };
+            for (scheme, z) in [(Scheme::Geodetic, 4), (Scheme::Mercator, 5)] {
+                let w = p.build(scheme, z);
+                let held = check_world(&w, scheme, p);
+                assert!(
+                    held > 500,
+                    "{scheme:?} {west}: {held} samples of the source"
+                );
+                // −182..−178 is 178..182 a turn on: both are placed from 178°E.
+                assert_eq!(w.bounds, [178.0, 6.0, -178.0, 10.0]);
+                // Zoom 4 geodetic is 32 tiles of 11.25°, zoom 5 mercator 32 of 11.25°: the
+                // last column and the first.
+                let ranges = &w.available[usize::from(z)];
+                let xs: Vec<(u32, u32)> = ranges.iter().map(|a| (a.start_x, a.end_x)).collect();
+                assert_eq!(xs, [(31, 31), (0, 0)], "{scheme:?}");
+                // Both sides hold data: the seam is not at an edge of fill.
+                let all = tiles(&w);
+                for x in [31, 0] {
+                    let id = TileId::new(z, x, ranges[0].start_y);
+                    let t = &all[&id];
+                    assert!(t.data().iter().any(|&h| h >= 100.0), "{scheme:?} {id:?}");
+                }
+            }
+        }
+    }
+
+    /// A source in 0..360° wholly east of 180° is the same place west of it: the same tiles,
+    /// the same heights (to rounding), its bounds given from −180° to 180°.
+    #[test]
+    fn a_source_east_of_180_in_0_to_360_is_placed_west_of_the_antimeridian() {
+        let at = |west| Plane {
+            west,
+            north: 10.0,
+            step: 0.5,
+            rows: 9,
+            cols: 21,
+        };
+        for (scheme, z) in [(Scheme::Geodetic, 3), (Scheme::Mercator, 4)] {
+            let east = at(190.0).build(scheme, z);
+            let west = at(-170.0).build(scheme, z);
+            assert_eq!(east.bounds, [-170.0, 6.0, -160.0, 10.0]);
+            assert_eq!(east.jobs, west.jobs);
+            assert_eq!(east.available, west.available);
+            for (a, b) in east.levels.iter().zip(&west.levels) {
+                let diff = a
+                    .heights
+                    .data()
+                    .iter()
+                    .zip(b.heights.data())
+                    .map(|(x, y)| (x - y).abs())
+                    .fold(0.0, f64::max);
+                assert!(diff < 1e-9, "{scheme:?} zoom {}: {diff}", a.zoom);
+            }
+            assert!(check_world(&east, scheme, at(190.0)) > 100);
+        }
+    }
+
+    /// A global grid in 0..360° goes round whole: every tile once, the seam one column at
+    /// every zoom. So does one reaching into a tile from both sides at a coarse zoom (lon
+    /// −10..190 on mercator's two zoom-1 tiles): its lattice is the world's width. On
+    /// geodetic's four zoom-1 tiles the same source is those four, ends joined at −90°, and
+    /// six of zoom 2's eight.
+    #[test]
+    fn near_global_sources_are_sampled_once_round_the_world() {
+        let global = Plane {
+            west: 0.0,
+            north: 60.0,
+            step: 2.0,
+            rows: 61,
+            cols: 181,
+        };
+        let wide = Plane {
+            west: -10.0,
+            north: 30.0,
+            step: 2.0,
+            rows: 31,
+            cols: 101,
+        };
+        for (p, bounds, geodetic_columns) in [
+            (global, [-180.0, -60.0, 180.0, 60.0], 8),
+            (wide, [-10.0, -30.0, -170.0, 30.0], 6),
+        ] {
+            for scheme in [Scheme::Geodetic, Scheme::Mercator] {
+                let w = p.build(scheme, 2);
+                assert_eq!(w.bounds, bounds, "{scheme:?}");
+                assert!(check_world(&w, scheme, p) > 1000, "{scheme:?}");
+                // Columns of tiles at the deepest zoom: all of mercator's four.
+                let nx = match scheme {
+                    Scheme::Geodetic => geodetic_columns,
+                    _ => 4,
+                };
+                let xs: std::collections::BTreeSet<u32> = w
+                    .jobs
+                    .iter()
+                    .filter(|j| j.3.z == 2)
+                    .map(|j| j.3.x)
+                    .collect();
+                assert_eq!(xs.len() as u32, nx, "{scheme:?} {bounds:?}");
+            }
+        }
+    }
+
+    /// More than 360° of longitude would hold meridians twice: refused, saying so, not
+    /// clipped. Exactly 360° is the world.
+    #[test]
+    fn a_source_over_360_degrees_is_refused() {
+        let p = |cols| Plane {
+            west: -181.0,
+            north: 10.0,
+            step: 1.0,
+            rows: 3,
+            cols,
+        };
+        let err = build(p(363).source(), Scheme::Geodetic, Some(1))
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(
+            err.contains("362.0000° round") && err.contains("crop it to 360° at most"),
+            "{err}"
+        );
+        let w = p(361).build(Scheme::Geodetic, 1);
+        assert_eq!(w.bounds, [-180.0, 8.0, 180.0, 10.0]);
+        check_world(&w, Scheme::Geodetic, p(361));
     }
 
     /// Zoom 0 covers the whole world: the root tile away from the source is all fill.
