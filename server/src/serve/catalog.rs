@@ -219,8 +219,8 @@ mod tests {
     use super::*;
     use crate::ingest::EXTENSION;
 
-    /// A corrupt dataset file is listed as skipped with its reason, files that are not
-    /// datasets are ignored, and neither stops the folder from opening.
+    /// A corrupt dataset file, or a link to none, is listed as skipped with its reason, files
+    /// that are not datasets are ignored, and neither stops the folder from opening.
     #[test]
     fn a_bad_file_is_skipped_and_other_files_ignored() {
         let dir = crate::fixtures::scratch("catalog");
@@ -228,10 +228,16 @@ mod tests {
         let upper = format!("UPPER.{}", EXTENSION.to_ascii_uppercase());
         std::fs::write(dir.join(&upper), b"not one either").unwrap();
         std::fs::write(dir.join("README.txt"), b"notes").unwrap();
+        let dangling = format!("dangling.{EXTENSION}");
+        std::os::unix::fs::symlink(dir.join("nowhere"), dir.join(&dangling)).unwrap();
         let catalog = Catalog::open_dir(&dir).unwrap();
         let skipped: Vec<&str> = catalog.skipped.iter().map(|(f, _)| f.as_str()).collect();
-        assert_eq!(skipped, [upper, format!("broken.{EXTENSION}")]);
+        assert_eq!(skipped, [upper, format!("broken.{EXTENSION}"), dangling]);
         assert!(!catalog.skipped[0].1.is_empty());
+        // Named as the folder names them, not by the server's path.
+        let why = &catalog.skipped[2].1;
+        assert!(why.starts_with("opening dangling.ztd: "), "{why}");
+        assert!(!why.contains(&*dir.to_string_lossy()), "{why}");
         assert!(catalog.is_empty());
         assert_eq!(catalog.len(), 0);
         assert!(Catalog::open_dir(&dir.join("missing")).is_err());

@@ -91,13 +91,22 @@ fn scan_dir(dir: &std::path::Path) -> Result<Vec<Found>> {
                 .is_some_and(|e| e.eq_ignore_ascii_case(EXTENSION))
         })
         .filter_map(|path| {
-            // Through a link to the file it names, as opening it does.
-            let meta = std::fs::metadata(&path).ok()?;
+            // Through a link to the file it names, as opening it does; a link to nothing is
+            // still listed, and its open says why it is skipped.
+            let meta = std::fs::metadata(&path)
+                .or_else(|_| std::fs::symlink_metadata(&path))
+                .ok()?;
             let file = path.file_name()?.to_string_lossy().into_owned();
+            // `/v1/datasets` lists why a file is skipped: by its name in the folder, not the
+            // server's path to it.
+            let folder = format!("{}/", dir.display());
             Some(Found {
                 file,
                 stamp: file_stamp(&meta),
-                open: Box::new(move || Dataset::open(&path)),
+                open: Box::new(move || {
+                    Dataset::open(&path)
+                        .map_err(|e| anyhow::anyhow!("{}", format!("{e:#}").replace(&folder, "")))
+                }),
             })
         })
         .collect();
