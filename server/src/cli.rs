@@ -609,9 +609,11 @@ fn serve(a: ServeArgs) -> anyhow::Result<()> {
         data,
         addr: a.addr,
         config,
-        rescan: a
-            .rescan
-            .map(|s| (s > 0).then(|| std::time::Duration::from_secs(s))),
+        rescan: match a.rescan {
+            None => crate::serve::reload::Rescan::Default,
+            Some(0) => crate::serve::reload::Rescan::Never,
+            Some(s) => crate::serve::reload::Rescan::Every(std::time::Duration::from_secs(s)),
+        },
     })
 }
 

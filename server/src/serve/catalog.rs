@@ -71,17 +71,9 @@ pub struct Changes {
     pub added: Vec<String>,
     pub replaced: Vec<String>,
     pub removed: Vec<String>,
-    /// Files that now fail to open (a build opened before stays in service).
+    /// Files that now fail to open (a build opened before stays in service if the file was
+    /// renamed over it).
     pub failed: Vec<String>,
-}
-
-impl Changes {
-    pub fn is_empty(&self) -> bool {
-        self.added.is_empty()
-            && self.replaced.is_empty()
-            && self.removed.is_empty()
-            && self.failed.is_empty()
-    }
 }
 
 impl std::fmt::Display for Changes {
@@ -97,11 +89,7 @@ impl std::fmt::Display for Changes {
             .filter(|(_, files)| !files.is_empty())
             .map(|(what, files)| format!("{what} {}", files.join(", ")))
             .collect();
-        if said.is_empty() {
-            f.write_str("no change")
-        } else {
-            f.write_str(&said.join("; "))
-        }
+        f.write_str(&said.join("; "))
     }
 }
 
@@ -112,7 +100,8 @@ impl Catalog {
         Origin::Dir(dir.to_path_buf()).open()
     }
 
-    /// The catalog `found` makes, reusing this one's datasets whose files kept their stamp;
+    /// The catalog `found` makes, reusing this one's datasets whose files kept their stamp and
+    /// opening the others (blocking I/O: call it off the async threads);
     /// `None` when nothing changed (no file added, removed or restamped). `found` is in
     /// file-name order; of two files with one dataset name the later is served.
     pub fn rescan(&self, found: Vec<Found>) -> Option<(Self, Changes)> {
@@ -235,9 +224,13 @@ mod tests {
         assert_eq!(skipped, [upper, format!("broken.{EXTENSION}"), dangling]);
         assert!(!catalog.skipped[0].1.is_empty());
         // Named as the folder names them, not by the server's path.
-        let why = &catalog.skipped[2].1;
-        assert!(why.starts_with("opening dangling.ztd: "), "{why}");
-        assert!(!why.contains(&*dir.to_string_lossy()), "{why}");
+        // The folder as given with a trailing slash, as shells complete it, too.
+        for given in [dir.clone(), dir.join("")] {
+            let catalog = Catalog::open_dir(&given).unwrap();
+            let why = &catalog.skipped[2].1;
+            assert!(why.starts_with("opening dangling.ztd: "), "{why}");
+            assert!(!why.contains(&*dir.to_string_lossy()), "{why}");
+        }
         assert!(catalog.is_empty());
         assert_eq!(catalog.len(), 0);
         assert!(Catalog::open_dir(&dir.join("missing")).is_err());

@@ -42,7 +42,13 @@ pub struct Dataset {
 impl Dataset {
     /// Opens a local file, checks its header and that every record lies inside the file.
     pub fn open(path: &Path) -> Result<Self> {
-        let file = File::open(path).with_context(|| format!("opening {}", path.display()))?;
+        Self::open_as(path, &path.display().to_string())
+    }
+
+    /// [`Dataset::open`], its failure to open the file told under `shown`: a server lists
+    /// skipped files to any client by their names in its folder, not by its own paths.
+    pub fn open_as(path: &Path, shown: &str) -> Result<Self> {
+        let file = File::open(path).with_context(|| format!("opening {shown}"))?;
         let len = file.metadata()?.len();
         Self::from_source(
             path.file_stem().map(|s| s.to_string_lossy().into_owned()),

@@ -8,9 +8,11 @@
 //!
 //! A client that asks and then stops reading held its answer, a tile of up to a few MB, for
 //! as long as it kept the connection open: 400 such clients asking for distinct tiles held
-//! 1.3 GB, and one of them kept SIGTERM from ending the process. A connection whose writes
-//! make no progress for [`WRITE_STALL_TIMEOUT`] is closed (a slow reader that takes bytes
-//! is not), and a stop waits at most [`DRAIN_TIMEOUT`] for the connections to finish.
+//! 1.3 GB, and one of them kept SIGTERM from ending the process. An HTTP/1 connection whose
+//! writes make no progress for [`WRITE_STALL_TIMEOUT`] is closed (a slow reader that takes
+//! some bytes in that time is not), and a stop waits at most [`DRAIN_TIMEOUT`] for the
+//! connections to finish. HTTP/2 leaves pacing to flow control, which the client owns: its
+//! streams are capped at [`HTTP2_MAX_STREAMS`] a connection.
 //!
 //! Hyper also serves an HTTP/1.1 request without a `Host` header, or with two, which RFC 9112
 //! §3.2 has a server refuse (such a request names no origin, or an ambiguous one, to the
@@ -46,6 +48,10 @@ pub const WRITE_STALL_TIMEOUT: Duration = Duration::from_secs(30);
 /// long enough for any render (tiles take milliseconds, a 2M-face upload seconds).
 pub const DRAIN_TIMEOUT: Duration = Duration::from_secs(10);
 
+/// Streams one HTTP/2 connection may have open at once (nginx's `http2_max_concurrent_streams`;
+/// hyper's own default is 200).
+pub const HTTP2_MAX_STREAMS: u32 = 128;
+
 /// The accept loop's time limits.
 #[derive(Clone, Copy, Debug)]
 pub struct Limits {
@@ -65,9 +71,10 @@ impl Default for Limits {
 }
 
 /// Serves `app` on `listener` until `stop` resolves, then stops accepting and waits for the
-/// connections' in-flight requests to finish, at most [`DRAIN_TIMEOUT`].
-pub async fn serve(listener: TcpListener, app: Router, stop: impl Future<Output = ()>) {
-    serve_with(listener, app, stop, Limits::default()).await;
+/// connections' in-flight requests to finish, at most [`DRAIN_TIMEOUT`]. Whether they all
+/// did.
+pub async fn serve(listener: TcpListener, app: Router, stop: impl Future<Output = ()>) -> bool {
+    serve_with(listener, app, stop, Limits::default()).await
 }
 
 /// [`serve`] with other time limits (the tests').
@@ -76,12 +83,19 @@ pub async fn serve_with(
     app: Router,
     stop: impl Future<Output = ()>,
     limits: Limits,
-) {
+) -> bool {
     let mut builder = Builder::new(TokioExecutor::new());
     builder
         .http1()
         .timer(TokioTimer::new())
         .header_read_timeout(limits.header_read);
+    // Cleartext HTTP/2 is for a proxy in front. Its flow control is the client's: a stream
+    // whose window the client keeps shut holds its answer while the connection lives, which
+    // no write stalls to show, so the streams of one connection are capped as nginx caps them.
+    builder
+        .http2()
+        .timer(TokioTimer::new())
+        .max_concurrent_streams(HTTP2_MAX_STREAMS);
     let app = app.layer(axum::middleware::from_fn(one_host));
     let graceful = GracefulShutdown::new();
     let mut stop = std::pin::pin!(stop);
@@ -114,10 +128,10 @@ pub async fn serve_with(
         });
     }
     drop(listener);
-    if tokio::time::timeout(limits.drain, graceful.shutdown())
+    let drained = tokio::time::timeout(limits.drain, graceful.shutdown())
         .await
-        .is_err()
-    {
+        .is_ok();
+    if !drained {
         // Their tasks end with the runtime.
         tracing::warn!(
             "connections still open {} s after the stop (a client not reading its answer, or \
@@ -125,6 +139,7 @@ pub async fn serve_with(
             limits.drain.as_secs_f64()
         );
     }
+    drained
 }
 
 /// Middleware: 400 for an HTTP/1.1 request without a `Host` header, or any request with more
@@ -173,7 +188,9 @@ mod tests {
             let stopped = async {
                 let _ = rx.await;
             };
-            let server = rt.spawn(serve_with(listener, app, stopped, limits));
+            let server = rt.spawn(async move {
+                serve_with(listener, app, stopped, limits).await;
+            });
             Self {
                 rt,
                 addr,

@@ -97,7 +97,7 @@ impl Metrics {
             ),
             (
                 "zerotile_response_bytes_total",
-                "Response body bytes sent, as sent (compressed where they were; none for HEAD).",
+                "Response body bytes handed to the connection (compressed where they were; none for HEAD).",
                 &self.bytes_out,
             ),
             (
@@ -158,8 +158,9 @@ pub async fn track(State(state): State<AppState>, req: Request, next: Next) -> R
         .observe(&route, res.status().as_u16(), started.elapsed());
     // Outside the compression and timeout layers (a 406 from the compression layer was
     // counted as the handler's 200, and a request the timeout ended not at all), so the body
-    // here is what goes out: counted as hyper takes it, its bytes after any compression, none
-    // for a HEAD (whose body is never read) or for what a client that left did not take.
+    // here is what goes out: counted as hyper takes it from the body, its bytes after any
+    // compression, none for a HEAD (whose body is never read). A tile is one frame, taken as
+    // its headers are queued, so one its client then fails to take still counts whole.
     // Counted from the handler's body before, it was the compressed size for tiles gzipped
     // when rendered, the plain size for those compressed on the fly, and the full size for a
     // HEAD.

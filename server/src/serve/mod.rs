@@ -176,9 +176,8 @@ pub struct ServeOptions {
     pub data: PathBuf,
     pub addr: SocketAddr,
     pub config: Config,
-    /// How often the datasets are rescanned (`None`: only on SIGHUP); unset, a folder's
-    /// every [`reload::DEFAULT_RESCAN`] and a store's only on SIGHUP.
-    pub rescan: Option<Option<Duration>>,
+    /// When the datasets are rescanned.
+    pub rescan: reload::Rescan,
 }
 
 /// Binds, opens the datasets, prints the URL and serves until SIGTERM or Ctrl-C, then lets
@@ -193,21 +192,31 @@ pub fn run(opts: ServeOptions) -> Result<()> {
     listener
         .set_nonblocking(true)
         .context("making the listener non-blocking")?;
+    // The runtime and the SIGHUP handler before the datasets are opened (from a store that
+    // can take a while): a SIGHUP sent to a replica still starting, as deployment.md has
+    // operators do after an ingest, would otherwise end it (the signal's default action).
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .context("starting the async runtime")?;
+    let hangups = {
+        let _in_runtime = rt.enter();
+        reload::hangups()
+    };
     let data = opts.data.to_string_lossy().into_owned();
-    let (origin, meshes, rescan) = if storage::is_url(&data) {
+    let (origin, meshes) = if storage::is_url(&data) {
         // Object meshes are served from local folders only.
         (
             reload::Origin::url(&data)?,
             meshes::MeshCatalog::empty(opts.config.response_cache_bytes),
-            opts.rescan.unwrap_or(None),
         )
     } else {
         (
             reload::Origin::Dir(opts.data.clone()),
             meshes::MeshCatalog::open(&opts.data, opts.config.response_cache_bytes),
-            opts.rescan.unwrap_or(Some(reload::DEFAULT_RESCAN)),
         )
     };
+    let every = opts.rescan.period(&origin);
     let catalog = origin.open()?;
     let meshes = meshes.with_quota(opts.config.mesh_quota);
     let meshes = if opts.config.read_only {
@@ -220,18 +229,14 @@ pub fn run(opts: ServeOptions) -> Result<()> {
         tracing::warn!(
             "no datasets or meshes in {} (build a dataset with `zerotile ingest`: {})",
             opts.data.display(),
-            match rescan {
+            match every {
                 Some(every) => format!("it is served within {} s", every.as_secs_f64()),
                 None => "SIGHUP has it served".to_owned(),
             }
         );
     }
     let state = AppState::new(catalog, opts.config)?.with_meshes(meshes);
-    let rt = tokio::runtime::Builder::new_multi_thread()
-        .enable_all()
-        .build()
-        .context("starting the async runtime")?;
-    rt.block_on(async move {
+    let served = rt.block_on(async move {
         let listener = tokio::net::TcpListener::from_std(listener)
             .with_context(|| format!("listening on {}", opts.addr))?;
         let local = listener.local_addr()?;
@@ -241,11 +246,16 @@ pub fn run(opts: ServeOptions) -> Result<()> {
         );
         use std::io::Write;
         let _ = std::io::stdout().flush();
-        tokio::spawn(reload::watch(state.clone(), origin, rescan));
-        listen::serve(listener, app(state), shutdown_signal()).await;
+        tokio::spawn(reload::watch(state.clone(), origin, every, hangups));
+        anyhow::Ok(listen::serve(listener, app(state), shutdown_signal()).await)
+    });
+    // Not waiting on blocking work still under way (a rescan's listing of a store that does
+    // not answer, a render past its request): the drain deadline is the stop's.
+    rt.shutdown_timeout(Duration::from_secs(1));
+    if served? {
         tracing::info!("shut down cleanly");
-        Ok(())
-    })
+    }
+    Ok(())
 }
 
 fn init_tracing() {

@@ -25,6 +25,28 @@ use crate::ingest::EXTENSION;
 /// How often a data folder is rescanned unless `--rescan` says otherwise.
 pub const DEFAULT_RESCAN: Duration = Duration::from_secs(5);
 
+/// When the datasets are rescanned, besides on SIGHUP.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Rescan {
+    /// A folder every [`DEFAULT_RESCAN`]; a store never (a listing is a billed request).
+    #[default]
+    Default,
+    Every(Duration),
+    /// On SIGHUP only.
+    Never,
+}
+
+impl Rescan {
+    /// The period for datasets from `origin`, `None` for SIGHUP only.
+    pub fn period(self, origin: &Origin) -> Option<Duration> {
+        match (self, origin) {
+            (Self::Every(d), _) => Some(d),
+            (Self::Default, Origin::Dir(_)) => Some(DEFAULT_RESCAN),
+            (Self::Default, Origin::Store { .. }) | (Self::Never, _) => None,
+        }
+    }
+}
+
 /// Where the datasets come from.
 #[derive(Clone)]
 pub enum Origin {
@@ -79,37 +101,39 @@ impl Origin {
     }
 }
 
+/// A folder's dataset files. A file gone between the listing and its `stat` is left out;
+/// any other error (EIO, ESTALE on a shared folder, permission on the folder) fails the scan,
+/// which keeps the datasets served as they were rather than dropping one for a hiccup.
 fn scan_dir(dir: &std::path::Path) -> Result<Vec<Found>> {
-    let entries =
-        std::fs::read_dir(dir).with_context(|| format!("data folder {}", dir.display()))?;
-    let mut found: Vec<Found> = entries
-        .filter_map(|e| e.ok().map(|e| e.path()))
+    let listing = || format!("data folder {}", dir.display());
+    let mut found = Vec::new();
+    for entry in std::fs::read_dir(dir).with_context(listing)? {
+        let path = entry.with_context(listing)?.path();
         // Any case, as mesh files are read: a `.ZTD` copied from elsewhere was neither
         // opened nor listed as skipped.
-        .filter(|p| {
-            p.extension()
-                .is_some_and(|e| e.eq_ignore_ascii_case(EXTENSION))
-        })
-        .filter_map(|path| {
-            // Through a link to the file it names, as opening it does; a link to nothing is
-            // still listed, and its open says why it is skipped.
-            let meta = std::fs::metadata(&path)
-                .or_else(|_| std::fs::symlink_metadata(&path))
-                .ok()?;
-            let file = path.file_name()?.to_string_lossy().into_owned();
-            // `/v1/datasets` lists why a file is skipped: by its name in the folder, not the
-            // server's path to it.
-            let folder = format!("{}/", dir.display());
-            Some(Found {
-                file,
-                stamp: file_stamp(&meta),
-                open: Box::new(move || {
-                    Dataset::open(&path)
-                        .map_err(|e| anyhow::anyhow!("{}", format!("{e:#}").replace(&folder, "")))
-                }),
-            })
-        })
-        .collect();
+        if !path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case(EXTENSION))
+        {
+            continue;
+        }
+        // Through a link to the file it names, as opening it does; a link to nothing is
+        // still listed, and its open says why it is skipped.
+        let meta = match std::fs::metadata(&path).or_else(|_| std::fs::symlink_metadata(&path)) {
+            Ok(meta) => meta,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => continue,
+            Err(e) => return Err(e).with_context(|| format!("{}", path.display())),
+        };
+        let Some(file) = path.file_name().map(|f| f.to_string_lossy().into_owned()) else {
+            continue;
+        };
+        let shown = file.clone();
+        found.push(Found {
+            file,
+            stamp: file_stamp(&meta),
+            open: Box::new(move || Dataset::open_as(&path, &shown)),
+        });
+    }
     found.sort_by(|a, b| a.file.cmp(&b.file));
     Ok(found)
 }
@@ -129,8 +153,12 @@ fn file_stamp(meta: &std::fs::Metadata) -> Stamp {
 /// Rescans `origin` every `every` (never when `None`) and on SIGHUP, swapping a changed
 /// catalog into `state`; runs until the server stops. A scan that fails (the folder gone,
 /// the store unreachable) is logged and the datasets served stay as they were.
-pub async fn watch(state: AppState, origin: Origin, every: Option<Duration>) {
-    let mut hangup = hangups();
+pub async fn watch(
+    state: AppState,
+    origin: Origin,
+    every: Option<Duration>,
+    mut hangup: Option<tokio::signal::unix::Signal>,
+) {
     loop {
         let tick = async {
             match every {
@@ -161,9 +189,11 @@ pub async fn watch(state: AppState, origin: Origin, every: Option<Duration>) {
     }
 }
 
-/// SIGHUP's stream, `None` if it cannot be had (then only the timer rescans). Unix only,
-/// as the storage's positioned reads are.
-fn hangups() -> Option<tokio::signal::unix::Signal> {
+/// SIGHUP's stream, `None` if it cannot be had (then only the timer rescans). From the
+/// moment it is made, a SIGHUP no longer ends the process (its default action, as for a
+/// server run in a terminal that closes) but is held for [`watch`]. Call it inside the
+/// runtime. Unix only, as the storage's positioned reads are.
+pub fn hangups() -> Option<tokio::signal::unix::Signal> {
     tokio::signal::unix::signal(tokio::signal::unix::SignalKind::hangup())
         .map_err(|e| tracing::warn!("cannot listen for SIGHUP: {e}"))
         .ok()

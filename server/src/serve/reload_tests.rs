@@ -151,10 +151,20 @@ fn a_file_that_stops_opening_keeps_the_build_before_it_if_renamed_over() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-/// The watcher swaps a changed catalog into the state the handlers read, and a scan that
-/// fails (the folder gone) leaves the datasets served as they were.
+/// Waits until `state` serves a dataset named `name`, failing after 20 s.
+async fn until_served(state: &AppState, name: &str) {
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while state.catalog().get(name).is_none() {
+        assert!(Instant::now() < deadline, "{name} not picked up in 20 s");
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+}
+
+/// The watcher swaps a changed catalog into the state the handlers read; a scan that fails
+/// (the folder gone) leaves the datasets served as they were, and the watcher goes on to
+/// pick up the folder once it is back.
 #[tokio::test]
-async fn the_watcher_swaps_the_catalog_in() {
+async fn the_watcher_swaps_the_catalog_in_and_outlives_a_failed_scan() {
     let dir = crate::fixtures::scratch("rescan-watch");
     let file = build("rescan-watch", "2026-04-04");
     place(&file, &dir, "a.ztd");
@@ -164,16 +174,19 @@ async fn the_watcher_swaps_the_catalog_in() {
         state.clone(),
         origin,
         Some(Duration::from_millis(20)),
+        None,
     ));
     place(&file, &dir, "b.ztd");
-    let deadline = Instant::now() + Duration::from_secs(20);
-    while state.catalog().get("b").is_none() {
-        assert!(Instant::now() < deadline, "b.ztd not picked up in 20 s");
-        tokio::time::sleep(Duration::from_millis(10)).await;
-    }
+    until_served(&state, "b").await;
     std::fs::remove_dir_all(&dir).unwrap();
     // Several periods with the folder gone: still served.
     tokio::time::sleep(Duration::from_millis(200)).await;
     assert_eq!(state.catalog().len(), 2);
+    std::fs::create_dir_all(&dir).unwrap();
+    place(&file, &dir, "c.ztd");
+    until_served(&state, "c").await;
+    assert_eq!(state.catalog().len(), 1, "a and b went with the folder");
+    assert!(!watcher.is_finished());
     watcher.abort();
+    std::fs::remove_dir_all(&dir).unwrap();
 }
