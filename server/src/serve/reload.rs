@@ -159,6 +159,7 @@ pub async fn watch(
     every: Option<Duration>,
     mut hangup: Option<tokio::signal::unix::Signal>,
 ) {
+    let mut failing = false;
     loop {
         let tick = async {
             match every {
@@ -175,16 +176,25 @@ pub async fn watch(
         let scanned =
             tokio::task::spawn_blocking(move || origin.scan().map(|found| current.rescan(found)))
                 .await;
+        // A failing scan is told when it starts failing and when it stops, not at every
+        // period (a folder gone for a day would log 17,000 lines).
+        let failing_before = failing;
+        failing = !matches!(scanned, Ok(Ok(_)));
         match scanned {
-            Ok(Ok(Some((catalog, changes)))) => {
-                state.replace_catalog(catalog);
-                tracing::info!("datasets rescanned: {changes}");
+            Ok(Ok(found)) => {
+                if failing_before {
+                    tracing::info!("rescanning the datasets works again");
+                }
+                if let Some((catalog, changes)) = found {
+                    state.replace_catalog(catalog);
+                    tracing::info!("datasets rescanned: {changes}");
+                }
             }
-            Ok(Ok(None)) => {}
-            Ok(Err(e)) => {
+            Ok(Err(e)) if !failing_before => {
                 tracing::warn!("rescanning the datasets: {e:#} (serving them as they were)")
             }
-            Err(e) => tracing::error!("rescanning the datasets: {e}"),
+            Err(e) if !failing_before => tracing::error!("rescanning the datasets: {e}"),
+            Ok(Err(_)) | Err(_) => {}
         }
     }
 }
