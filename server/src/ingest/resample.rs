@@ -64,6 +64,12 @@ impl Source {
         t[1].hypot(t[4]).min(t[2].hypot(t[5]))
     }
 
+    /// How far apart neighbouring columns lie in x, CRS units (a north-up grid's column
+    /// spacing).
+    pub fn column_spacing(&self) -> f64 {
+        self.georef.transform[1].abs()
+    }
+
     /// The fractional (row, col) of (`x`, `y`) in the source's CRS units, and whether that
     /// lies within half a sample of the grid (where [`Source::height_at`] reads the grid).
     fn locate(&self, x: f64, y: f64) -> (f64, f64, bool) {

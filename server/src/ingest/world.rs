@@ -146,8 +146,12 @@ pub fn build(source: Source, scheme: Scheme, max_zoom: Option<u8>) -> Result<Wor
     };
     // Coarser zooms halve the columns: where one would hold a column of tiles twice (a
     // source reaching into one tile from both sides), the lattice is the world's width from
-    // −180° instead, each column sampled once.
-    let whole_world = crosses && holds_a_column_twice(x0, x1, nx, max_zoom);
+    // −180° instead, each column sampled once. So it is for a source that covers every
+    // longitude (its ends a sample apart or less round the back, as a global grid within
+    // ±180° is): its ends meet at the antimeridian whichever side of it they lie.
+    let round = Round::of(&source, raw);
+    let goes_round = crosses || round.wraps;
+    let whole_world = round.wraps || (crosses && holds_a_column_twice(x0, x1, nx, max_zoom));
     let (x0, x1) = if whole_world { (0, nx - 1) } else { (x0, x1) };
 
     // Rows from the north.
@@ -171,15 +175,14 @@ pub fn build(source: Source, scheme: Scheme, max_zoom: Option<u8>) -> Result<Wor
         );
     }
 
-    let round = Round::of(&source, raw);
     let deepest = lattice(&source, &round, &tiling, scheme, max_zoom, x0, ty0, tw, th)?;
     let fill = source.fill();
     drop(source);
     let mut levels = vec![deepest];
     while let Some(level) = levels.last_mut() {
-        // A level across the antimeridian as wide as the world has its two ends on one
+        // A level round the antimeridian as wide as the world has its two ends on one
         // meridian, neighbours: one column of heights, not the two a low-pass left there.
-        if crosses && level.tiles(TILE_SIDE).0 == tiling.tiles_per_axis(level.zoom)?.0 {
+        if goes_round && level.tiles(TILE_SIDE).0 == tiling.tiles_per_axis(level.zoom)?.0 {
             join_ends(level);
         }
         if level.zoom == 0 {
@@ -281,32 +284,50 @@ fn holds_a_column_twice(x0: u32, x1: u32, nx: u32, z: u8) -> bool {
     (0..u32::from(z)).any(|k| (x1 >> k) - (x0 >> k) + 1 > nx >> k)
 }
 
-/// Where the source is read when it is written past ±180°: a point it does not cover is
-/// looked for a whole turn east or west, in the source's own CRS units.
+/// Where the source is read when it is written past ±180° or goes all the way round: a
+/// point it does not cover is looked for a whole turn east or west, in the source's own CRS
+/// units; one in the gap between the east end of a source covering the world and its west
+/// end a turn on is interpolated across that gap.
 struct Round {
     /// One turn: 360° or the web mercator world's width in metres.
     period: f64,
     /// The middle of the source's x extent.
     middle: f64,
+    /// The x of the source's west and east sample centres.
+    west: f64,
+    east: f64,
+    /// Whether the source covers every longitude: its ends at most one sample spacing
+    /// apart round the back of the world (a grid on −180..180°, or −179.75..179.75° at
+    /// 0.5°), so the gap between them is interpolated, not filled from either edge.
+    wraps: bool,
 }
 
 impl Round {
     fn of(source: &Source, lonlat_bounds: [f64; 4]) -> Self {
         let to_crs = |lon: f64| match source.crs() {
             Crs::WebMercator => lonlat_to_mercator([lon, 0.0])[0],
-            _ => lon,
+            crs => {
+                debug_assert_eq!(crs, Crs::Geographic, "world ingest reads lon/lat or 3857");
+                lon
+            }
         };
+        let period = to_crs(180.0) - to_crs(-180.0);
+        let (west, east) = (to_crs(lonlat_bounds[0]), to_crs(lonlat_bounds[2]));
         Self {
-            period: to_crs(180.0) - to_crs(-180.0),
+            period,
             middle: to_crs((lonlat_bounds[0] + lonlat_bounds[2]) / 2.0),
+            west,
+            east,
+            wraps: east - west + source.column_spacing() >= period * (1.0 - 1e-12),
         }
     }
 
     /// The source's height at (`x`, `y`), read where the source holds that point: at `x`
     /// itself when the source has it among its samples (so sources within ±180° read as
-    /// before), else a whole turn away; then, as for any source, within half a sample of its
-    /// edge (the edge repeated); the fill where it is nowhere. A global grid's edge border
-    /// at one end is the other end's data.
+    /// before), else a whole turn away; then, for a source covering the world, linearly
+    /// across the gap between its east and west ends; then, as for any source, within half a
+    /// sample of its edge (the edge repeated); the fill where it is nowhere. A global grid's
+    /// edge border at one end is the other end's data.
     fn height_at(&self, source: &Source, x: f64, y: f64) -> f64 {
         if source.holds(x, y) {
             return source.height_at(x, y);
@@ -315,9 +336,24 @@ impl Round {
         // turn nearest its middle.
         let near = ((self.middle - x) / self.period).round();
         let copies = [0.0, near - 1.0, near, near + 1.0].map(|k| x + k * self.period);
-        [Source::holds, Source::covers]
+        if let Some(xk) = copies.into_iter().find(|&xk| source.holds(xk, y)) {
+            return source.height_at(xk, y);
+        }
+        if self.wraps {
+            // How far east of the east end, round the world, and the gap to the west end.
+            let gap = self.west + self.period - self.east;
+            let past = (x - self.east).rem_euclid(self.period);
+            if gap > 0.0 && past < gap {
+                let (a, b) = (
+                    source.height_at(self.east, y),
+                    source.height_at(self.west, y),
+                );
+                return a + (b - a) * (past / gap);
+            }
+        }
+        copies
             .into_iter()
-            .find_map(|has| copies.into_iter().find(|&xk| has(source, xk, y)))
+            .find(|&xk| source.covers(xk, y))
             .map_or(source.fill(), |xk| source.height_at(xk, y))
     }
 }
@@ -640,9 +676,16 @@ mod tests {
                         continue;
                     }
                     let got = *t.get(r, c);
+                    // A meridian held twice (a global grid's ±180°) is one: their mean.
+                    let twice = cols.len() == 2 && {
+                        let mean = cols.iter().map(|&col| Plane::height(col, row)).sum::<f64>();
+                        (got - mean / 2.0).abs() < 1e-6
+                    };
                     assert!(
-                        cols.iter()
-                            .any(|&col| (got - Plane::height(col, row)).abs() < 1e-6),
+                        twice
+                            || cols
+                                .iter()
+                                .any(|&col| (got - Plane::height(col, row)).abs() < 1e-6),
                         "{id:?} ({r}, {c}) at {lon}, {lat}: {got}, source columns {cols:?}"
                     );
                     held += 1;
@@ -764,6 +807,44 @@ mod tests {
                     .map(|j| j.3.x)
                     .collect();
                 assert_eq!(xs.len() as u32, nx, "{scheme:?} {bounds:?}");
+            }
+        }
+    }
+
+    /// Global grids inside ±180°, the commonest layout, go round whole too: grid-registered
+    /// (samples on −180° and 180°, one meridian held twice) and cell-registered (samples
+    /// half a step inside, the seam in the gap between its two ends). Tiles side by side
+    /// across the antimeridian share their edge column at every zoom, and every root and
+    /// deepest column is a tile.
+    #[test]
+    fn global_sources_within_180_have_one_seam_at_every_zoom() {
+        let grid_registered = Plane {
+            west: -180.0,
+            north: 10.0,
+            step: 1.0,
+            rows: 11,
+            cols: 361,
+        };
+        let cell_registered = Plane {
+            west: -179.5,
+            cols: 360,
+            ..grid_registered
+        };
+        for p in [grid_registered, cell_registered] {
+            for (scheme, z) in [(Scheme::Geodetic, 2), (Scheme::Mercator, 3)] {
+                let w = p.build(scheme, z);
+                assert!(check_world(&w, scheme, p) > 1000, "{scheme:?} {}", p.west);
+                let tiling = Tiling::new(scheme, TILE_SIDE as u32).unwrap();
+                for zoom in 0..=z {
+                    let (nx, _) = tiling.tiles_per_axis(zoom).unwrap();
+                    let xs: std::collections::BTreeSet<u32> = w
+                        .jobs
+                        .iter()
+                        .filter(|j| j.3.z == zoom)
+                        .map(|j| j.3.x)
+                        .collect();
+                    assert_eq!(xs.len() as u32, nx, "{scheme:?} {} zoom {zoom}", p.west);
+                }
             }
         }
     }
