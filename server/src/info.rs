@@ -14,6 +14,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 use zerotile_codec::container::TileId;
 use zerotile_codec::ezw::{self, DecodeLimit};
+use zerotile_codec::geo::Bounds;
 
 use crate::serve::dataset::Dataset;
 
@@ -344,7 +345,7 @@ pub fn render(r: &Report) -> String {
         let _ = writeln!(s, "source grid {rows} × {cols} samples");
     } else {
         let [w, so, e, n] = m.bounds;
-        let across = if w > e {
+        let across = if Bounds::from(m.bounds).crosses_antimeridian() {
             " (across the antimeridian)"
         } else {
             ""

@@ -124,26 +124,10 @@ impl LayerJson {
             return Err(parameter("minzoom", "≤ maxzoom", minzoom.to_string()));
         }
 
-        // Across the antimeridian: the parts west and east of it.
-        let (bounds, parts) = if bounds.min_x > bounds.max_x {
-            let west = Bounds {
-                max_x: 180.0,
-                ..bounds
-            };
-            let east = Bounds {
-                min_x: -180.0,
-                ..bounds
-            };
-            (
-                Bounds {
-                    max_x: 180.0,
-                    ..east
-                },
-                vec![west, east],
-            )
-        } else {
-            (bounds, vec![bounds])
-        };
+        // Across the antimeridian: the parts west and east of it; the manifest's own bounds,
+        // which may not wrap, take every longitude.
+        let parts = bounds.split_at_antimeridian();
+        let bounds = bounds.without_wrap();
         // Availability: every root tile at level 0, the bbox's tiles below.
         let mut available = Vec::with_capacity(usize::from(maxzoom) + 1);
         for z in 0..=maxzoom {

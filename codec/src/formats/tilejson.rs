@@ -31,6 +31,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+use crate::geo::Bounds;
 use serde_json::{json, Value};
 
 /// The TileJSON version written.
@@ -145,11 +146,15 @@ impl RasterDem {
         }
         // West past east crosses the antimeridian (Cesium's convention); TileJSON's bounds
         // may not wrap, so they take every longitude, the centre still the data's.
-        let (west, east, centre) = if w > e {
-            let mid = (w + e + 360.0) / 2.0;
-            (-180.0, 180.0, if mid > 180.0 { mid - 360.0 } else { mid })
-        } else {
-            (w, e, (w + e) / 2.0)
+        let data = Bounds {
+            min_x: w,
+            min_y: s,
+            max_x: e,
+            max_y: n,
+        };
+        let (west, east, centre) = {
+            let b = data.without_wrap();
+            (b.min_x, b.max_x, data.lon_centre())
         };
         let encoding = match self.encoding {
             DemEncoding::Mapbox => "mapbox",

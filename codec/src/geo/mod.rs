@@ -6,6 +6,8 @@
 //!   bounds, tile ranges, sample positions shared exactly between neighbours and zooms, and
 //!   the per-zoom geometric error clients budget for (§2.5).
 //! - [`bounds`]: bounding spheres and the horizon occlusion point of quantized-mesh headers.
+//! - [`antimeridian`]: lon/lat [`Bounds`] across the antimeridian (west past east): width,
+//!   centre, and the parts either side of 180°.
 //!
 //! ```
 //! use zerotile_codec::geo::{Ellipsoid, Scheme, TileId, Tiling};
@@ -18,6 +20,7 @@
 //! # Ok::<(), zerotile_codec::geo::TilingError>(())
 //! ```
 
+pub mod antimeridian;
 pub mod bounds;
 pub mod ellipsoid;
 pub mod tiling;

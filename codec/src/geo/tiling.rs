@@ -114,6 +114,18 @@ pub struct Bounds {
     pub max_y: f64,
 }
 
+impl From<[f64; 4]> for Bounds {
+    /// West (min x), south, east, north: the order of a dataset's `bounds`.
+    fn from([min_x, min_y, max_x, max_y]: [f64; 4]) -> Self {
+        Self {
+            min_x,
+            min_y,
+            max_x,
+            max_y,
+        }
+    }
+}
+
 /// How a tile's sample rows map to latitude.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum RowSpacing {

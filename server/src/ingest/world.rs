@@ -119,31 +119,31 @@ pub fn build(source: Source, scheme: Scheme, max_zoom: Option<u8>) -> Result<Wor
         bounds[1] = bounds[1].max(-MERCATOR_MAX_LATITUDE);
         bounds[3] = bounds[3].min(MERCATOR_MAX_LATITUDE);
     }
-    let bbox = Bounds {
-        min_x: bounds[0],
-        min_y: bounds[1],
-        max_x: bounds[2].min(180.0),
-        max_y: bounds[3],
-    };
-    let range = tiling
-        .tile_range(max_zoom, &bbox)?
-        .context("the source lies outside the tiling (beyond mercator's ±85.05°?)")?;
     // Tile columns from `x0` to `x1`, counted on past the last (`nx`) round the world when
     // the source crosses the antimeridian: its part east of 180° is in columns `nx` on.
-    let (nx, _) = tiling.tiles_per_axis(max_zoom)?;
-    let (x0, x1) = if crosses {
-        let past = Bounds {
-            min_x: -180.0,
-            max_x: bounds[2] - 360.0,
-            ..bbox
-        };
-        let past = tiling
-            .tile_range(max_zoom, &past)?
-            .context("the source's part east of 180° lies outside the tiling")?;
-        (range.x0, past.x1 + nx)
-    } else {
-        (range.x0, range.x1)
+    let published = Bounds {
+        min_x: bounds[0],
+        min_y: bounds[1],
+        max_x: if crosses {
+            bounds[2] - 360.0
+        } else {
+            bounds[2].min(180.0)
+        },
+        max_y: bounds[3],
     };
+    let ranges = published
+        .split_at_antimeridian()
+        .iter()
+        .map(|part| tiling.tile_range(max_zoom, part))
+        .collect::<Result<Option<Vec<_>>, _>>()?
+        .context("the source lies outside the tiling (beyond mercator's ±85.05°?)")?;
+    let (nx, _) = tiling.tiles_per_axis(max_zoom)?;
+    let (range, x1) = match ranges.as_slice() {
+        [west, east] => (*west, east.x1 + nx),
+        [range, ..] => (*range, range.x1),
+        [] => bail!("internal: splitting the source's bounds gave no part"),
+    };
+    let x0 = range.x0;
     // Coarser zooms halve the columns: where one would hold a column of tiles twice (a
     // source reaching into one tile from both sides), the lattice is the world's width from
     // −180° instead, each column sampled once. So it is for a source that covers every

@@ -11,7 +11,7 @@ use std::collections::HashMap;
 use glam::{DVec2, DVec3};
 use serde::Serialize;
 use zerotile_codec::ezw::DecodeLimit;
-use zerotile_codec::geo::Scheme;
+use zerotile_codec::geo::{Bounds, Scheme};
 
 use super::dataset::Dataset;
 use super::error::{echo, ApiError, ECHO_CHARS};
@@ -237,11 +237,7 @@ pub fn view_plane(d: &Dataset, q: &HashMap<String, String>) -> Result<ViewPlane,
     } else {
         let mid = ((south + north) / 2.0).to_radians().cos();
         // West past east: across the antimeridian, the width eastwards from west over 180°.
-        let width = if east < west {
-            east + 360.0 - west
-        } else {
-            east - west
-        };
+        let width = Bounds::from(m.bounds).lon_width();
         (width * mid * (north - south)).abs() * METRES_PER_DEGREE.powi(2)
     };
     let cam = Camera {

@@ -184,13 +184,11 @@ fn header(s: &str) -> ApiResult<HeaderValue> {
 /// and those of its tiles the dataset holds.
 fn tiles_in_view(d: &Dataset, plane: &ViewPlane) -> ApiResult<(u8, Vec<TileId>)> {
     let m = d.metadata();
-    let [west, south, east, north] = m.bounds;
     // West past east: the data crosses the antimeridian, on both sides of the footprint's
     // ±180° edge; every longitude is kept, and the tiles are those the dataset holds.
-    let (west, east) = if west > east {
-        (-180.0, 180.0)
-    } else {
-        (west, east)
+    let [west, south, east, north] = {
+        let b = Bounds::from(m.bounds).without_wrap();
+        [b.min_x, b.min_y, b.max_x, b.max_y]
     };
     let (xs, ys): (Vec<f64>, Vec<f64>) = plane.footprint.iter().map(|p| (p[0], p[1])).unzip();
     let lo = |v: &[f64]| v.iter().copied().fold(f64::INFINITY, f64::min);
