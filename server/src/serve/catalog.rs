@@ -104,11 +104,17 @@ impl Catalog {
     /// opening the others (blocking I/O: call it off the async threads);
     /// `None` when nothing changed (no file added, removed or restamped). `found` is in
     /// file-name order; of two files with one dataset name the later is served.
-    pub fn rescan(&self, found: Vec<Found>) -> Option<(Self, Changes)> {
+    ///
+    /// With `retry_failed` (a rescan asked for by SIGHUP), files that failed to open are tried
+    /// again whatever their stamp: what stopped them (the process's open-file limit, a
+    /// permission) need not show in the file.
+    pub fn rescan(&self, found: Vec<Found>, retry_failed: bool) -> Option<(Self, Changes)> {
+        let kept =
+            |e: &Entry, stamp: Stamp| e.stamp == stamp && !(retry_failed && e.error.is_some());
         let unchanged = found.len() == self.files.len()
             && found
                 .iter()
-                .all(|f| self.files.get(&f.file).is_some_and(|e| e.stamp == f.stamp));
+                .all(|f| self.files.get(&f.file).is_some_and(|e| kept(e, f.stamp)));
         if unchanged {
             return None;
         }
@@ -116,7 +122,7 @@ impl Catalog {
         let mut files = BTreeMap::new();
         for Found { file, stamp, open } in found {
             let before = self.files.get(&file);
-            if let Some(e) = before.filter(|e| e.stamp == stamp) {
+            if let Some(e) = before.filter(|e| kept(e, stamp)) {
                 files.insert(file, e.clone());
                 continue;
             }
@@ -168,8 +174,20 @@ impl Catalog {
             .cloned()
             .collect();
         let mut catalog = Self::default();
+        // Two files of one dataset name (`n.ztd`, `n.ZTD`): the later in name order is
+        // served, and the other listed as skipped, saying why.
+        let mut served_from: BTreeMap<&str, &str> = BTreeMap::new();
         for (file, e) in &files {
             if let Some(d) = &e.dataset {
+                if let Some(earlier) = served_from.insert(&d.name, file) {
+                    catalog.skipped.push((
+                        earlier.to_owned(),
+                        format!(
+                            "{file} has the same dataset name, {:?}, and is served",
+                            d.name
+                        ),
+                    ));
+                }
                 catalog.datasets.insert(d.name.clone(), Arc::clone(d));
             }
             if let Some(why) = &e.error {
@@ -208,8 +226,8 @@ mod tests {
     use super::*;
     use crate::ingest::EXTENSION;
 
-    /// A corrupt dataset file, or a link to none, is listed as skipped with its reason, files
-    /// that are not datasets are ignored, and neither stops the folder from opening.
+    /// A corrupt dataset file, a link to none or a FIFO is listed as skipped with its reason,
+    /// files that are not datasets are ignored, and neither stops the folder from opening.
     #[test]
     fn a_bad_file_is_skipped_and_other_files_ignored() {
         let dir = crate::fixtures::scratch("catalog");
@@ -219,9 +237,26 @@ mod tests {
         std::fs::write(dir.join("README.txt"), b"notes").unwrap();
         let dangling = format!("dangling.{EXTENSION}");
         std::os::unix::fs::symlink(dir.join("nowhere"), dir.join(&dangling)).unwrap();
+        // A FIFO would block the open until something wrote to it.
+        let fifo = format!("fifo.{EXTENSION}");
+        let made = std::process::Command::new("mkfifo")
+            .arg(dir.join(&fifo))
+            .status()
+            .unwrap();
+        assert!(made.success());
         let catalog = Catalog::open_dir(&dir).unwrap();
         let skipped: Vec<&str> = catalog.skipped.iter().map(|(f, _)| f.as_str()).collect();
-        assert_eq!(skipped, [upper, format!("broken.{EXTENSION}"), dangling]);
+        assert_eq!(
+            skipped,
+            [upper, format!("broken.{EXTENSION}"), dangling, fifo]
+        );
+        assert!(
+            catalog.skipped[3]
+                .1
+                .ends_with("not a regular file (a FIFO, socket or device)"),
+            "{:?}",
+            catalog.skipped[3]
+        );
         assert!(!catalog.skipped[0].1.is_empty());
         // Named as the folder names them, not by the server's path.
         // The folder as given with a trailing slash, as shells complete it, too.

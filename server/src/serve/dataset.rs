@@ -48,6 +48,19 @@ impl Dataset {
     /// [`Dataset::open`], its failure to open the file told under `shown`: a server lists
     /// skipped files to any client by their names in its folder, not by its own paths.
     pub fn open_as(path: &Path, shown: &str) -> Result<Self> {
+        // Only a regular file: opening a FIFO blocks until something writes to it (a server
+        // that found one named `x.ztd` never started, or stopped rescanning).
+        let kind = std::fs::metadata(path).with_context(|| format!("opening {shown}"))?;
+        if !kind.is_file() {
+            bail!(
+                "opening {shown}: not a regular file (a {})",
+                if kind.is_dir() {
+                    "folder"
+                } else {
+                    "FIFO, socket or device"
+                }
+            );
+        }
         let file = File::open(path).with_context(|| format!("opening {shown}"))?;
         let len = file.metadata()?.len();
         Self::from_source(

@@ -67,7 +67,7 @@ impl Origin {
     /// The catalog of what is there now.
     pub fn open(&self) -> Result<Catalog> {
         Ok(Catalog::default()
-            .rescan(self.scan()?)
+            .rescan(self.scan()?, false)
             .map(|(catalog, _)| catalog)
             .unwrap_or_default())
     }
@@ -144,9 +144,17 @@ fn file_stamp(meta: &std::fs::Metadata) -> Stamp {
         .modified()
         .ok()
         .and_then(|t| t.duration_since(UNIX_EPOCH).ok());
+    // The change time too: a chmod that lets the server read a file it was refused changes
+    // nothing else.
     Stamp::of(
         Some((meta.dev(), meta.ino())),
-        (meta.len(), modified, meta.is_dir()),
+        (
+            meta.len(),
+            modified,
+            meta.ctime(),
+            meta.ctime_nsec(),
+            meta.is_dir(),
+        ),
     )
 }
 
@@ -167,15 +175,19 @@ pub async fn watch(
                 None => std::future::pending().await,
             }
         };
-        tokio::select! {
-            () = tick => {},
-            () = next_hangup(&mut hangup) => tracing::info!("SIGHUP: rescanning the datasets"),
-        }
+        let asked = tokio::select! {
+            () = tick => false,
+            () = next_hangup(&mut hangup) => {
+                tracing::info!("SIGHUP: rescanning the datasets");
+                true
+            }
+        };
         let current = state.catalog_now();
         let origin = origin.clone();
-        let scanned =
-            tokio::task::spawn_blocking(move || origin.scan().map(|found| current.rescan(found)))
-                .await;
+        let scanned = tokio::task::spawn_blocking(move || {
+            origin.scan().map(|found| current.rescan(found, asked))
+        })
+        .await;
         // A failing scan is told when it starts failing and when it stops, not at every
         // period (a folder gone for a day would log 17,000 lines).
         let failing_before = failing;

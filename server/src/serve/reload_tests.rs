@@ -26,7 +26,7 @@ fn place(from: &Path, dir: &Path, name: &str) {
 }
 
 fn rescan(c: &Catalog, dir: &Path) -> Option<(Catalog, Changes)> {
-    c.rescan(Origin::Dir(dir.to_path_buf()).scan().unwrap())
+    c.rescan(Origin::Dir(dir.to_path_buf()).scan().unwrap(), false)
 }
 
 fn names(files: &[&str]) -> Vec<String> {
@@ -191,5 +191,53 @@ async fn the_watcher_swaps_the_catalog_in_and_outlives_a_failed_scan() {
     assert_eq!(state.catalog().len(), 1, "a and b went with the folder");
     assert!(!watcher.is_finished());
     watcher.abort();
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// What stopped a file from opening need not show in its length or modification time: a
+/// change of its metadata (a chmod, or here bytes put right under the old mtime) reopens it,
+/// and a SIGHUP's rescan tries every failed file again.
+#[test]
+fn a_failed_file_is_tried_again_when_its_metadata_changes_or_on_sighup() {
+    let dir = crate::fixtures::scratch("rescan-retry");
+    let good = std::fs::read(build("rescan-retry", "2026-05-05")).unwrap();
+    let path = dir.join("a.ztd");
+    std::fs::write(&path, vec![0u8; good.len()]).unwrap();
+    let first = Origin::Dir(dir.clone()).open().unwrap();
+    assert_eq!(first.skipped.len(), 1);
+    assert!(rescan(&first, &dir).is_none());
+    let scan = || Origin::Dir(dir.clone()).scan().unwrap();
+    let (again, changes) = first.rescan(scan(), true).expect("SIGHUP retries it");
+    assert_eq!(changes.failed, names(&["a.ztd"]));
+    assert!(again.rescan(scan(), false).is_none(), "not at every period");
+
+    let mtime = std::fs::metadata(&path).unwrap().modified().unwrap();
+    std::fs::write(&path, &good).unwrap();
+    std::fs::File::options()
+        .write(true)
+        .open(&path)
+        .unwrap()
+        .set_modified(mtime)
+        .unwrap();
+    let (fixed, changes) = rescan(&again, &dir).expect("the change time moved");
+    assert_eq!(changes.added, names(&["a.ztd"]));
+    assert!(fixed.skipped.is_empty() && fixed.get("a").is_some());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Two files of one dataset name: the later in name order is served and the other listed as
+/// skipped, saying which file took the name (one was dropped without a word).
+#[test]
+fn two_files_of_one_name_are_told() {
+    let dir = crate::fixtures::scratch("rescan-same-name");
+    let file = build("rescan-same-name", "2026-06-06");
+    place(&file, &dir, "n.ztd");
+    place(&file, &dir, "n.ZTD");
+    let c = Origin::Dir(dir.clone()).open().unwrap();
+    assert_eq!(c.len(), 1);
+    assert_eq!(c.skipped.len(), 1, "{:?}", c.skipped);
+    let (file, why) = &c.skipped[0];
+    assert_eq!(file, "n.ZTD");
+    assert_eq!(why, "n.ztd has the same dataset name, \"n\", and is served");
     std::fs::remove_dir_all(&dir).unwrap();
 }
