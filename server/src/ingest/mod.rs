@@ -16,6 +16,7 @@
 //! source at the tiling's sample positions (see `world`). Sources in EPSG:4326 or
 //! EPSG:3857 go to either world scheme; other CRSs are refused with a pointer to gdalwarp.
 
+mod antimeridian;
 mod resample;
 mod world;
 

@@ -17,18 +17,23 @@ use zerotile_codec::pyramid::Level;
 use zerotile_codec::raster::Crs;
 use zerotile_codec::Grid;
 
+use super::antimeridian::{
+    fold, holds_a_column_twice, join_ends, place_longitudes, tile_columns, Round,
+};
 use super::resample::Source;
 use super::TILE_SIDE;
 
 /// Samples in the deepest lattice before ingest refuses (8 bytes each): 2^27 ≈ 1 GiB.
 const MAX_LATTICE_SAMPLES: u64 = 1 << 27;
 
+/// A tile to encode: (level index, lattice tile x, lattice tile y from the north, its id).
+pub type Job = (usize, u32, u32, TileId);
+
 /// Every level of a world pyramid, the tiles to encode and what layer.json will publish.
 pub struct WorldPyramid {
     pub levels: Vec<Level>,
     pub max_zoom: u8,
-    /// (level index, lattice tile x, lattice tile y from the north, the tile's id).
-    pub jobs: Vec<(usize, u32, u32, TileId)>,
+    pub jobs: Vec<Job>,
     pub available: Vec<Vec<Availability>>,
     /// West, south, east, north of the source as stored, degrees: on mercator, within
     /// ±85.05°; west past east when the source crosses the antimeridian (Cesium's
@@ -178,6 +183,32 @@ pub fn build(source: Source, scheme: Scheme, max_zoom: Option<u8>) -> Result<Wor
     let deepest = lattice(&source, &round, &tiling, scheme, max_zoom, x0, ty0, tw, th)?;
     let fill = source.fill();
     drop(source);
+    // Every coarser zoom, each the low-pass of the one below, the root widened to the world.
+    let levels = coarser_levels(deepest, &tiling, goes_round, fill, bounds)?;
+    // One job a tile, ids modulo the world; availability exactly those tiles.
+    let (jobs, available) = jobs_and_availability(&levels, &tiling, scheme, max_zoom)?;
+    // What is published: west past east across the antimeridian, the whole circle round.
+    let bounds = published_bounds(bounds, crosses);
+    Ok(WorldPyramid {
+        levels,
+        max_zoom,
+        jobs,
+        available,
+        bounds,
+        clipped_lat,
+    })
+}
+
+/// The levels from `deepest` up to zoom 0, each the wavelet low-pass of the one below; a
+/// level going round the world as wide as it has its ends joined first; the root widened to
+/// every root tile.
+fn coarser_levels(
+    deepest: Level,
+    tiling: &Tiling,
+    goes_round: bool,
+    fill: f64,
+    bounds: [f64; 4],
+) -> Result<Vec<Level>> {
     let mut levels = vec![deepest];
     while let Some(level) = levels.last_mut() {
         // A level round the antimeridian as wide as the world has its two ends on one
@@ -200,6 +231,17 @@ pub fn build(source: Source, scheme: Scheme, max_zoom: Option<u8>) -> Result<Wor
         *root = widen(root, nx0, ny0, fill, gap);
     }
 
+    Ok(levels)
+}
+
+/// The tiles to encode, (level index, lattice tile x, lattice tile y from the north, id),
+/// and per zoom what layer.json publishes of them.
+fn jobs_and_availability(
+    levels: &[Level],
+    tiling: &Tiling,
+    scheme: Scheme,
+    max_zoom: u8,
+) -> Result<(Vec<Job>, Vec<Vec<Availability>>)> {
     let mut jobs = Vec::new();
     let mut available = vec![Vec::new(); usize::from(max_zoom) + 1];
     for (k, level) in levels.iter().enumerate() {
@@ -207,7 +249,8 @@ pub fn build(source: Source, scheme: Scheme, max_zoom: Option<u8>) -> Result<Wor
         let (nx, ny) = tiling.tiles_per_axis(level.zoom)?;
         if w > nx {
             bail!(
-                "zoom {} would hold a column of tiles twice ({w} of {nx})",
+                "internal: zoom {} would hold a column of tiles twice ({w} of {nx}); the \
+                 whole-world lattice should have prevented it",
                 level.zoom
             );
         }
@@ -221,13 +264,7 @@ pub fn build(source: Source, scheme: Scheme, max_zoom: Option<u8>) -> Result<Wor
         };
         // Columns past the last are the world's first again: a range across the
         // antimeridian is published as its two parts.
-        let (first, last) = (level.tile_x0, level.tile_x0 + w - 1);
-        let parts = if last < nx {
-            vec![(first, last)]
-        } else {
-            vec![(first, nx - 1), (0, last - nx)]
-        };
-        for (start_x, end_x) in parts {
+        for (start_x, end_x) in tile_columns(level.tile_x0, level.tile_x0 + w - 1, nx) {
             at_zoom.push(Availability {
                 start_x,
                 start_y: ya.min(yb),
@@ -241,120 +278,17 @@ pub fn build(source: Source, scheme: Scheme, max_zoom: Option<u8>) -> Result<Wor
             }
         }
     }
-    // What is published: west past east when the source crosses the antimeridian (Cesium's
-    // Rectangle convention), the whole circle when it spans all of it.
-    let bounds = match crosses {
+    Ok((jobs, available))
+}
+
+/// The bounds published for `bounds` (west, south, east, north; east past 180° when the
+/// source `crosses`): west past east across the antimeridian (Cesium's Rectangle
+/// convention), −180..180 when it spans the whole circle.
+fn published_bounds(bounds: [f64; 4], crosses: bool) -> [f64; 4] {
+    match crosses {
         false => bounds,
         true if bounds[2] - bounds[0] >= 360.0 - 1e-9 => [-180.0, bounds[1], 180.0, bounds[3]],
         true => [bounds[0], bounds[1], bounds[2] - 360.0, bounds[3]],
-    };
-    Ok(WorldPyramid {
-        levels,
-        max_zoom,
-        jobs,
-        available,
-        bounds,
-        clipped_lat,
-    })
-}
-
-/// The source's longitudes (`west`, `east`, degrees) placed on the world: as they are within
-/// ±180°; else shifted by whole turns so `west` is in [−180°, 180°), `east` then past 180°
-/// when the source crosses the antimeridian (a source in 0..360° east of 180° is just west
-/// of it). More than 360° is refused: the world would hold those meridians twice.
-fn place_longitudes(west: f64, east: f64) -> Result<(f64, f64)> {
-    if west >= -180.0 - 1e-9 && east <= 180.0 + 1e-9 {
-        return Ok((west, east));
-    }
-    if east - west > 360.0 + 1e-9 {
-        bail!(
-            "the source spans lon {west:.4}..{east:.4}, {:.4}° round: more than the world's \
-             360°, so it would hold some meridians twice; crop it to 360° at most",
-            east - west
-        );
-    }
-    let turns = ((west + 180.0) / 360.0).floor();
-    Ok((west - 360.0 * turns, east - 360.0 * turns))
-}
-
-/// Whether tile columns `x0..=x1` of zoom `z` (`nx` across, columns past it round the world
-/// again) would hold some column twice at zoom `z` or any coarser one but 0, where each
-/// zoom halves the columns. Zoom 0 is made whole by [`widen`].
-fn holds_a_column_twice(x0: u32, x1: u32, nx: u32, z: u8) -> bool {
-    (0..u32::from(z)).any(|k| (x1 >> k) - (x0 >> k) + 1 > nx >> k)
-}
-
-/// Where the source is read when it is written past ±180° or goes all the way round: a
-/// point it does not cover is looked for a whole turn east or west, in the source's own CRS
-/// units; one in the gap between the east end of a source covering the world and its west
-/// end a turn on is interpolated across that gap.
-struct Round {
-    /// One turn: 360° or the web mercator world's width in metres.
-    period: f64,
-    /// The middle of the source's x extent.
-    middle: f64,
-    /// The x of the source's west and east sample centres.
-    west: f64,
-    east: f64,
-    /// Whether the source covers every longitude: its ends at most one sample spacing
-    /// apart round the back of the world (a grid on −180..180°, or −179.75..179.75° at
-    /// 0.5°), so the gap between them is interpolated, not filled from either edge.
-    wraps: bool,
-}
-
-impl Round {
-    fn of(source: &Source, lonlat_bounds: [f64; 4]) -> Self {
-        let to_crs = |lon: f64| match source.crs() {
-            Crs::WebMercator => lonlat_to_mercator([lon, 0.0])[0],
-            crs => {
-                debug_assert_eq!(crs, Crs::Geographic, "world ingest reads lon/lat or 3857");
-                lon
-            }
-        };
-        let period = to_crs(180.0) - to_crs(-180.0);
-        let (west, east) = (to_crs(lonlat_bounds[0]), to_crs(lonlat_bounds[2]));
-        Self {
-            period,
-            middle: to_crs((lonlat_bounds[0] + lonlat_bounds[2]) / 2.0),
-            west,
-            east,
-            wraps: east - west + source.column_spacing() >= period * (1.0 - 1e-12),
-        }
-    }
-
-    /// The source's height at (`x`, `y`), read where the source holds that point: at `x`
-    /// itself when the source has it among its samples (so sources within ±180° read as
-    /// before), else a whole turn away; then, for a source covering the world, linearly
-    /// across the gap between its east and west ends; then, as for any source, within half a
-    /// sample of its edge (the edge repeated); the fill where it is nowhere. A global grid's
-    /// edge border at one end is the other end's data.
-    fn height_at(&self, source: &Source, x: f64, y: f64) -> f64 {
-        if source.holds(x, y) {
-            return source.height_at(x, y);
-        }
-        // The source spans at most a turn, so a copy it holds is within one turn of the
-        // turn nearest its middle.
-        let near = ((self.middle - x) / self.period).round();
-        let copies = [0.0, near - 1.0, near, near + 1.0].map(|k| x + k * self.period);
-        if let Some(xk) = copies.into_iter().find(|&xk| source.holds(xk, y)) {
-            return source.height_at(xk, y);
-        }
-        if self.wraps {
-            // How far east of the east end, round the world, and the gap to the west end.
-            let gap = self.west + self.period - self.east;
-            let past = (x - self.east).rem_euclid(self.period);
-            if gap > 0.0 && past < gap {
-                let (a, b) = (
-                    source.height_at(self.east, y),
-                    source.height_at(self.west, y),
-                );
-                return a + (b - a) * (past / gap);
-            }
-        }
-        copies
-            .into_iter()
-            .find(|&xk| source.covers(xk, y))
-            .map_or(source.fill(), |xk| source.height_at(xk, y))
     }
 }
 
@@ -420,16 +354,6 @@ fn lattice(
     })
 }
 
-/// The two end columns of a level as wide as the world, one meridian, made one: their mean.
-fn join_ends(level: &mut Level) {
-    let (rows, cols) = (level.heights.rows(), level.heights.cols());
-    for r in 0..rows {
-        let mean = (*level.heights.get(r, 0) + *level.heights.get(r, cols - 1)) / 2.0;
-        *level.heights.get_mut(r, 0) = mean;
-        *level.heights.get_mut(r, cols - 1) = mean;
-    }
-}
-
 /// `level` placed in a lattice of `nx × ny` tiles from tile (0, 0), filled elsewhere. A level
 /// reaching past column `nx` (a source across the antimeridian) goes round the world: each
 /// column takes the level's column at its meridian within the turn that ends at longitude
@@ -440,17 +364,10 @@ fn widen(level: &Level, nx: u32, ny: u32, fill: f64, gap: f64) -> Level {
     let (c0, r0) = (level.tile_x0 as usize * step, level.tile_y0 as usize * step);
     let src = &level.heights;
     // The level's column for lattice column `c`: itself, or the one of its meridian in the
-    // turn [cut − width, cut) when the level goes round.
-    let width = cols as i64 - 1;
+    // turn that ends at `gap` when the level goes round.
     let goes_round = c0 + src.cols() > cols;
-    let cut = ((gap + 180.0) / 360.0 * width as f64).round() as i64;
     let column = |c: usize| -> Option<usize> {
-        let c = if goes_round {
-            let start = cut - width;
-            usize::try_from(start + (c as i64 - start).rem_euclid(width)).ok()?
-        } else {
-            c
-        };
+        let c = if goes_round { fold(c, cols, gap)? } else { c };
         c.checked_sub(c0).filter(|&lc| lc < src.cols())
     };
     let data = (0..rows * cols)
@@ -623,16 +540,26 @@ mod tests {
     }
 
     /// What every world pyramid must be, wherever its source lies: one job a tile; each
-    /// zoom's availability exactly its tiles; tiles side by side, across the antimeridian
-    /// too, sharing their edge column to the bit; the deepest tiles holding `p`'s plane at
-    /// every sample within its sample centres, a whole turn round where it is written past
-    /// ±180°. Returns how many samples held the source.
+    /// zoom's availability exactly its tiles, in ranges that do not overlap; tiles side by
+    /// side, across the antimeridian too, sharing their edge column to the bit; the deepest
+    /// tiles holding `p`'s plane at every sample within its sample centres, a whole turn
+    /// round where it is written past ±180° (the mean where it holds a meridian twice).
+    /// Returns how many samples held the source.
     fn check_world(w: &WorldPyramid, scheme: Scheme, p: Plane) -> usize {
         let tiling = Tiling::new(scheme, TILE_SIDE as u32).unwrap();
         let all = tiles(w);
         assert_eq!(all.len(), w.jobs.len(), "a tile encoded twice");
         for (z, ranges) in w.available.iter().enumerate() {
             let at_z: Vec<&TileId> = all.keys().filter(|id| usize::from(id.z) == z).collect();
+            for (i, a) in ranges.iter().enumerate() {
+                for b in &ranges[i + 1..] {
+                    let apart = a.end_x < b.start_x
+                        || b.end_x < a.start_x
+                        || a.end_y < b.start_y
+                        || b.end_y < a.start_y;
+                    assert!(apart, "zoom {z}: {a:?} overlaps {b:?}");
+                }
+            }
             let listed: u128 = ranges.iter().map(Availability::tile_count).sum();
             assert_eq!(listed, at_z.len() as u128, "zoom {z}: {ranges:?}");
             for id in at_z {
