@@ -16,6 +16,13 @@ use anyhow::Result;
 use super::dataset::Dataset;
 use super::reload::Origin;
 
+/// Datasets a server keeps open at most: each holds its file open, and a server whose
+/// datasets took every descriptor could accept no connection nor list its folder again to
+/// let them go (the accept loop spun on EMFILE for good). Set at start from the open-file
+/// limit, less room for connections; unlimited until then.
+pub static MAX_DATASETS: std::sync::atomic::AtomicUsize =
+    std::sync::atomic::AtomicUsize::new(usize::MAX);
+
 /// The datasets a server answers for.
 #[derive(Debug, Default)]
 pub struct Catalog {
@@ -109,6 +116,17 @@ impl Catalog {
     /// again whatever their stamp: what stopped them (the process's open-file limit, a
     /// permission) need not show in the file.
     pub fn rescan(&self, found: Vec<Found>, retry_failed: bool) -> Option<(Self, Changes)> {
+        let most = MAX_DATASETS.load(std::sync::atomic::Ordering::Relaxed);
+        self.rescan_within(found, retry_failed, most)
+    }
+
+    /// [`Self::rescan`] keeping at most `most` datasets open.
+    pub fn rescan_within(
+        &self,
+        found: Vec<Found>,
+        retry_failed: bool,
+        most: usize,
+    ) -> Option<(Self, Changes)> {
         let kept =
             |e: &Entry, stamp: Stamp| e.stamp == stamp && !(retry_failed && e.error.is_some());
         let unchanged = found.len() == self.files.len()
@@ -131,7 +149,20 @@ impl Catalog {
             let kept = before
                 .and_then(|e| e.dataset.clone())
                 .filter(|d| d.file_id().is_some_and(|id| Some(id) != stamp.file));
-            let entry = match open() {
+            let open_now = files
+                .values()
+                .filter(|e: &&Entry| e.dataset.is_some())
+                .count();
+            let opened = if open_now >= most {
+                Err(anyhow::anyhow!(
+                    "not opened: this server keeps at most {most} datasets open, what its \
+                     open-file limit leaves beside connections (raise `ulimit -n` and send \
+                     SIGHUP)"
+                ))
+            } else {
+                open()
+            };
+            let entry = match opened {
                 Ok(d) => {
                     tracing::info!(
                         dataset = %d.name,

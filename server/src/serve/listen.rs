@@ -99,13 +99,18 @@ pub async fn serve_with(
     let app = app.layer(axum::middleware::from_fn(one_host));
     let graceful = GracefulShutdown::new();
     let mut stop = std::pin::pin!(stop);
+    let mut last_warned: Option<std::time::Instant> = None;
     loop {
         let stream = tokio::select! {
             accepted = listener.accept() => match accepted {
                 Ok((stream, _)) => stream,
                 Err(e) => {
-                    // Out of file descriptors and the like: pause rather than spin.
-                    tracing::warn!("accepting a connection: {e}");
+                    // Out of file descriptors and the like: pause rather than spin, and say
+                    // so every 10 s, not ten times a second.
+                    if last_warned.is_none_or(|t| t.elapsed() >= Duration::from_secs(10)) {
+                        tracing::warn!("accepting a connection: {e}");
+                        last_warned = Some(std::time::Instant::now());
+                    }
                     tokio::time::sleep(Duration::from_millis(100)).await;
                     continue;
                 }

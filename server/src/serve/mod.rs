@@ -203,6 +203,7 @@ pub fn run(opts: ServeOptions) -> Result<()> {
         let _in_runtime = rt.enter();
         reload::hangups()
     };
+    open_file_room();
     let data = opts.data.to_string_lossy().into_owned();
     let (origin, meshes) = if storage::is_url(&data) {
         // Object meshes are served from local folders only.
@@ -256,6 +257,27 @@ pub fn run(opts: ServeOptions) -> Result<()> {
         tracing::info!("shut down cleanly");
     }
     Ok(())
+}
+
+/// Descriptors kept for connections, the listing of the data folder and the like, whatever
+/// the datasets take.
+const SPARE_DESCRIPTORS: u64 = 256;
+
+/// Raises the soft open-file limit to the hard one (a soft 1,024 is common, where the hard
+/// one is far higher) and caps the datasets kept open to what it leaves beside
+/// [`SPARE_DESCRIPTORS`].
+fn open_file_room() {
+    let limit = match rlimit::increase_nofile_limit(u64::MAX) {
+        Ok(limit) => limit,
+        Err(e) => {
+            tracing::warn!("cannot read the open-file limit: {e}");
+            return;
+        }
+    };
+    let most =
+        usize::try_from(limit.saturating_sub(SPARE_DESCRIPTORS).max(16)).unwrap_or(usize::MAX);
+    catalog::MAX_DATASETS.store(most, std::sync::atomic::Ordering::Relaxed);
+    tracing::debug!("open-file limit {limit}: at most {most} datasets open");
 }
 
 fn init_tracing() {

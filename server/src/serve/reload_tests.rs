@@ -241,3 +241,28 @@ fn two_files_of_one_name_are_told() {
     assert_eq!(why, "n.ztd has the same dataset name, \"n\", and is served");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Past the datasets the open-file limit leaves room for, a file is skipped saying what to do,
+/// not opened (datasets that took every descriptor wedged the server: no connection could be
+/// accepted, nor the folder listed to let them go); once there is room, SIGHUP opens it.
+#[test]
+fn datasets_past_the_open_file_room_are_skipped() {
+    let dir = crate::fixtures::scratch("rescan-room");
+    let file = build("rescan-room", "2026-07-07");
+    for name in ["a.ztd", "b.ztd", "c.ztd"] {
+        place(&file, &dir, name);
+    }
+    let scan = || Origin::Dir(dir.clone()).scan().unwrap();
+    let (two, _) = Catalog::default().rescan_within(scan(), false, 2).unwrap();
+    assert_eq!(two.len(), 2);
+    let (file, why) = &two.skipped[0];
+    assert_eq!(file, "c.ztd");
+    assert!(
+        why.contains("at most 2 datasets open") && why.contains("ulimit -n"),
+        "{why}"
+    );
+    let (three, changes) = two.rescan_within(scan(), true, 3).unwrap();
+    assert_eq!(changes.added, names(&["c.ztd"]));
+    assert_eq!(three.len(), 3);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
