@@ -404,6 +404,21 @@ fn a_source_across_the_antimeridian_is_ingested_on_both_sides() {
     let a_t = v["a_t"].as_f64().unwrap();
     let want = 0.5 * 0.25 * 44.875f64.to_radians().cos() * 111_319.490_793_273_57f64.powi(2);
     assert!((a_t / want - 1.0).abs() < 1e-6, "A_t {a_t} m², want {want}");
+    // From 200 km up the footprint (as far as the data's diagonal round the eye's foot) is
+    // wider than the data: it is cut to the data's part east of the seam and keeps the
+    // deepest zoom.
+    let v = s.get(
+        "/v1/datasets/seam/view?eye=-179.8,44.9,200000&target=-179.8,44.8999,0&fov=60",
+        &[],
+    );
+    assert_eq!(v.status, 200, "{}", String::from_utf8_lossy(&v.body));
+    assert_eq!(v.json()["zoom"], 10);
+    // A footprint away from the data, in the gap between its ends round the world, is empty.
+    let v = s.get(
+        "/v1/datasets/seam/view?eye=0,44.9,3000&target=0,44.8999,500&fov=10",
+        &[],
+    );
+    assert_eq!(v.status, 404, "{}", String::from_utf8_lossy(&v.body));
     drop(s);
     let _ = std::fs::remove_dir_all(data.parent().unwrap());
 }

@@ -184,39 +184,48 @@ fn header(s: &str) -> ApiResult<HeaderValue> {
 /// and those of its tiles the dataset holds.
 fn tiles_in_view(d: &Dataset, plane: &ViewPlane) -> ApiResult<(u8, Vec<TileId>)> {
     let m = d.metadata();
-    // West past east: the data crosses the antimeridian, on both sides of the footprint's
-    // ±180° edge; every longitude is kept, and the tiles are those the dataset holds.
-    let [west, south, east, north] = {
-        let b = Bounds::from(m.bounds).without_wrap();
-        [b.min_x, b.min_y, b.max_x, b.max_y]
-    };
     let (xs, ys): (Vec<f64>, Vec<f64>) = plane.footprint.iter().map(|p| (p[0], p[1])).unzip();
     let lo = |v: &[f64]| v.iter().copied().fold(f64::INFINITY, f64::min);
     let hi = |v: &[f64]| v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    let bbox = Bounds {
-        min_x: lo(&xs).max(west.min(east)),
-        max_x: hi(&xs).min(west.max(east)),
-        min_y: lo(&ys).max(south.min(north)),
-        max_y: hi(&ys).min(south.max(north)),
-    };
+    // The footprint's box cut to the data: to each part of it either side of the
+    // antimeridian when it crosses (west past east), so a footprint wider than the data
+    // counts only the tiles over the data, and one away from it is empty.
+    let boxes: Vec<Bounds> = Bounds::from(m.bounds)
+        .split_at_antimeridian()
+        .iter()
+        .map(|part| Bounds {
+            min_x: lo(&xs).max(part.min_x.min(part.max_x)),
+            max_x: hi(&xs).min(part.min_x.max(part.max_x)),
+            min_y: lo(&ys).max(part.min_y.min(part.max_y)),
+            max_y: hi(&ys).min(part.min_y.max(part.max_y)),
+        })
+        .filter(|b| b.min_x <= b.max_x && b.min_y <= b.max_y)
+        .collect();
     let empty = || {
         ApiError::not_found(
             "empty_view",
             "the view plane covers no terrain of this dataset",
         )
     };
-    if !(bbox.min_x <= bbox.max_x && bbox.min_y <= bbox.max_y) {
+    if boxes.is_empty() {
         return Err(empty());
     }
     for z in (m.min_zoom..=m.max_zoom).rev() {
-        let Ok(Some(range)) = d.tiling.tile_range(z, &bbox) else {
-            continue;
-        };
-        if range.count() > MAX_VIEW_TILES && z > m.min_zoom {
+        let ranges: Vec<_> = boxes
+            .iter()
+            .filter_map(|b| d.tiling.tile_range(z, b).ok().flatten())
+            .collect();
+        if ranges.is_empty() {
             continue;
         }
-        let tiles: Vec<TileId> = range
-            .tiles()
+        let count: u64 = ranges.iter().map(|r| r.count()).sum();
+        if count > MAX_VIEW_TILES && z > m.min_zoom {
+            continue;
+        }
+        // Two parts can meet in one tile (mercator's single root): each tile once.
+        let mut tiles: Vec<TileId> = ranges
+            .iter()
+            .flat_map(|r| r.tiles())
             .map(|t| TileId {
                 z: t.z,
                 x: t.x,
@@ -224,6 +233,10 @@ fn tiles_in_view(d: &Dataset, plane: &ViewPlane) -> ApiResult<(u8, Vec<TileId>)>
             })
             .filter(|&id| d.has_tile(id))
             .collect();
+        if ranges.len() > 1 {
+            tiles.sort_by_key(|t| (t.y, t.x));
+            tiles.dedup();
+        }
         return Ok((z, tiles));
     }
     Err(empty())
