@@ -633,3 +633,24 @@ fn progress_bars_draw_on_a_terminal_unless_quiet() {
     assert!(text.contains("\"tiles\""), "{text}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Output to a reader that has gone (`info --json | head -c 1`) ends the command quietly with
+/// exit 0, as the standard tools do; `print!` panicked (exit 101, a backtrace).
+#[test]
+fn a_reader_that_goes_away_ends_the_output_quietly() {
+    let data = fresh_dir("cli-closed-pipe");
+    zerotile_tests::ingest_n44_geodetic(&data);
+    let mut child = Command::new(zerotile_bin())
+        .args(["info", "n44g", "--json", "--data"])
+        .arg(&data)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Closed before the dataset is read: the first write meets EPIPE.
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    assert!(err.is_empty(), "{err}");
+}

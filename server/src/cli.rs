@@ -324,6 +324,9 @@ pub fn run() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        // The reader of the output went away (`info --json | head -c 1`): done, quietly, as
+        // the standard tools are.
+        Err(e) if closed_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("zerotile: {e:#}");
             if e.is::<crate::info::ChecksFailed>() {
@@ -335,6 +338,23 @@ pub fn run() -> ExitCode {
             }
         }
     }
+}
+
+/// Writes `text` to stdout. `print!` panicked when the reader had gone (exit 101 with a
+/// backtrace); this returns the error, which [`run`] takes for the end of the output.
+pub fn say(text: impl std::fmt::Display) -> anyhow::Result<()> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    write!(out, "{text}")?;
+    out.flush()?;
+    Ok(())
+}
+
+/// Whether `e` is stdout's reader having gone.
+fn closed_pipe(e: &anyhow::Error) -> bool {
+    e.chain()
+        .filter_map(|c| c.downcast_ref::<std::io::Error>())
+        .any(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
 }
 
 /// Errors when `--encoding` or `--key` is given for an input whose reader does not use it:
@@ -382,10 +402,10 @@ fn ingest(a: IngestArgs) -> anyhow::Result<()> {
     let started = std::time::Instant::now();
     let existed = job.target().is_file();
     let (path, m) = crate::ingest::run(&job)?;
-    println!(
-        "{}",
+    say(format!(
+        "{}\n",
         ingest_summary(&path, &m, started.elapsed().as_secs_f64(), existed)
-    );
+    ))?;
     Ok(())
 }
 
@@ -399,7 +419,8 @@ fn ingest_summary(
 ) -> String {
     let tiles: u128 = m.available.iter().flatten().map(|a| a.tile_count()).sum();
     let replaced = if replaced {
-        " (replaced the dataset of that name; a running server serves it from its next start)"
+        " (replaced the dataset of that name; a running server serves it at its next rescan, \
+         5 s by default, or on SIGHUP)"
     } else {
         ""
     };
@@ -433,13 +454,13 @@ fn export(a: ExportArgs) -> anyhow::Result<()> {
     for note in export_notes(&job, &done) {
         eprintln!("note: {note}");
     }
-    println!(
-        "{}: {} tiles, {} bytes, {:.1} s",
+    say(format!(
+        "{}: {} tiles, {} bytes, {:.1} s\n",
         job.out.display(),
         done.tiles,
         done.bytes,
         started.elapsed().as_secs_f64()
-    );
+    ))?;
     Ok(())
 }
 
@@ -489,9 +510,9 @@ fn info(a: InfoArgs) -> anyhow::Result<()> {
         progress: !a.quiet && !a.json,
     })?;
     if a.json {
-        println!("{}", serde_json::to_string(&report)?);
+        say(format!("{}\n", serde_json::to_string(&report)?))?;
     } else {
-        print!("{}", crate::info::render(&report));
+        say(crate::info::render(&report))?;
     }
     let problems = report.problems();
     if !problems.is_empty() {
@@ -568,7 +589,7 @@ fn healthcheck(addr: &str) -> anyhow::Result<()> {
 
 fn demo_data(a: &DemoArgs) -> anyhow::Result<()> {
     let built = crate::demo::ensure(&a.data, a.force, !a.quiet)?;
-    println!("{}", demo_summary(&a.data, &built));
+    say(format!("{}\n", demo_summary(&a.data, &built)))?;
     Ok(())
 }
 
@@ -692,10 +713,10 @@ fn eval_terrain(a: TerrainArgs) -> anyhow::Result<()> {
     }
     if json {
         for p in &points {
-            println!("{}", serde_json::to_string(p)?);
+            say(format!("{}\n", serde_json::to_string(p)?))?;
         }
     } else {
-        terrain::print_table(&points);
+        say(terrain::table(&points))?;
     }
     Ok(())
 }

@@ -405,8 +405,12 @@ fn done_lines_say_what_was_built() {
         ingest_summary(Path::new("data/t.ztd"), &m, 2.46, false),
         "data/t.ztd: 7 tiles, zooms 0..=1, 66049 stream bytes (8.000 bits/sample), 2.5 s"
     );
-    assert!(ingest_summary(Path::new("data/t.ztd"), &m, 2.46, true)
-        .ends_with("2.5 s (replaced the dataset of that name; a running server serves it from its next start)"));
+    assert!(
+        ingest_summary(Path::new("data/t.ztd"), &m, 2.46, true).ends_with(
+            "2.5 s (replaced the dataset of that name; a running server serves it at its next \
+             rescan, 5 s by default, or on SIGHUP)"
+        )
+    );
 }
 
 /// A one-connection server answering `reply` to whatever it is asked; its address.

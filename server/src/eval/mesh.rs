@@ -133,9 +133,9 @@ pub fn run(args: &MeshArgs) -> Result<()> {
         eprintln!("zerotile: note: {note}");
     }
     if args.json {
-        println!("{}", serde_json::to_string(&point)?);
+        crate::cli::say(format!("{}\n", serde_json::to_string(&point)?))?;
     } else {
-        print_table(&point);
+        crate::cli::say(table(&point))?;
     }
     Ok(())
 }
@@ -500,11 +500,7 @@ pub(super) fn measure(
     Ok(Some(surface_distance(input, output, &options)?))
 }
 
-fn print_table(p: &MeshPoint) {
-    print!("{}", table(p));
-}
-
-/// [`print_table`]'s text: the input's counts, then one row for the point.
+/// The table `eval mesh` prints for people: the input's counts, then one row for the point.
 pub(super) fn table(p: &MeshPoint) -> String {
     let pct = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{}%", cell(v, 4, 10)));
     let param = match p.param {

@@ -514,13 +514,9 @@ pub fn psnr(peak: f64, rmse: f64) -> Option<f64> {
     (rmse > 0.0).then(|| 20.0 * (peak / rmse).log10())
 }
 
-/// The paper's Table 1 layout, for people.
-pub fn print_table(points: &[Point]) {
-    print!("{}", table(points));
-}
-
-/// [`print_table`]'s text. `remain` is each mesh's triangles as a share of the full grid's,
-/// 2 (rows − 1)(cols − 1), the paper's "remaining" column ("-" for a grid without cells).
+/// The paper's Table 1 layout, for people. `remain` is each mesh's triangles as a share of
+/// the full grid's, 2 (rows − 1)(cols − 1), the paper's "remaining" column ("-" for a grid
+/// without cells).
 pub fn table(points: &[Point]) -> String {
     use std::fmt::Write as _;
     let mut out = String::new();
