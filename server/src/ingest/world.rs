@@ -188,7 +188,7 @@ pub fn build(source: Source, scheme: Scheme, max_zoom: Option<u8>) -> Result<Wor
     // One job a tile, ids modulo the world; availability exactly those tiles.
     let (jobs, available) = jobs_and_availability(&levels, &tiling, scheme, max_zoom)?;
     // What is published: west past east across the antimeridian, the whole circle round.
-    let bounds = published_bounds(bounds, crosses);
+    let bounds = published_bounds(bounds, crosses, round.wraps);
     Ok(WorldPyramid {
         levels,
         max_zoom,
@@ -283,9 +283,12 @@ fn jobs_and_availability(
 
 /// The bounds published for `bounds` (west, south, east, north; east past 180° when the
 /// source `crosses`): west past east across the antimeridian (Cesium's Rectangle
-/// convention), −180..180 when it spans the whole circle.
-fn published_bounds(bounds: [f64; 4], crosses: bool) -> [f64; 4] {
+/// convention), −180..180 when it spans the whole circle or `wraps` (covers every longitude
+/// with its samples' cells: a cell-registered global grid's centres stop half a cell short
+/// of ±180°, and 0..360's of 0°, which read as a world with a gap).
+fn published_bounds(bounds: [f64; 4], crosses: bool, wraps: bool) -> [f64; 4] {
     match crosses {
+        _ if wraps => [-180.0, bounds[1], 180.0, bounds[3]],
         false => bounds,
         true if bounds[2] - bounds[0] >= 360.0 - 1e-9 => [-180.0, bounds[1], 180.0, bounds[3]],
         true => [bounds[0], bounds[1], bounds[2] - 360.0, bounds[3]],
@@ -761,6 +764,8 @@ mod tests {
             for (scheme, z) in [(Scheme::Geodetic, 2), (Scheme::Mercator, 3)] {
                 let w = p.build(scheme, z);
                 assert!(check_world(&w, scheme, p) > 1000, "{scheme:?} {}", p.west);
+                // The whole circle, not the sample centres' 359°.
+                assert_eq!([w.bounds[0], w.bounds[2]], [-180.0, 180.0], "{}", p.west);
                 let tiling = Tiling::new(scheme, TILE_SIDE as u32).unwrap();
                 for zoom in 0..=z {
                     let (nx, _) = tiling.tiles_per_axis(zoom).unwrap();
