@@ -37,7 +37,16 @@ pub struct Dataset {
     pub version: u64,
     source: Source,
     len: u64,
+    /// The file's modification time when it was opened: a tile that fails its checks in a
+    /// file modified since was written over in place, not corrupt.
+    opened_modified: Option<std::time::SystemTime>,
 }
+
+/// A tile read failed because the dataset's file was written over in place since it was
+/// opened (`cp` onto it): the next rescan opens the new file, so it is worth a retry.
+#[derive(Debug, thiserror::Error)]
+#[error("{0} was written over since it was opened")]
+pub struct ChangedOnDisk(pub String);
 
 impl Dataset {
     /// Opens a local file, checks its header and that every record lies inside the file.
@@ -62,13 +71,15 @@ impl Dataset {
             );
         }
         let file = File::open(path).with_context(|| format!("opening {shown}"))?;
-        let len = file.metadata()?.len();
-        Self::from_source(
+        let meta = file.metadata()?;
+        let mut d = Self::from_source(
             path.file_stem().map(|s| s.to_string_lossy().into_owned()),
             path.display().to_string(),
             Source::File(file),
-            len,
-        )
+            meta.len(),
+        )?;
+        d.opened_modified = meta.modified().ok();
+        Ok(d)
     }
 
     /// Opens an object of a store, as [`Dataset::open`] does a file.
@@ -145,6 +156,7 @@ impl Dataset {
             version: h.finish(),
             source,
             len,
+            opened_modified: None,
         })
     }
 
@@ -174,8 +186,31 @@ impl Dataset {
         self.container.entry(id).is_some()
     }
 
-    /// Reads and checks one tile record: corners and EZW stream (blocking I/O).
+    /// Reads and checks one tile record: corners and EZW stream (blocking I/O). A record that
+    /// fails because the file was written over in place carries [`ChangedOnDisk`], and the
+    /// watcher is asked to rescan now rather than at its next period.
     pub fn read_tile(&self, id: TileId) -> Result<OwnedRecord> {
+        self.read_record(id).map_err(|e| {
+            if self.changed_on_disk() {
+                super::reload::rescan_soon();
+                e.context(ChangedOnDisk(self.name.clone()))
+            } else {
+                e
+            }
+        })
+    }
+
+    /// Whether the open file's length or modification time moved since it was opened.
+    fn changed_on_disk(&self) -> bool {
+        match &self.source {
+            Source::File(f) => f
+                .metadata()
+                .is_ok_and(|m| m.len() != self.len || m.modified().ok() != self.opened_modified),
+            Source::Object { .. } => false,
+        }
+    }
+
+    fn read_record(&self, id: TileId) -> Result<OwnedRecord> {
         let entry = self
             .container
             .entry(id)

@@ -73,8 +73,19 @@ impl ApiError {
 
 impl ApiError {
     /// A failed render: 503 (with Retry-After) when the dataset's store could not be read,
-    /// so a cache in front retries another replica or later; otherwise 500.
+    /// so a cache in front retries another replica or later, or when its file was written
+    /// over in place (the rescan it asked for serves the new one); otherwise 500.
     pub fn render(e: anyhow::Error) -> Self {
+        // A context's type, which `downcast_ref` finds at any depth of contexts (a chain's
+        // links are the wrappers, not the context types).
+        if e.downcast_ref::<super::dataset::ChangedOnDisk>().is_some() {
+            tracing::warn!("{e:#}: rescanning");
+            return Self::new(
+                StatusCode::SERVICE_UNAVAILABLE,
+                "dataset_changing",
+                "the dataset's file is being replaced; retry shortly",
+            );
+        }
         if e.chain().any(|c| c.is::<object_store::Error>()) {
             tracing::warn!("storage unavailable: {e:#}");
             return Self::new(

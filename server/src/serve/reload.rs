@@ -22,6 +22,15 @@ use super::state::AppState;
 use super::storage;
 use crate::ingest::EXTENSION;
 
+/// Asks the watcher for a rescan now: a tile read found its dataset's file written over.
+static SOON: tokio::sync::Notify = tokio::sync::Notify::const_new();
+
+/// Asks [`watch`] to rescan now rather than at its next period (at most one rescan is
+/// owed however often it is asked before it runs).
+pub fn rescan_soon() {
+    SOON.notify_one();
+}
+
 /// How often a data folder is rescanned unless `--rescan` says otherwise.
 pub const DEFAULT_RESCAN: Duration = Duration::from_secs(5);
 
@@ -177,6 +186,7 @@ pub async fn watch(
         };
         let asked = tokio::select! {
             () = tick => false,
+            () = SOON.notified() => false,
             () = next_hangup(&mut hangup) => {
                 tracing::info!("SIGHUP: rescanning the datasets");
                 true

@@ -266,3 +266,43 @@ fn datasets_past_the_open_file_room_are_skipped() {
     assert_eq!(three.len(), 3);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A dataset written over in place (`cp` onto it) fails its uncached tiles' checks: that is
+/// a 503 `dataset_changing` to retry, not a 500, and it asks the watcher for a rescan at once,
+/// which then serves the new build (here with no period: only that ask can rescan).
+#[tokio::test]
+async fn a_dataset_written_over_in_place_is_retried_and_rescanned_at_once() {
+    use axum::body::Body;
+    use axum::http::{Request, StatusCode};
+    use tower::ServiceExt;
+    let dir = crate::fixtures::scratch("rescan-in-place");
+    place(&build("rescan-in-place-a", "2026-08-08"), &dir, "a.ztd");
+    let origin = Origin::Dir(dir.clone());
+    let state = AppState::new(origin.open().unwrap(), Config::default()).unwrap();
+    let before = state.catalog().get("a").unwrap().version;
+    let watcher = tokio::spawn(reload::watch(state.clone(), origin, None, None));
+    // Another build whose longer header moves every record.
+    let newer = build("rescan-in-place-b", "2026-09-09T10:11:12Z and more");
+    std::fs::write(dir.join("a.ztd"), std::fs::read(newer).unwrap()).unwrap();
+    let app = super::app(state.clone());
+    let ask = || {
+        let req = Request::get("/v1/datasets/a/tiles/0/0/0.json?threshold=1")
+            .body(Body::empty())
+            .unwrap();
+        app.clone().oneshot(req)
+    };
+    let first = ask().await.unwrap();
+    assert_eq!(first.status(), StatusCode::SERVICE_UNAVAILABLE);
+    let body = axum::body::to_bytes(first.into_body(), 1 << 20)
+        .await
+        .unwrap();
+    assert!(String::from_utf8_lossy(&body).contains("\"dataset_changing\""));
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while state.catalog().get("a").unwrap().version == before {
+        assert!(Instant::now() < deadline, "no rescan was asked for");
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    assert_eq!(ask().await.unwrap().status(), StatusCode::OK);
+    watcher.abort();
+    std::fs::remove_dir_all(&dir).unwrap();
+}
