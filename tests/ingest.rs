@@ -20,15 +20,19 @@ fn ingest(input: &Path, name: &str, data: &Path, extra: &[&str]) -> std::process
     ingest_command(input, name, data, extra).output().unwrap()
 }
 
+/// [`ingest`], which must succeed, and the dataset file it wrote: its bytes and container.
+fn ingested(input: &Path, name: &str, data: &Path, extra: &[&str]) -> (Vec<u8>, Container) {
+    assert_success(&ingest(input, name, data, extra));
+    let bytes = std::fs::read(data.join(format!("{name}.ztd"))).unwrap();
+    let c = Container::parse(&bytes, &Limits::default()).unwrap();
+    (bytes, c)
+}
+
 #[test]
 fn ingest_builds_a_pyramid_whose_tiles_decode_to_the_source() {
     let data = scratch("pyramid");
     let hgt = shared_data().join("dem/N44W072.hgt");
-    let out = ingest(&hgt, "n44", &data, &["--precision", "0.5"]);
-    assert_success(&out);
-
-    let bytes = std::fs::read(data.join("n44.ztd")).unwrap();
-    let c = Container::parse(&bytes, &Limits::default()).unwrap();
+    let (bytes, c) = ingested(&hgt, "n44", &data, &["--precision", "0.5"]);
     // 1201 samples = 4.7 tiles of 256 steps: 5×5, 3×3, 2×2, 1×1.
     assert_eq!(c.metadata.max_zoom, 3);
     assert_eq!(c.len(), 25 + 9 + 4 + 1);
@@ -134,15 +138,12 @@ fn srtm() -> Vec<f64> {
 fn geodetic_ingest_places_srtm_on_cesiums_grid() {
     let data = scratch("geodetic");
     let hgt = shared_data().join("dem/N44W072.hgt");
-    let out = ingest(
+    let (bytes, c) = ingested(
         &hgt,
         "n44",
         &data,
         &["--scheme", "geodetic", "--wavelet", "53"],
     );
-    assert_success(&out);
-    let bytes = std::fs::read(data.join("n44.ztd")).unwrap();
-    let c = Container::parse(&bytes, &Limits::default()).unwrap();
     let m = &c.metadata;
     // 3" SRTM: 180° / (256 · 2^z) ≤ 1/1200° first at z = 10.
     assert_eq!(
@@ -185,15 +186,12 @@ fn geodetic_ingest_places_srtm_on_cesiums_grid() {
 fn mercator_ingest_uses_xyz_rows_from_the_north() {
     let data = scratch("mercator");
     let hgt = shared_data().join("dem/N44W072.hgt");
-    let out = ingest(
+    let (bytes, c) = ingested(
         &hgt,
         "n44m",
         &data,
         &["--scheme", "mercator", "--max-zoom", "9", "--wavelet", "53"],
     );
-    assert_success(&out);
-    let bytes = std::fs::read(data.join("n44m.ztd")).unwrap();
-    let c = Container::parse(&bytes, &Limits::default()).unwrap();
     assert_eq!(
         (c.metadata.scheme.as_str(), c.metadata.max_zoom),
         ("mercator", 9)
@@ -264,15 +262,12 @@ fn srtm_across_the_antimeridian(dir: &Path) -> PathBuf {
 fn a_source_across_the_antimeridian_is_ingested_on_both_sides() {
     let data = scratch("antimeridian");
     let asc = srtm_across_the_antimeridian(&data.parent().unwrap().join("src"));
-    let out = ingest(
+    let (bytes, c) = ingested(
         &asc,
         "seam",
         &data,
         &["--scheme", "geodetic", "--wavelet", "53"],
     );
-    assert_success(&out);
-    let bytes = std::fs::read(data.join("seam.ztd")).unwrap();
-    let c = Container::parse(&bytes, &Limits::default()).unwrap();
     let m = &c.metadata;
     assert_eq!(m.max_zoom, 10);
     // Cesium's convention: west past east when the rectangle crosses the antimeridian.
@@ -324,15 +319,12 @@ fn a_source_across_the_antimeridian_is_ingested_on_both_sides() {
     }
 
     // Mercator goes round the same way: the last column and the first at zoom 9.
-    let out = ingest(
+    let (bytes, c) = ingested(
         &asc,
         "seam-m",
         &data,
         &["--scheme", "mercator", "--max-zoom", "9", "--wavelet", "53"],
     );
-    assert_success(&out);
-    let bytes = std::fs::read(data.join("seam-m.ztd")).unwrap();
-    let c = Container::parse(&bytes, &Limits::default()).unwrap();
     let ranges = &c.metadata.available[9];
     assert_eq!(ranges.len(), 2, "{ranges:?}");
     assert_eq!((ranges[0].end_x, ranges[1].start_x), (511, 0));

@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 
 use zerotile_codec::container::TileId;
 
-use super::catalog::{Catalog, Changes};
+use super::catalog::{Catalog, Changes, Found};
 use super::reload::{self, Origin};
 use super::tests::hill_file_with;
 use super::{AppState, Config};
@@ -25,8 +25,19 @@ fn place(from: &Path, dir: &Path, name: &str) {
     std::fs::rename(&tmp, dir.join(name)).unwrap();
 }
 
+/// The catalog of `dir` as it is now.
+fn open(dir: &Path) -> Catalog {
+    Origin::Dir(dir.to_path_buf()).open().unwrap()
+}
+
+/// `dir`'s dataset files as they are now.
+fn scan(dir: &Path) -> Vec<Found> {
+    Origin::Dir(dir.to_path_buf()).scan().unwrap()
+}
+
+/// A periodic rescan of `dir` against `c`.
 fn rescan(c: &Catalog, dir: &Path) -> Option<(Catalog, Changes)> {
-    c.rescan(Origin::Dir(dir.to_path_buf()).scan().unwrap(), false)
+    c.rescan(scan(dir), false)
 }
 
 fn names(files: &[&str]) -> Vec<String> {
@@ -45,7 +56,7 @@ fn a_rescan_opens_only_what_changed() {
     );
     place(&old, &dir, "a.ztd");
     place(&old, &dir, "b.ztd");
-    let first = Origin::Dir(dir.clone()).open().unwrap();
+    let first = open(&dir);
     assert_eq!(first.len(), 2);
     // One mesher table a tile side, not one a dataset (4 MB each at 257²).
     let table = |n: &str| Arc::clone(&first.get(n).unwrap().hierarchy);
@@ -100,7 +111,7 @@ fn a_file_that_stops_opening_keeps_the_build_before_it_if_renamed_over() {
     let dir = crate::fixtures::scratch("rescan-failed");
     let good = build("rescan-good", "2026-03-03");
     place(&good, &dir, "a.ztd");
-    let first = Origin::Dir(dir.clone()).open().unwrap();
+    let first = open(&dir);
     let before = Arc::clone(first.get("a").unwrap());
 
     let bytes = std::fs::read(&good).unwrap();
@@ -203,13 +214,15 @@ fn a_failed_file_is_tried_again_when_its_metadata_changes_or_on_sighup() {
     let good = std::fs::read(build("rescan-retry", "2026-05-05")).unwrap();
     let path = dir.join("a.ztd");
     std::fs::write(&path, vec![0u8; good.len()]).unwrap();
-    let first = Origin::Dir(dir.clone()).open().unwrap();
+    let first = open(&dir);
     assert_eq!(first.skipped.len(), 1);
     assert!(rescan(&first, &dir).is_none());
-    let scan = || Origin::Dir(dir.clone()).scan().unwrap();
-    let (again, changes) = first.rescan(scan(), true).expect("SIGHUP retries it");
+    let (again, changes) = first.rescan(scan(&dir), true).expect("SIGHUP retries it");
     assert_eq!(changes.failed, names(&["a.ztd"]));
-    assert!(again.rescan(scan(), false).is_none(), "not at every period");
+    assert!(
+        again.rescan(scan(&dir), false).is_none(),
+        "not at every period"
+    );
 
     let mtime = std::fs::metadata(&path).unwrap().modified().unwrap();
     std::fs::write(&path, &good).unwrap();
@@ -233,7 +246,7 @@ fn two_files_of_one_name_are_told() {
     let file = build("rescan-same-name", "2026-06-06");
     place(&file, &dir, "n.ztd");
     place(&file, &dir, "n.ZTD");
-    let c = Origin::Dir(dir.clone()).open().unwrap();
+    let c = open(&dir);
     assert_eq!(c.len(), 1);
     assert_eq!(c.skipped.len(), 1, "{:?}", c.skipped);
     let (file, why) = &c.skipped[0];
@@ -252,8 +265,9 @@ fn datasets_past_the_open_file_room_are_skipped() {
     for name in ["a.ztd", "b.ztd", "c.ztd"] {
         place(&file, &dir, name);
     }
-    let scan = || Origin::Dir(dir.clone()).scan().unwrap();
-    let (two, _) = Catalog::default().rescan_within(scan(), false, 2).unwrap();
+    let (two, _) = Catalog::default()
+        .rescan_within(scan(&dir), false, 2)
+        .unwrap();
     assert_eq!(two.len(), 2);
     let (file, why) = &two.skipped[0];
     assert_eq!(file, "c.ztd");
@@ -261,7 +275,7 @@ fn datasets_past_the_open_file_room_are_skipped() {
         why.contains("at most 2 datasets open") && why.contains("ulimit -n"),
         "{why}"
     );
-    let (three, changes) = two.rescan_within(scan(), true, 3).unwrap();
+    let (three, changes) = two.rescan_within(scan(&dir), true, 3).unwrap();
     assert_eq!(changes.added, names(&["c.ztd"]));
     assert_eq!(three.len(), 3);
     std::fs::remove_dir_all(&dir).unwrap();
