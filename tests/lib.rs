@@ -133,12 +133,7 @@ fn check_bin() -> Result<PathBuf, String> {
     let fix = "build it with the tests: `cargo test --workspace --profile ci`";
     let built =
         modified(&bin).ok_or_else(|| format!("no zerotile binary at {}: {fix}", bin.display()))?;
-    let root = repo_root();
-    let newest = ["server/src", "codec/src"]
-        .iter()
-        .filter_map(|d| newest_in(&root.join(d)))
-        .max();
-    match newest {
+    match newest_input(&dir.join("zerotile.d")) {
         Some(source) if source > built => Err(format!(
             "{} is older than the server's or codec's sources: {fix}",
             bin.display()
@@ -151,26 +146,25 @@ fn modified(path: &Path) -> Option<SystemTime> {
     std::fs::metadata(path).and_then(|m| m.modified()).ok()
 }
 
-/// The latest modification time of a Rust source under `dir`. What does not relink the
-/// binary does not count: the notes beside the code (`*.md`) and the unit-test modules
-/// (`tests.rs`, each behind `#[cfg(test)]`), whose edits cargo rebuilds only the test
-/// executables for, leaving the binary's time as it was.
-fn newest_in(dir: &Path) -> Option<SystemTime> {
+/// The latest modification time of the files the binary was built from, as cargo's dep-info
+/// beside it lists them (`zerotile: a.rs b.rs …`, a space in a path escaped). Those are what
+/// relink it: unit-test modules (`tests.rs`, `*_tests.rs`, behind `#[cfg(test)]`) and notes
+/// are not among them, so an edit to one leaves the binary current. (A walk of the source
+/// folders that left out `tests.rs` by name took any `*_tests.rs` edit for a stale binary.)
+fn newest_input(dep_info: &Path) -> Option<SystemTime> {
+    let text = std::fs::read_to_string(dep_info).ok()?;
+    let (_, inputs) = text.lines().next()?.split_once(": ")?;
     let mut newest = None;
-    for entry in std::fs::read_dir(dir).ok()?.flatten() {
-        let path = entry.path();
-        let time = if path.is_dir() {
-            newest_in(&path)
-        } else if path.extension().is_some_and(|e| e == "rs")
-            && path.file_name().is_some_and(|n| n != "tests.rs")
-        {
-            modified(&path)
-        } else {
-            None
-        };
-        newest = newest.max(time);
+    let mut path = String::new();
+    let mut chars = inputs.chars();
+    while let Some(c) = chars.next() {
+        match c {
+            '\\' => path.extend(chars.next()),
+            ' ' => newest = newest.max(modified(Path::new(&std::mem::take(&mut path)))),
+            _ => path.push(c),
+        }
     }
-    newest
+    newest.max(modified(Path::new(&path)))
 }
 
 /// `zerotile ingest INPUT --name NAME --quiet --data DATA EXTRA…`, not yet run.
