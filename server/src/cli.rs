@@ -503,14 +503,25 @@ fn export_notes(job: &crate::export::Export, done: &crate::export::Exported) -> 
 }
 
 fn info(a: InfoArgs) -> anyhow::Result<()> {
-    let report = crate::info::run(&crate::info::Info {
+    let run = crate::info::run(&crate::info::Info {
         dataset: a.dataset,
         data: a.data,
         verify: a.verify,
         progress: !a.quiet && !a.json,
-    })?;
+    });
+    let report = match run.map_err(|e| e.downcast::<crate::info::Unreadable>()) {
+        Ok(report) => report,
+        // Read but not sound: still one JSON object for --json, and exit 3.
+        Err(Ok(unreadable)) => {
+            if a.json {
+                say(format!("{}\n", serde_json::to_string(&unreadable)?))?;
+            }
+            return Err(crate::info::ChecksFailed(unreadable.to_string()).into());
+        }
+        Err(Err(e)) => return Err(e),
+    };
     if a.json {
-        say(format!("{}\n", serde_json::to_string(&report)?))?;
+        say(format!("{}\n", crate::info::json(&report)?))?;
     } else {
         say(crate::info::render(&report))?;
     }

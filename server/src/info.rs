@@ -27,6 +27,18 @@ pub const CHECKS_FAILED: u8 = 3;
 #[error("{0}")]
 pub struct ChecksFailed(pub String);
 
+/// A file `info` could read but whose header or index does not hold (a truncated or
+/// garbled copy, metadata the server could not use): with `--json` it is still one object,
+/// with the keys a [`Report`] starts with, so a script reads `ok` and `error` whatever failed.
+#[derive(Debug, Serialize, thiserror::Error)]
+#[error("{path}: {error}")]
+pub struct Unreadable {
+    pub name: String,
+    pub path: String,
+    pub ok: bool,
+    pub error: String,
+}
+
 /// Announced tiles listed by name (all are counted).
 const MISSING_LISTED: usize = 100;
 /// Ranges per zoom checked; an ingest writes one (two for the geodetic roots).
@@ -65,6 +77,9 @@ pub struct Report {
     /// The name the server serves it under: the file's stem.
     pub name: String,
     pub path: String,
+    /// Why `serve` would skip the file under its name (`None`: it serves it as `name`).
+    /// Not a failed check: the copy is good, only its name is not one a URL may carry.
+    pub name_problem: Option<String>,
     pub metadata: zerotile_codec::container::Metadata,
     pub zooms: Vec<Zoom>,
     pub tiles: u64,
@@ -78,6 +93,10 @@ pub struct Report {
     pub availability_problems: Vec<String>,
     /// With `--verify`, the tiles that did not read or decode (empty: all did).
     pub failed: Option<Vec<Failure>>,
+    /// Bytes after the last tile record. A writer ends the file there (records follow the
+    /// header back to back), so anything after it is an append or a copy gone wrong, which
+    /// no tile read would ever notice.
+    pub trailing_bytes: u64,
 }
 
 impl Report {
@@ -102,8 +121,31 @@ impl Report {
         if let Some(f) = self.failed.as_ref().filter(|f| !f.is_empty()) {
             problems.push(format!("{} of {} tiles failed", f.len(), self.tiles));
         }
+        if self.trailing_bytes > 0 {
+            problems.push(format!(
+                "{} bytes follow the last tile record",
+                self.trailing_bytes
+            ));
+        }
         problems
     }
+}
+
+/// `--json`: the report led by `ok` and `error`, as an [`Unreadable`] file's object is.
+pub fn json(r: &Report) -> serde_json::Result<String> {
+    #[derive(Serialize)]
+    struct Json<'a> {
+        ok: bool,
+        error: Option<String>,
+        #[serde(flatten)]
+        report: &'a Report,
+    }
+    let problems = r.problems();
+    serde_json::to_string(&Json {
+        ok: problems.is_empty(),
+        error: (!problems.is_empty()).then(|| problems.join("; ")),
+        report: r,
+    })
 }
 
 pub fn run(job: &Info) -> Result<Report> {
@@ -117,15 +159,35 @@ pub fn run(job: &Info) -> Result<Report> {
         }
     }
     let path = crate::ingest::existing_dataset_path(&job.dataset, &job.data)?;
-    let d = match Dataset::open(&path) {
+    let d = match Dataset::open_any_name(&path) {
         Ok(d) => d,
         // A truncated or garbled copy is a bad copy, which is what the exit code tells apart
         // from a file the system would not give us.
         Err(e) if !system_refused(&e) => {
-            return Err(ChecksFailed(format!("{}: {e:#}", path.display())).into())
+            return Err(Unreadable {
+                name: path
+                    .file_stem()
+                    .map(|s| s.to_string_lossy().into_owned())
+                    .unwrap_or_default(),
+                path: path.display().to_string(),
+                ok: false,
+                error: format!("{e:#}"),
+            }
+            .into())
         }
         Err(e) => return Err(e.context(path.display().to_string())),
     };
+    let name_problem = crate::ingest::check_name(&d.name)
+        .err()
+        .map(|e| format!("{e:#}"));
+    let file_len = std::fs::metadata(&path)
+        .with_context(|| path.display().to_string())?
+        .len();
+    let records_end = d
+        .container
+        .tiles()
+        .map(|(_, e)| e.offset.saturating_add(u64::from(e.len)))
+        .fold(d.container.header_len() as u64, u64::max);
     let m = d.metadata().clone();
     let side = m.tile_side as u64;
 
@@ -151,6 +213,7 @@ pub fn run(job: &Info) -> Result<Report> {
     Ok(Report {
         name: d.name.clone(),
         path: path.display().to_string(),
+        name_problem,
         metadata: m,
         tiles: zooms.iter().map(|z| z.tiles).sum(),
         bytes: zooms.iter().map(|z| z.bytes).sum(),
@@ -159,6 +222,7 @@ pub fn run(job: &Info) -> Result<Report> {
         missing_total: absent.total,
         availability_problems: absent.problems,
         failed,
+        trailing_bytes: file_len.saturating_sub(records_end),
     })
 }
 
@@ -240,11 +304,9 @@ fn verify(d: &Dataset, progress: bool) -> Vec<Failure> {
     let mut ids: Vec<TileId> = d.container.tiles().map(|(id, _)| id).collect();
     ids.sort_by_key(|t| (t.z, t.y, t.x));
     let bar = crate::ingest::tile_bar("verifying", progress, ids.len() as u64);
-    let side = d.metadata().tile_side;
-    let precision = d.metadata().precision;
     let failed = Mutex::new(Vec::new());
     ids.par_iter().for_each(|&id| {
-        if let Err(e) = check_tile(d, id, side, precision) {
+        if let Err(e) = check_tile(d, id) {
             if let Ok(mut f) = failed.lock() {
                 f.push((id, format!("{e:#}")));
             }
@@ -263,9 +325,30 @@ fn verify(d: &Dataset, progress: bool) -> Vec<Failure> {
         .collect()
 }
 
-fn check_tile(d: &Dataset, id: TileId, side: usize, precision: Option<f64>) -> Result<()> {
+fn check_tile(d: &Dataset, id: TileId) -> Result<()> {
+    let m = d.metadata();
+    let (side, precision) = (m.tile_side, m.precision);
     // The reader checks the CRC and that the corners are finite.
     let rec = d.read_tile(id)?;
+    // The stream's own header governs its decode; the metadata's wavelet and step are what
+    // the dataset description tells clients, so a header edited apart from its streams
+    // would describe another codec.
+    let (head, _) =
+        ezw::Header::read(&rec.stream, side * side).context("reading the stream header")?;
+    if head.wavelet != m.wavelet {
+        bail!(
+            "the stream is coded with the {} wavelet, the dataset says {}",
+            head.wavelet.name(),
+            m.wavelet.name()
+        );
+    }
+    if (head.step - m.step).abs() > 1e-12 * head.step.abs().max(m.step.abs()) {
+        bail!(
+            "the stream's step is {:?} m, the dataset says {:?} m",
+            head.step,
+            m.step
+        );
+    }
     // A decode takes any prefix, so a stream that lost its tail (or gained one) would pass
     // it: the stream's own header and trailer say where it ends.
     let len = rec.stream.len();
@@ -428,7 +511,42 @@ pub fn render(r: &Report) -> String {
             let _ = writeln!(s, "{} of {} tiles failed verification", f.len(), r.tiles);
         }
     }
+    if r.trailing_bytes > 0 {
+        let _ = writeln!(
+            s,
+            "{} bytes follow the last tile record (a written dataset ends there)",
+            r.trailing_bytes
+        );
+    }
+    if let Some(why) = &r.name_problem {
+        let _ = writeln!(
+            s,
+            "note: serve skips this file under its name ({why}); rename it to serve it, \
+             e.g. as {}.ztd",
+            servable_name(&r.name)
+        );
+    }
     s
+}
+
+/// A name `serve` takes, made from `stem`: what the note suggests renaming a file to.
+fn servable_name(stem: &str) -> String {
+    let name: String = stem
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '-'
+            }
+        })
+        .take(64)
+        .collect();
+    if name.is_empty() {
+        "dataset".into()
+    } else {
+        name
+    }
 }
 
 #[cfg(test)]
@@ -442,18 +560,181 @@ mod tests {
 
     /// Writes a container to a fresh folder and returns `info`'s report on it.
     fn report_on(tag: &str, file: Vec<u8>, verify: bool) -> Report {
+        run_on(tag, "t.ztd", file, verify).unwrap()
+    }
+
+    /// `info` on `file` written as `name` in a fresh folder.
+    fn run_on(tag: &str, name: &str, file: Vec<u8>, verify: bool) -> Result<Report> {
         let dir = crate::fixtures::scratch(&format!("info-{tag}"));
-        let path = dir.join("t.ztd");
+        let path = dir.join(name);
         std::fs::write(&path, file).unwrap();
         let report = run(&Info {
             dataset: path.display().to_string(),
             data: dir.clone(),
             verify,
             progress: false,
-        })
-        .unwrap();
+        });
         let _ = std::fs::remove_dir_all(&dir);
         report
+    }
+
+    /// A one-tile local file whose stream and corners agree: verifies clean.
+    fn sound_file(edit: impl FnOnce(&mut zerotile_codec::container::Metadata)) -> Vec<u8> {
+        let n = 257;
+        let g = Grid::new(n, n, (0..n * n).map(|k| (k % 7) as f64).collect()).unwrap();
+        let enc = ezw::encode(&g, &EncodeParams::new(Wavelet::Cdf97, 1.0)).unwrap();
+        let corners = [
+            *g.get(0, 0),
+            *g.get(0, n - 1),
+            *g.get(n - 1, 0),
+            *g.get(n - 1, n - 1),
+        ];
+        let mut m = local_257(enc.bytes.len() as u64);
+        edit(&mut m);
+        let mut w = Writer::new();
+        w.add(TileId { z: 0, x: 0, y: 0 }, corners, &enc.bytes);
+        w.finish(&m).unwrap()
+    }
+
+    /// A good copy under a file name `serve` would not take (`n44.v2.ztd`, `n44 copy.ztd`)
+    /// is described and verified like any other, with a note on its name: `info` failed it
+    /// with exit 3, as though the copy were bad.
+    #[test]
+    fn a_file_named_outside_the_name_rule_is_described_with_a_note() {
+        for (name, suggested) in [("n44.v2.ztd", "n44-v2"), ("n44 copy.ztd", "n44-copy")] {
+            let r = run_on("named", name, sound_file(|_| {}), true).unwrap();
+            assert!(r.ok(), "{name}: {:?}", r.problems());
+            let why = r.name_problem.as_deref().unwrap_or_default();
+            assert!(why.contains("use 1–64 characters"), "{name}: {why}");
+            let text = render(&r);
+            assert!(text.contains("verified: all 1 tiles"), "{text}");
+            assert!(
+                text.contains("note: serve skips this file under its name (dataset name")
+                    && text.contains(&format!("e.g. as {suggested}.ztd")),
+                "{text}"
+            );
+        }
+        let r = run_on("named", "n44_v2.ztd", sound_file(|_| {}), false).unwrap();
+        assert_eq!(r.name_problem, None);
+        assert!(!render(&r).contains("note:"));
+    }
+
+    /// A header that does not hold is an [`Unreadable`] (exit 3), whose `--json` object
+    /// leads with the keys a report's does: `info --json` printed nothing for it.
+    #[test]
+    fn a_header_that_fails_is_one_json_object_like_a_report() {
+        let mut bad = sound_file(|_| {});
+        bad[0] ^= 1;
+        let e = run_on("badmagic", "t.ztd", bad, true).unwrap_err();
+        let u = e.downcast_ref::<Unreadable>().expect("an Unreadable");
+        let v: serde_json::Value = serde_json::to_value(u).unwrap();
+        assert_eq!(v["ok"], false);
+        assert_eq!(v["name"], "t");
+        assert!(v["path"].as_str().unwrap().ends_with("t.ztd"), "{v}");
+        assert!(v["error"].as_str().unwrap().contains("bad magic"), "{v}");
+        // A report says the same two things first.
+        let good = report_on("good-json", sound_file(|_| {}), true);
+        let v: serde_json::Value = serde_json::from_str(&json(&good).unwrap()).unwrap();
+        assert_eq!(
+            (&v["ok"], &v["error"]),
+            (&true.into(), &serde_json::Value::Null)
+        );
+        assert_eq!(v["name"], "t");
+        let mut junk = sound_file(|_| {});
+        junk.extend_from_slice(&[0; 10]);
+        let v: serde_json::Value =
+            serde_json::from_str(&json(&report_on("junk-json", junk, false)).unwrap()).unwrap();
+        assert_eq!(v["ok"], false);
+        assert_eq!(v["error"], "10 bytes follow the last tile record");
+        assert_eq!(v["trailing_bytes"], 10);
+    }
+
+    /// Bytes after the last record fail the check, counted: no tile read reaches them, so
+    /// `--verify` passed a file with 1000 bytes appended.
+    #[test]
+    fn bytes_after_the_last_record_fail_the_check() {
+        let mut file = sound_file(|_| {});
+        file.extend_from_slice(&[0; 1000]);
+        let r = report_on("junk", file, true);
+        assert_eq!(r.trailing_bytes, 1000);
+        assert_eq!(r.problems(), ["1000 bytes follow the last tile record"]);
+        assert!(
+            render(&r).contains("1000 bytes follow the last tile record"),
+            "{}",
+            render(&r)
+        );
+        assert_eq!(
+            report_on("nojunk", sound_file(|_| {}), true).trailing_bytes,
+            0
+        );
+    }
+
+    /// Metadata that names another wavelet or step than its streams are coded with fails
+    /// `--verify` at the tile (the header alone cannot tell): it passed, and clients were
+    /// told a codec the tiles do not use.
+    #[test]
+    fn a_wavelet_or_step_the_streams_do_not_use_fails() {
+        let r = report_on(
+            "wavelet",
+            sound_file(|m| m.wavelet = Wavelet::LeGall53),
+            true,
+        );
+        let f = r.failed.unwrap();
+        assert!(
+            f.len() == 1
+                && f[0].error
+                    == "the stream is coded with the cdf97 wavelet, the dataset says legall53",
+            "{f:?}"
+        );
+        let r = report_on("step", sound_file(|m| m.step = 1e308), true);
+        let f = r.failed.unwrap();
+        assert!(
+            f.len() == 1
+                && f[0]
+                    .error
+                    .contains("step is 1.0 m, the dataset says 1e308 m"),
+            "{f:?}"
+        );
+    }
+
+    /// A header's metadata the server cannot use fails `info` naming the field; the same
+    /// header with sane values passes.
+    #[test]
+    fn metadata_the_server_cannot_use_fails_naming_the_field() {
+        let e = run_on("zoom", "t.ztd", sound_file(|m| m.max_zoom = 200), false).unwrap_err();
+        assert!(e.is::<Unreadable>(), "{e:#}");
+        assert!(
+            e.to_string().contains("metadata is invalid: max_zoom 200"),
+            "{e:#}"
+        );
+    }
+
+    /// A FIFO or a device where the dataset is named is said to be one, not "no such
+    /// dataset file" (it is there); neither is opened, which would block on a FIFO.
+    #[test]
+    fn a_fifo_or_device_is_not_a_regular_file() {
+        let dir = crate::fixtures::scratch("info-fifo");
+        let fifo = dir.join("f.ztd");
+        let made = std::process::Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap();
+        assert!(made.success());
+        let job = |dataset: &str| Info {
+            dataset: dataset.into(),
+            data: dir.clone(),
+            verify: true,
+            progress: false,
+        };
+        for (given, what) in [("f", "a FIFO"), ("/dev/null", "a device")] {
+            let e = format!("{:#}", run(&job(given)).unwrap_err());
+            assert!(
+                e.ends_with(&format!(": not a regular file ({what}); give a .ztd file")),
+                "{given}: {e}"
+            );
+            assert!(!e.contains("no such"), "{e}");
+        }
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     fn verify_file(tag: &str, file: Vec<u8>) -> Report {

@@ -2,6 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::geo::{Scheme, Tiling, TilingError};
 use crate::wavelet::Wavelet;
 
 /// Dataset-wide facts, fixed at ingest.
@@ -49,6 +50,133 @@ pub struct Metadata {
     pub stream_bytes: u64,
     /// RFC 3339 time of the ingest.
     pub created: String,
+}
+
+impl Metadata {
+    /// The tiling the metadata names: its scheme, tile side and (for `local`) grid size.
+    pub fn tiling(&self) -> Result<Tiling, String> {
+        let scheme = match self.scheme.as_str() {
+            "geodetic" => Scheme::Geodetic,
+            "mercator" => Scheme::Mercator,
+            "local" => Scheme::Local {
+                rows: self.source_size[0],
+                cols: self.source_size[1],
+            },
+            other => return Err(format!("scheme {other:?}: not geodetic, mercator or local")),
+        };
+        let side = u32::try_from(self.tile_side).unwrap_or(u32::MAX);
+        Tiling::new(scheme, side).map_err(|e| match e {
+            TilingError::Side(_) => format!("tile_side {}: {e}", self.tile_side),
+            _ => format!("source_size {:?}: {e}", self.source_size),
+        })
+    }
+
+    /// Checks what the server relies on and JSON cannot say: a header whose CRC holds but
+    /// whose values came from a buggy writer (or a hand edit) was served, and failed later
+    /// on every `layer.json` or tile (a zoom past the tiling's deepest, a latitude of 100°,
+    /// a step of 0). Refused here, it fails `info` naming the field, and `serve` lists the
+    /// file under `skipped` with the same reason.
+    ///
+    /// Longitudes west past east are valid: the dataset crosses the antimeridian
+    /// (CesiumJS's `Rectangle` convention, `geo::antimeridian`). A `local` dataset's bounds
+    /// are sample coordinates, rows counted down, so its south is the larger number.
+    pub fn check(&self) -> Result<(), String> {
+        let tiling = self.tiling()?;
+        // The tiling takes sides up to 32769; the mesher's tables stop at 4097, and a side past
+        // them was refused later as "not 2^n + 1", which it is.
+        if !crate::bintree::Hierarchy::supports(self.tile_side) {
+            return Err(format!(
+                "tile_side {}: this build meshes tiles of 2^n + 1 samples from 3 to 4097",
+                self.tile_side
+            ));
+        }
+        if self.min_zoom > self.max_zoom {
+            return Err(format!(
+                "min_zoom {} is past max_zoom {}",
+                self.min_zoom, self.max_zoom
+            ));
+        }
+        if self.max_zoom > tiling.max_zoom() {
+            let of = match tiling.scheme() {
+                Scheme::Local { rows, cols } => format!("a local grid of {rows} × {cols} samples"),
+                _ => format!("the {} scheme", self.scheme),
+            };
+            return Err(format!(
+                "max_zoom {} is deeper than the tiling's deepest zoom {} ({of})",
+                self.max_zoom,
+                tiling.max_zoom()
+            ));
+        }
+        if self.source_size.contains(&0) {
+            return Err(format!(
+                "source_size {:?}: a source has at least one row and column",
+                self.source_size
+            ));
+        }
+        check_bounds(&self.scheme, self.bounds)?;
+        if !(self.step.is_finite() && self.step > 0.0) {
+            return Err(format!("step {}: must be finite and > 0", self.step));
+        }
+        if let Some(p) = self.precision {
+            if !(p.is_finite() && p > 0.0) {
+                return Err(format!("precision {p}: must be finite and > 0, or null"));
+            }
+        }
+        check_range("height_range", self.height_range)?;
+        if let Some(r) = self.source_height_range {
+            check_range("source_height_range", r)?;
+        }
+        if !self.fill.is_finite() {
+            return Err(format!("fill {}: not finite", self.fill));
+        }
+        if !(self.view.a.is_finite() && self.view.b.is_finite()) {
+            return Err(format!(
+                "view {{a: {}, b: {}}}: not finite",
+                self.view.a, self.view.b
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Slack on the world's edges: ingest takes a source up to 1e-9° past them as inside.
+const EDGE_SLACK: f64 = 1e-6;
+
+fn check_bounds(scheme: &str, bounds: [f64; 4]) -> Result<(), String> {
+    let [west, south, east, north] = bounds;
+    let bad = |why: &str| Err(format!("bounds {bounds:?}: {why}"));
+    if !bounds.iter().all(|v| v.is_finite()) {
+        return bad("not finite");
+    }
+    if scheme == "local" {
+        // Columns and rows of the source grid; no wrap round a local grid.
+        if west > east {
+            return bad("west past east in a local grid");
+        }
+        return Ok(());
+    }
+    let lon = -180.0 - EDGE_SLACK..=180.0 + EDGE_SLACK;
+    let lat = -90.0 - EDGE_SLACK..=90.0 + EDGE_SLACK;
+    if !lon.contains(&west) || !lon.contains(&east) {
+        return bad("longitudes must be within -180..180°");
+    }
+    if !lat.contains(&south) || !lat.contains(&north) {
+        return bad("latitudes must be within -90..90°");
+    }
+    if south > north {
+        return bad("south is north of north");
+    }
+    Ok(())
+}
+
+fn check_range(field: &str, [lo, hi]: [f64; 2]) -> Result<(), String> {
+    if !(lo.is_finite() && hi.is_finite()) {
+        return Err(format!("{field} [{lo}, {hi}]: not finite"));
+    }
+    if lo > hi {
+        return Err(format!("{field} [{lo}, {hi}]: lowest above highest"));
+    }
+    Ok(())
 }
 
 /// Per-dataset settings of the view-driven threshold (paper eq. 4), in height units.

@@ -4,7 +4,7 @@
 //! offset  size  field
 //!      0     4  magic "ZTD1"
 //!      4     2  version (1), little-endian like every number here
-//!      6     2  flags (0)
+//!      6     2  flags (0; a reader refuses any it does not know)
 //!      8     4  header_len: bytes from offset 0 to the first tile record
 //!     12     4  metadata_len
 //!     16     4  index_count
@@ -61,6 +61,12 @@ pub enum ContainerError {
     Magic,
     #[error("dataset version {0} is not supported (this build reads version {VERSION})")]
     Version(u16),
+    #[error(
+        "dataset header flags {0:#06x} are not known to this build (version {VERSION} defines none)"
+    )]
+    Flags(u16),
+    #[error("dataset metadata is invalid: {0}")]
+    Metadata(String),
     #[error("dataset is truncated: {0}")]
     Truncated(&'static str),
     #[error("dataset is malformed: {0}")]
@@ -123,6 +129,12 @@ impl Fixed {
         if version != VERSION {
             return Err(ContainerError::Version(version));
         }
+        // Outside the CRC, so a flipped bit here passed unseen; and a future writer's flag
+        // may change how the rest reads, which this reader cannot honour.
+        let flags = u16::from_le_bytes([b[6], b[7]]);
+        if flags != 0 {
+            return Err(ContainerError::Flags(flags));
+        }
         let u32_at = |k: usize| u32::from_le_bytes([b[k], b[k + 1], b[k + 2], b[k + 3]]) as usize;
         let (header_len, metadata_len, index_count) = (u32_at(8), u32_at(12), u32_at(16));
         if header_len > limits.max_header_bytes {
@@ -173,6 +185,7 @@ impl Container {
         let meta_end = FIXED_LEN + fixed.metadata_len;
         let metadata: Metadata = serde_json::from_slice(&header[FIXED_LEN..meta_end])
             .map_err(|e| ContainerError::Malformed(format!("metadata: {e}")))?;
+        metadata.check().map_err(ContainerError::Metadata)?;
         // Index: sorted, records after the header.
         let mut index = BTreeMap::new();
         for e in header[meta_end..].chunks_exact(ENTRY_LEN) {

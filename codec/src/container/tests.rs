@@ -215,3 +215,111 @@ fn index_entries_pointing_into_the_header_or_repeated_are_malformed() {
         ContainerError::Malformed("tile 0/0/0 indexed twice".into())
     );
 }
+
+#[test]
+fn unknown_header_flags_are_refused() {
+    // Offset 6 lies outside the header CRC: only this check sees a flipped bit there.
+    let mut b = sample();
+    b[6] = 1;
+    assert_eq!(
+        Container::parse(&b, &Limits::default()).unwrap_err(),
+        ContainerError::Flags(1)
+    );
+    let mut b = sample();
+    b[7] = 0x80;
+    let e = Container::parse(&b, &Limits::default()).unwrap_err();
+    assert_eq!(e, ContainerError::Flags(0x8000));
+    assert!(e.to_string().contains("flags 0x8000"), "{e}");
+}
+
+/// The sample's tiles under `m` (the header's CRC made for it, as a buggy writer's is).
+fn with_metadata(m: &Metadata) -> Result<Container, ContainerError> {
+    let mut w = Writer::new();
+    w.add(TileId { z: 0, x: 0, y: 0 }, [0.0; 4], b"x");
+    Container::parse(&w.finish(m).unwrap(), &Limits::default())
+}
+
+#[test]
+fn metadata_the_server_cannot_use_is_refused_naming_the_field() {
+    type Edit = fn(&mut Metadata);
+    let cases: [(Edit, &str); 14] = [
+        (
+            |m| m.tile_side = 8193,
+            "tile_side 8193: this build meshes tiles",
+        ),
+        (
+            |m| m.max_zoom = 200,
+            "max_zoom 200 is deeper than the tiling's deepest zoom 28 (the geodetic scheme)",
+        ),
+        (|m| m.min_zoom = 3, "min_zoom 3 is past max_zoom 2"),
+        (
+            |m| m.bounds = [200.0, 100.0, -200.0, -100.0],
+            "bounds [200.0",
+        ),
+        (|m| m.bounds = [-72.0, 44.0, -71.0, 95.0], "latitudes"),
+        (|m| m.bounds = [-72.0, 45.0, -71.0, 44.0], "south is north"),
+        (|m| m.step = 0.0, "step 0"),
+        (|m| m.step = -1.0, "step -1"),
+        (|m| m.precision = Some(-1.0), "precision -1"),
+        (|m| m.height_range = [5.0, -5.0], "height_range [5, -5]"),
+        (
+            |m| m.source_height_range = Some([1.0, 0.0]),
+            "source_height_range",
+        ),
+        (|m| m.source_size = [0, 0], "source_size [0, 0]"),
+        (|m| m.tile_side = 256, "tile_side 256"),
+        (|m| m.scheme = "bogus".into(), "scheme \"bogus\""),
+    ];
+    for (edit, says) in cases {
+        let mut m = metadata();
+        edit(&mut m);
+        match with_metadata(&m) {
+            Err(ContainerError::Metadata(e)) => assert!(e.contains(says), "{says}: {e}"),
+            other => panic!("{says}: {other:?}"),
+        }
+    }
+    // JSON cannot carry these (serde writes null, which does not parse back as a number),
+    // but metadata built in memory can.
+    let cases: [(Edit, &str); 4] = [
+        (|m| m.bounds[2] = f64::NAN, "not finite"),
+        (|m| m.step = f64::INFINITY, "step inf"),
+        (|m| m.fill = f64::NEG_INFINITY, "fill -inf"),
+        (|m| m.view.a = f64::NAN, "view"),
+    ];
+    for (edit, says) in cases {
+        let mut m = metadata();
+        edit(&mut m);
+        let e = m.check().unwrap_err();
+        assert!(e.contains(says), "{says}: {e}");
+    }
+}
+
+/// What ingest writes for every scheme parses: across the antimeridian (west past east),
+/// a local grid (rows counted down, so south is the larger), the poles, web mercator's
+/// deepest zoom, and a local grid's.
+#[test]
+fn metadata_ingest_writes_is_accepted() {
+    type Edit = fn(&mut Metadata);
+    let cases: [Edit; 7] = [
+        |m| m.bounds = [177.0, -19.0, -179.0, -16.0],
+        |m| m.bounds = [-180.0, -90.0, 180.0, 90.0],
+        |m| m.bounds = [-180.0, -90.000_000_000_5, 180.0, 90.0],
+        |m| (m.scheme, m.max_zoom) = ("mercator".into(), 28),
+        |m| (m.scheme, m.bounds) = ("local".into(), [0.0, 1200.0, 1200.0, 0.0]),
+        // A local grid's full resolution: 1201 samples a side at zoom 3 (256 · 2³ ≥ 1200).
+        |m| (m.scheme, m.max_zoom) = ("local".into(), 3),
+        |m| (m.precision, m.source_height_range) = (None, Some([115.0, 1908.0])),
+    ];
+    for (k, edit) in cases.into_iter().enumerate() {
+        let mut m = metadata();
+        edit(&mut m);
+        assert!(with_metadata(&m).is_ok(), "case {k}: {m:?}");
+    }
+    // Past it there is nothing to code.
+    let mut m = metadata();
+    (m.scheme, m.max_zoom) = ("local".into(), 4);
+    assert!(matches!(
+        with_metadata(&m),
+        Err(ContainerError::Metadata(e)) if e.contains("deepest zoom 3 (a local grid of 1201 × 1201 samples)")
+    ));
+}

@@ -120,6 +120,14 @@ pub fn existing_dataset_path(dataset: &str, data: &Path) -> Result<PathBuf> {
         );
     }
     if !path.is_file() {
+        // A FIFO or device that is there is not a typo to look for (and opening a FIFO
+        // would block until something wrote to it).
+        if let Some(what) = std::fs::metadata(&path).ok().and_then(|m| special(&m)) {
+            bail!(
+                "{}: not a regular file ({what}); give a .ztd file",
+                path.display()
+            );
+        }
         bail!(
             "{}: no such dataset file (give a .ztd path, or a name in --data {})",
             path.display(),
@@ -127,6 +135,21 @@ pub fn existing_dataset_path(dataset: &str, data: &Path) -> Result<PathBuf> {
         );
     }
     Ok(path)
+}
+
+/// What a file that is neither a regular file nor a folder is, for messages.
+fn special(meta: &std::fs::Metadata) -> Option<&'static str> {
+    use std::os::unix::fs::FileTypeExt;
+    let kind = meta.file_type();
+    if kind.is_fifo() {
+        Some("a FIFO")
+    } else if kind.is_socket() {
+        Some("a socket")
+    } else if kind.is_char_device() || kind.is_block_device() {
+        Some("a device")
+    } else {
+        None
+    }
 }
 
 /// Dataset names become file names: keep them to a safe alphabet.
@@ -736,7 +759,9 @@ mod tests {
         let dir = scratch("sweep");
         std::fs::create_dir_all(&dir).unwrap();
         let dead = dir.join(".a.ztd.tmp-4294967295-0");
-        let live = dir.join(format!(".a.ztd.tmp-{}-9", std::process::id()));
+        // A name this process's own writes never take (they count up from 0): `-9` was the
+        // tenth write's, and in a full run the write below could be it and rename it away.
+        let live = dir.join(format!(".a.ztd.tmp-{}-live", std::process::id()));
         let other = dir.join(".b.ztd.tmp-4294967295-0");
         for f in [&dead, &live, &other] {
             std::fs::write(f, b"partial").unwrap();

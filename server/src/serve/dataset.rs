@@ -16,7 +16,7 @@ use zerotile_codec::bintree::Hierarchy;
 use zerotile_codec::container::{
     Container, Fixed, Limits, Metadata, TileId, TileRecord, FIXED_LEN,
 };
-use zerotile_codec::geo::{Scheme, Tiling};
+use zerotile_codec::geo::Tiling;
 
 use super::storage::Source;
 
@@ -57,6 +57,16 @@ impl Dataset {
     /// [`Dataset::open`], its failure to open the file told under `shown`: a server lists
     /// skipped files to any client by their names in its folder, not by its own paths.
     pub fn open_as(path: &Path, shown: &str) -> Result<Self> {
+        Self::open_file(path, shown, true)
+    }
+
+    /// [`Dataset::open`] whatever the file is called: `info` describes a copy named
+    /// `n44.v2.ztd` too, which only serving it under that name would refuse.
+    pub fn open_any_name(path: &Path) -> Result<Self> {
+        Self::open_file(path, &path.display().to_string(), false)
+    }
+
+    fn open_file(path: &Path, shown: &str, named: bool) -> Result<Self> {
         // Only a regular file: opening a FIFO blocks until something writes to it (a server
         // that found one named `x.ztd` never started, or stopped rescanning).
         let kind = std::fs::metadata(path).with_context(|| format!("opening {shown}"))?;
@@ -77,6 +87,7 @@ impl Dataset {
             path.display().to_string(),
             Source::File(file),
             meta.len(),
+            named,
         )?;
         d.opened_modified = meta.modified().ok();
         Ok(d)
@@ -100,6 +111,7 @@ impl Dataset {
                 path: meta.location.clone(),
             },
             meta.size,
+            true,
         )
     }
 
@@ -108,9 +120,12 @@ impl Dataset {
         location: String,
         source: Source,
         len: u64,
+        named: bool,
     ) -> Result<Self> {
         let name = name.unwrap_or_default();
-        crate::ingest::check_name(&name)?;
+        if named {
+            crate::ingest::check_name(&name)?;
+        }
 
         // The fixed part says how long the header is; read exactly that.
         let limits = Limits::default();
@@ -256,15 +271,5 @@ pub struct OwnedRecord {
 
 /// The tiling a dataset's metadata names.
 pub fn tiling_of(m: &Metadata) -> Result<Tiling> {
-    let scheme = match m.scheme.as_str() {
-        "geodetic" => Scheme::Geodetic,
-        "mercator" => Scheme::Mercator,
-        "local" => Scheme::Local {
-            rows: m.source_size[0],
-            cols: m.source_size[1],
-        },
-        other => bail!("unknown tiling scheme {other:?}"),
-    };
-    let side = u32::try_from(m.tile_side).context("tile side")?;
-    Ok(Tiling::new(scheme, side)?)
+    m.tiling().map_err(anyhow::Error::msg)
 }
