@@ -734,6 +734,60 @@ fn datasets_follow_the_folder_while_serving() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// Object meshes follow `meshes/` as datasets follow the folder: a mesh copied in is served
+/// at the rescan after the copy settles, one replaced is served anew (its faces, new ETags),
+/// one that no longer reads stays served and is listed as skipped, one removed is gone.
+#[test]
+fn meshes_follow_the_mesh_folder_while_serving() {
+    let dir = fresh_dir("serve-mesh-rescan");
+    std::fs::copy(data_dir().join("crop.ztd"), dir.join("crop.ztd")).unwrap();
+    let meshes = dir.join("meshes");
+    std::fs::create_dir_all(&meshes).unwrap();
+    let mut s = Server::start_flags(&dir, &["--rescan", "1"]);
+    s.get("/v1/meshes/m", &[])
+        .assert_error(404, "mesh_not_found", "not there yet");
+
+    // Copied in place, as `cp` does: read once it has been left alone for a second.
+    std::fs::copy(shared_data().join("meshes/cow.obj"), meshes.join("m.obj")).unwrap();
+    wait_for(&s, "/v1/meshes/m", "a mesh copied in served", |r| {
+        r.status == 200
+    });
+    let cow = s.get("/v1/meshes/m", &[]).json()["faces"].clone();
+    let lod = "/v1/meshes/m/qem?ratio=0.5";
+    let first = s.get(lod, &[]);
+    assert_eq!(first.status, 200);
+
+    let tmp = meshes.join(".m.obj.tmp");
+    std::fs::copy(shared_data().join("meshes/teapot.obj"), &tmp).unwrap();
+    std::fs::rename(&tmp, meshes.join("m.obj")).unwrap();
+    wait_for(&s, "/v1/meshes/m", "a replaced mesh served anew", |r| {
+        r.json()["faces"] != cow
+    });
+    assert_ne!(s.get(lod, &[]).header("etag"), first.header("etag"));
+
+    s.warnings_expected = true;
+    std::fs::write(&tmp, b"v 0 0 0\nv 1 0 0\nf 1 1 2\n").unwrap();
+    std::fs::rename(&tmp, meshes.join("m.obj")).unwrap();
+    wait_for(&s, "/v1/meshes", "a broken mesh listed as skipped", |r| {
+        !r.json()["skipped"].as_array().unwrap().is_empty()
+    });
+    let why = s.get("/v1/meshes", &[]).json()["skipped"][0]["error"].clone();
+    assert!(why.as_str().unwrap().contains("still served"), "{why}");
+    assert_eq!(s.get(lod, &[]).status, 200);
+
+    std::fs::remove_file(meshes.join("m.obj")).unwrap();
+    wait_for(&s, "/v1/meshes/m", "a removed mesh gone", |r| {
+        r.status == 404
+    });
+    assert!(
+        s.log_text().contains("meshes rescanned: removed m.obj"),
+        "{}",
+        s.log_text()
+    );
+    drop(s);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// With `--rescan 0` the folder is read at start and on SIGHUP only.
 #[test]
 fn sighup_rescans_when_the_timer_is_off() {

@@ -76,15 +76,25 @@ impl Drop for Moto {
     }
 }
 
-// A loopback TCP relay to `upstream` that counts the bytes
-// the store sends back, measured outside the server under test.
-fn counting_relay(upstream: String) -> (String, std::sync::Arc<std::sync::atomic::AtomicU64>) {
+/// A loopback TCP relay to a store, between it and the server under test.
+struct Relay {
+    base: String,
+    /// Bytes the store sent back, measured outside the server under test.
+    served: std::sync::Arc<std::sync::atomic::AtomicU64>,
+    /// While set, requests are swallowed: the store stops answering, on connections already
+    /// open too.
+    hang: std::sync::Arc<std::sync::atomic::AtomicBool>,
+}
+
+fn relay(upstream: String) -> Relay {
     use std::io::{Read, Write};
-    use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
+    use std::sync::atomic::{AtomicBool, AtomicU64, Ordering::Relaxed};
+    use std::sync::Arc;
     let listener = TcpListener::bind("127.0.0.1:0").unwrap();
     let base = format!("http://{}", listener.local_addr().unwrap());
-    let served = std::sync::Arc::new(AtomicU64::new(0));
-    let count = served.clone();
+    let served = Arc::new(AtomicU64::new(0));
+    let hang = Arc::new(AtomicBool::new(false));
+    let (count, hung) = (served.clone(), hang.clone());
     let up = upstream.trim_start_matches("http://").to_string();
     std::thread::spawn(move || {
         for client in listener.incoming().flatten() {
@@ -92,8 +102,18 @@ fn counting_relay(upstream: String) -> (String, std::sync::Arc<std::sync::atomic
                 continue;
             };
             let (mut c_in, mut s_out) = (client.try_clone().unwrap(), server.try_clone().unwrap());
+            let hung = hung.clone();
             std::thread::spawn(move || {
-                let _ = std::io::copy(&mut c_in, &mut s_out);
+                let mut buf = [0u8; 16384];
+                while let Ok(n) = c_in.read(&mut buf) {
+                    if n == 0 {
+                        break;
+                    }
+                    if !hung.load(Relaxed) && s_out.write_all(&buf[..n]).is_err() {
+                        break;
+                    }
+                }
+                let _ = s_out.shutdown(std::net::Shutdown::Write);
             });
             let (mut s_in, mut c_out, count) = (server, client, count.clone());
             std::thread::spawn(move || {
@@ -108,7 +128,45 @@ fn counting_relay(upstream: String) -> (String, std::sync::Arc<std::sync::atomic
             });
         }
     });
-    (base, served)
+    Relay { base, served, hang }
+}
+
+/// The N44W072 dataset ingested by the real binary into a folder of its own, and its bytes.
+fn srtm(tag: &str) -> (PathBuf, Vec<u8>) {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(tag);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let hgt = shared_data().join("dem/N44W072.hgt");
+    run_ok(&mut ingest_command(
+        &hgt,
+        "srtm",
+        &dir,
+        &["--scheme", "geodetic"],
+    ));
+    let file = std::fs::read(dir.join("srtm.ztd")).unwrap();
+    (dir, file)
+}
+
+/// `serve --data s3://tiles/prod` through `endpoint`.
+fn serve_bucket(endpoint: &str) -> Server {
+    Server::start_with(
+        "s3://tiles/prod".as_ref(),
+        &[
+            ("AWS_ENDPOINT", endpoint),
+            ("AWS_ALLOW_HTTP", "true"),
+            ("AWS_ACCESS_KEY_ID", "test"),
+            ("AWS_SECRET_ACCESS_KEY", "test"),
+            ("AWS_REGION", "us-east-1"),
+        ],
+    )
+}
+
+/// The first tile at zoom `z` of `layer.json`'s availability, and how many follow it in x.
+fn first_at(s: &Server, z: usize) -> (u64, u64, u64) {
+    let layer = s.get("/v1/datasets/srtm/layer.json", &[]).json();
+    let range = &layer["available"][z][0];
+    let x = |k: &str| range[k].as_u64().unwrap();
+    (x("startX"), x("startY"), x("endX") - x("startX"))
 }
 
 fn metric(s: &Server, name: &str) -> f64 {
@@ -123,17 +181,7 @@ fn s3_datasets_serve_the_same_bytes_by_range_reads() {
     let Some(moto) = Moto::start() else { return };
 
     // A real dataset, ingested by the real binary.
-    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("storage-s3");
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    let hgt = shared_data().join("dem/N44W072.hgt");
-    run_ok(&mut ingest_command(
-        &hgt,
-        "srtm",
-        &dir,
-        &["--scheme", "geodetic"],
-    ));
-    let file = std::fs::read(dir.join("srtm.ztd")).unwrap();
+    let (dir, file) = srtm("storage-s3");
 
     // The bucket: the dataset, a truncated copy (skipped, not fatal) and an unrelated object.
     moto.put("/tiles", b"");
@@ -143,17 +191,12 @@ fn s3_datasets_serve_the_same_bytes_by_range_reads() {
     moto.put("/tiles/other/elsewhere.ztd", &file);
 
     let local = Server::start(&dir);
-    let (endpoint, from_store) = counting_relay(moto.base.clone());
-    let mut remote = Server::start_with(
-        "s3://tiles/prod".as_ref(),
-        &[
-            ("AWS_ENDPOINT", &endpoint),
-            ("AWS_ALLOW_HTTP", "true"),
-            ("AWS_ACCESS_KEY_ID", "test"),
-            ("AWS_SECRET_ACCESS_KEY", "test"),
-            ("AWS_REGION", "us-east-1"),
-        ],
-    );
+    let Relay {
+        base: endpoint,
+        served: from_store,
+        ..
+    } = relay(moto.base.clone());
+    let mut remote = serve_bucket(&endpoint);
     remote.warnings_expected = true; // broken.ztd is skipped with a warning
 
     let list = remote.get("/v1/datasets", &[]).json();
@@ -173,12 +216,7 @@ fn s3_datasets_serve_the_same_bytes_by_range_reads() {
     let before = metric(&remote, "zerotile_storage_read_bytes_total");
     let reads_before = metric(&remote, "zerotile_storage_reads_total");
     let wire_before = from_store.load(std::sync::atomic::Ordering::Relaxed);
-    let layer = local.get("/v1/datasets/srtm/layer.json", &[]).json();
-    let z9 = &layer["available"][9][0];
-    let (x0, y0) = (
-        z9["startX"].as_u64().unwrap(),
-        z9["startY"].as_u64().unwrap(),
-    );
+    let (x0, y0, _) = first_at(&local, 9);
     let mut asked = 0;
     for path in [
         format!("/v1/datasets/srtm/tiles/9/{x0}/{y0}.terrain?threshold=4"),
@@ -262,4 +300,77 @@ fn s3_datasets_serve_the_same_bytes_by_range_reads() {
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("listing"), "{err}");
+}
+
+/// A store that stops answering (requests swallowed, connections held open) fails a mesh
+/// tile with `503 storage_unavailable` within one read's timeout, even one whose own record
+/// is cached (not a tile meshed without the neighbours it could not read), and the requests
+/// after it at once while the store is cut off; once it answers again (the request that
+/// probes it may still fail), tiles are served as before. A mesh tile reads five records two at a time, each waiting out the 10 s
+/// timeout: it took 20–30 s, the request limit's bare `unavailable` at worst.
+#[test]
+fn a_store_that_stops_answering_fails_tiles_in_seconds() {
+    let Some(moto) = Moto::start() else { return };
+    let (dir, file) = srtm("storage-hang");
+    moto.put("/tiles", b"");
+    moto.put("/tiles/prod/srtm.ztd", &file);
+    let local = Server::start(&dir);
+    let relay = relay(moto.base.clone());
+    let mut remote = serve_bucket(&relay.base);
+    remote.warnings_expected = true;
+    let (x0, y0, across) = first_at(&local, 10);
+    assert!(across >= 4, "{across}");
+    let tile = |dx: u64| format!("/v1/datasets/srtm/tiles/10/{}/{y0}.terrain", x0 + dx);
+    assert_eq!(
+        remote.get(&tile(0), &[]).body,
+        local.get(&tile(0), &[]).body
+    );
+
+    // Tile 1 was decoded as tile 0's neighbour and is cached; its own neighbours beyond
+    // are not: meshed without them it would have cracks, so it is a 503 too.
+    relay.hang.store(true, std::sync::atomic::Ordering::Relaxed);
+    let started = Instant::now();
+    remote.get(&tile(1), &[]).error(503, "storage_unavailable");
+    let first = started.elapsed();
+    assert!(
+        first < Duration::from_secs(20),
+        "the first answer took {first:?}"
+    );
+    let started = Instant::now();
+    let r = remote.get(&tile(4), &[]);
+    r.error(503, "storage_unavailable");
+    assert_eq!(r.header("retry-after"), Some("1"));
+    let second = started.elapsed();
+    assert!(
+        second < Duration::from_secs(3),
+        "the store was asked again: {second:?}"
+    );
+    assert!(
+        remote.log_text().contains("requests to it fail at once"),
+        "{}",
+        remote.log_text()
+    );
+
+    relay
+        .hang
+        .store(false, std::sync::atomic::Ordering::Relaxed);
+    // After the cool-off one read asks again and the tile's others still fail at once, so
+    // the request carrying the probe may be a 503 too; its answer ends the cut-off.
+    std::thread::sleep(Duration::from_secs(6));
+    let mut again = remote.get(&tile(4), &[]);
+    for _ in 0..2 {
+        if again.status == 200 {
+            break;
+        }
+        again.error(503, "storage_unavailable");
+        std::thread::sleep(Duration::from_millis(500));
+        again = remote.get(&tile(4), &[]);
+    }
+    assert_eq!(
+        again.status,
+        200,
+        "{}",
+        String::from_utf8_lossy(&again.body)
+    );
+    assert_eq!(again.body, local.get(&tile(4), &[]).body);
 }

@@ -229,14 +229,14 @@ pub struct ServeArgs {
     #[arg(long)]
     pub read_only: bool,
     /// Faces the served meshes may hold together; an upload that would pass it is 507
-    /// mesh_quota (each mesh counts as at least 10,000). Meshes in the folder at start are
-    /// served whatever they hold [default: 10000000]
+    /// mesh_quota (each mesh counts as at least 10,000). Meshes put in the folder are served
+    /// whatever they hold [default: 10000000]
     #[arg(long, value_name = "FACES")]
     pub mesh_quota: Option<u64>,
-    /// Rescan the datasets every SECS seconds: a dataset ingested, replaced or removed is
-    /// served, served anew or gone without a restart (SIGHUP rescans at once). 0: only on
-    /// SIGHUP. Default: 5 for a folder; for a store URL only on SIGHUP (each listing is a
-    /// request the store bills).
+    /// Rescan the datasets (and the meshes of DATA/meshes) every SECS seconds: a dataset
+    /// ingested, replaced or removed, or a mesh file, is served, served anew or gone without
+    /// a restart (SIGHUP rescans at once). 0: only on SIGHUP. Default: 5 for a folder; for a
+    /// store URL only on SIGHUP (each listing is a request the store bills).
     #[arg(long, value_name = "SECS")]
     pub rescan: Option<u64>,
 }

@@ -86,8 +86,28 @@ impl ApiError {
                 "the dataset's file is being replaced; retry shortly",
             );
         }
-        if e.chain().any(|c| c.is::<object_store::Error>()) {
-            tracing::warn!("storage unavailable: {e:#}");
+        if let Some(store) = e
+            .chain()
+            .find_map(|c| c.downcast_ref::<object_store::Error>())
+        {
+            if matches!(store, object_store::Error::NotSupported { .. }) {
+                // A store that ignores Range will not start taking it on a retry.
+                tracing::error!("the data store cannot serve tiles: {e:#}");
+                return Self::new(
+                    StatusCode::BAD_GATEWAY,
+                    "storage_unsupported",
+                    "the dataset's storage does not answer byte ranges, which serving from \
+                     it needs; the server's log says more",
+                );
+            }
+            if e.chain()
+                .any(|c| c.is::<super::store_breaker::NotAnswering>())
+            {
+                // The breaker said so once when it tripped; not a line a request.
+                tracing::debug!("storage unavailable: {e:#}");
+            } else {
+                tracing::warn!("storage unavailable: {e:#}");
+            }
             return Self::new(
                 StatusCode::SERVICE_UNAVAILABLE,
                 "storage_unavailable",
@@ -214,7 +234,11 @@ pub async fn json_errors(req: axum::extract::Request, next: axum::middleware::Ne
         return res;
     }
     let (code, message) = match status {
-        StatusCode::SERVICE_UNAVAILABLE => ("unavailable", None),
+        // The request limit's answer (tower's timeout layer): say which limit it was.
+        StatusCode::SERVICE_UNAVAILABLE => (
+            "unavailable",
+            Some("the request ran past the server's 30 s limit; retry shortly"),
+        ),
         StatusCode::REQUEST_TIMEOUT => ("timeout", None),
         StatusCode::PAYLOAD_TOO_LARGE => ("too_large", None),
         StatusCode::NOT_ACCEPTABLE => (
@@ -265,6 +289,24 @@ mod tests {
         );
         let res = err.into_response();
         assert_eq!(res.headers()[header::RETRY_AFTER], "1");
+    }
+
+    /// A store that ignores Range is a 502 without Retry-After: retrying will not help, and
+    /// "retry shortly" sent clients round for good.
+    #[test]
+    fn a_store_that_takes_no_ranges_is_a_502_not_a_retry() {
+        let e = anyhow::Error::new(object_store::Error::NotSupported {
+            source: "Range request not supported by a.ztd".into(),
+        })
+        .context("reading tile 3/1/2");
+        let err = ApiError::render(e);
+        assert_eq!(
+            (err.status, err.code),
+            (StatusCode::BAD_GATEWAY, "storage_unsupported")
+        );
+        assert!(err.message.contains("byte ranges"), "{}", err.message);
+        let res = err.into_response();
+        assert!(res.headers().get(header::RETRY_AFTER).is_none());
     }
 
     /// Any other render failure is a 500 that keeps its detail out of the answer.
@@ -323,6 +365,10 @@ mod tests {
             assert_eq!(h[header::CONTENT_TYPE], "application/json", "{uri}");
             let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
             assert_eq!(v["error"], code, "{uri}");
+            if code == "unavailable" {
+                // Which limit it was, not the bare reason phrase.
+                assert!(v["message"].as_str().unwrap().contains("30 s"), "{v}");
+            }
             // The layer's own Retry-After wins over the default one.
             assert_eq!(h[header::RETRY_AFTER], "5", "{uri}");
         }

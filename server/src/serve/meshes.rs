@@ -1,7 +1,8 @@
 //! Object meshes of the data folder (`DATA/meshes/*.obj|ply|stl`) and their LODs.
 //!
-//! Meshes are read and repaired once, at start or upload. LOD structures are built on first
-//! use and kept with the mesh (the view sphere, the octree and the nested curvature levels
+//! Meshes are read and repaired once, at start, upload or when their file changes (the
+//! rescan is [`super::mesh_reload`]). LOD structures are built on first use and kept with
+//! the mesh (the view sphere, the octree and the nested curvature levels
 //! once per mesh); answers are cached by bytes. Uploads are size-limited, validated and written atomically
 //! before they replace anything.
 
@@ -20,6 +21,7 @@ use zerotile_codec::mesh::{repair, TriMesh};
 use zerotile_codec::mesh::{OctreeLod, OctreeOptions};
 
 use super::built_once::{BuildError, BuiltOnce};
+use super::mesh_reload::Seen;
 
 /// Folder of meshes inside the data folder.
 pub const MESH_DIR: &str = "meshes";
@@ -81,7 +83,7 @@ impl Structure {
 }
 
 impl MeshEntry {
-    fn new(name: String, mesh: TriMesh, source: PathBuf) -> Self {
+    pub(super) fn new(name: String, mesh: TriMesh, source: PathBuf) -> Self {
         Self {
             name,
             content: content_hash(&mesh),
@@ -150,17 +152,21 @@ impl Weighter<u64, Arc<MeshAnswer>> for AnswerBytes {
 
 /// The meshes, by name, and the answer cache.
 pub struct MeshCatalog {
-    dir: PathBuf,
+    pub(super) dir: PathBuf,
     /// `serve --read-only`: uploads are refused though there is a folder to keep them in.
     read_only: bool,
     /// [`DEFAULT_MESH_QUOTA`] unless set.
     quota: u64,
-    entries: RwLock<BTreeMap<String, Arc<MeshEntry>>>,
+    pub(super) entries: RwLock<BTreeMap<String, Arc<MeshEntry>>>,
     /// Held from an upload's write to its insert, so the file on disk and the mesh served
     /// are the same upload's when two arrive for one name (and an upload under another
-    /// extension cannot remove the file the other just wrote). Uploads are rare; the
-    /// parsing and repair, their cost, happen before it is taken.
-    store: Mutex<()>,
+    /// extension cannot remove the file the other just wrote), and through a rescan of the
+    /// folder. Uploads are rare; the parsing and repair, their cost, happen before it is
+    /// taken. It guards what the last rescan found.
+    pub(super) store: Mutex<Seen>,
+    /// Mesh files not served, with the reason, as of the last rescan: apart from the store
+    /// lock, which a rescan holds while it reads meshes, so `/v1/meshes` never waits on it.
+    pub(super) skipped: RwLock<Vec<(String, String)>>,
     pub answers: Cache<u64, Arc<MeshAnswer>, AnswerBytes>,
 }
 
@@ -190,7 +196,8 @@ impl MeshCatalog {
             read_only: false,
             quota: DEFAULT_MESH_QUOTA,
             entries: RwLock::new(entries),
-            store: Mutex::new(()),
+            store: Mutex::new(Seen::default()),
+            skipped: RwLock::default(),
             answers: Cache::with_weighter(items, answer_bytes.max(1), AnswerBytes),
         }
     }
@@ -199,42 +206,11 @@ impl MeshCatalog {
     /// and skipped; of two files of one name, the first in name order (json, obj, ply, stl)
     /// is served.
     pub fn open(data: &Path, answer_bytes: u64) -> Self {
-        let dir = data.join(MESH_DIR);
-        let mut entries: BTreeMap<String, Arc<MeshEntry>> = BTreeMap::new();
-        if let Ok(rd) = std::fs::read_dir(&dir) {
-            let mut paths: Vec<PathBuf> = rd.filter_map(|e| e.ok().map(|e| e.path())).collect();
-            paths.sort();
-            for path in paths {
-                let (Some(stem), Some(_)) = (
-                    path.file_stem().and_then(|s| s.to_str()),
-                    Format::from_path(&path),
-                ) else {
-                    continue;
-                };
-                if let Err(e) = crate::ingest::check_name_of("mesh", stem) {
-                    tracing::warn!("skipping mesh {}: {e:#}", path.display());
-                    continue;
-                }
-                if let Some(served) = entries.get(stem) {
-                    // Two files of one name only come from outside (an upload removes the
-                    // other formats'); which one is served would otherwise be a guess.
-                    tracing::warn!(
-                        "skipping mesh {}: the mesh {stem} is served from {}",
-                        path.display(),
-                        served.source.display()
-                    );
-                    continue;
-                }
-                match load(&path) {
-                    Ok(mesh) => {
-                        let e = MeshEntry::new(stem.to_string(), mesh, path.clone());
-                        entries.insert(stem.to_string(), Arc::new(e));
-                    }
-                    Err(e) => tracing::warn!("skipping mesh {}: {e:#}", path.display()),
-                }
-            }
+        let catalog = Self::with_entries(data.join(MESH_DIR), BTreeMap::new(), answer_bytes);
+        if let Err(e) = catalog.rescan(true) {
+            tracing::warn!("reading the meshes: {e:#}");
         }
-        Self::with_entries(dir, entries, answer_bytes)
+        catalog
     }
 
     /// Refuses uploads from now on (`serve --read-only`): a server anyone can reach would
@@ -274,6 +250,14 @@ impl MeshCatalog {
         self.entries.read().ok()?.get(name).cloned()
     }
 
+    /// Mesh files of the folder not served, with the reason, as of the last rescan.
+    pub fn skipped(&self) -> Vec<(String, String)> {
+        self.skipped
+            .read()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .clone()
+    }
+
     /// Validates `bytes` as a mesh, writes it atomically as `meshes/NAME.EXT` (replacing an
     /// older file of that name only once the new one is whole) and serves it from now on.
     /// Also says whether a mesh of that name was replaced (HTTP tells 200 from 201 by it).
@@ -294,10 +278,11 @@ impl MeshCatalog {
         // Stored as sent (a readable format: read_bytes refused anything else), under the
         // extension `open` reads it back by.
         let path = self.dir.join(format!("{name}.{}", format.extension()));
-        let _store = self
+        // A poisoned lock (a rescan's reader that panicked) guards only a cache of stamps.
+        let mut seen = self
             .store
             .lock()
-            .map_err(|_| UploadError::Store(anyhow::anyhow!("mesh store lock poisoned")))?;
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
         // Under the store lock, so two uploads cannot both take the last room. A mesh
         // replaced frees its own charge.
         let held: u64 = self
@@ -319,6 +304,8 @@ impl MeshCatalog {
         for other in Format::READABLE.iter().filter(|&&f| f != format) {
             let _ = std::fs::remove_file(self.dir.join(format!("{name}.{}", other.extension())));
         }
+        // The rescan then knows the file for the one it has just been read as.
+        self.uploaded(&mut seen, name, &path);
         let entry = Arc::new(MeshEntry::new(name.to_string(), mesh, path));
         let mut map = self
             .entries
@@ -365,7 +352,7 @@ fn content_hash(mesh: &TriMesh) -> u64 {
     h.finish()
 }
 
-fn load(path: &Path) -> Result<TriMesh> {
+pub(super) fn load(path: &Path) -> Result<TriMesh> {
     let mesh =
         io::read_path(path, &limits()).with_context(|| format!("reading {}", path.display()))?;
     repaired(&mesh)
@@ -433,13 +420,13 @@ pub(crate) fn has_surface(clean: &TriMesh) -> Result<()> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
     /// One face over three distinct vertices at the same point: it survives repair (no
     /// repeated index) but has no area.
     const FLAT: &[u8] = b"v 1 2 3\nv 1 2 3\nv 1 2 3\nf 1 2 3\n";
-    const TRI: &[u8] = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    pub(in crate::serve) const TRI: &[u8] = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
 
     fn scratch(tag: &str) -> PathBuf {
         let dir = crate::fixtures::scratch(&format!("meshcat-{tag}"));
@@ -471,7 +458,8 @@ mod tests {
         let _ = std::fs::remove_dir_all(&dir);
     }
 
-    const QUAD_PLY: &[u8] = b"ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\n\
+    pub(in crate::serve) const QUAD_PLY: &[u8] =
+        b"ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\n\
         property float y\nproperty float z\nelement face 2\nproperty list uchar int \
         vertex_indices\nend_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n3 0 2 3\n";
 

@@ -2,11 +2,12 @@
 //!
 //! | module | concern |
 //! |---|---|
-//! | [`catalog`], [`dataset`], [`storage`], [`reload`] | datasets of a folder or store URL, rescanned while serving, tiles read by range |
+//! | [`catalog`], [`dataset`], [`storage`], [`store_breaker`], [`reload`] | datasets of a folder or store URL, rescanned while serving, tiles read by range |
 //! | [`threshold`], [`view_plane`] | T from `threshold`, `ratio`, a camera (eq. 4) or the zoom |
 //! | [`pipeline`], [`tile_cache`] | decode (cached by bytes), stitch, off the async threads |
 //! | [`render`] | quantized-mesh, PNG, ZTM1, OBJ/GLB/JSON bytes |
 //! | [`negotiate`], [`revalidate`] | Accept, Accept-Encoding, If-None-Match, Range; ETags of descriptions and views |
+//! | [`meshes`], [`mesh_reload`] | object meshes of `DATA/meshes`, uploaded or rescanned, and their LODs |
 //! | [`routes`] | handlers; [`error`] the one JSON error edge; [`metrics`] Prometheus |
 //! | [`routes::site`] | the viewer page at `/`, its embedded assets, `/openapi.json` |
 //!
@@ -18,6 +19,7 @@ pub mod codings;
 pub mod dataset;
 pub mod error;
 pub mod listen;
+pub mod mesh_reload;
 pub mod meshes;
 pub mod metrics;
 pub mod negotiate;
@@ -32,10 +34,13 @@ pub mod revalidate;
 pub mod routes;
 pub mod state;
 pub mod storage;
+pub mod store_breaker;
 pub mod threshold;
 pub mod tile_cache;
 pub mod view_plane;
 
+#[cfg(test)]
+mod mesh_reload_tests;
 #[cfg(test)]
 mod reload_tests;
 #[cfg(test)]

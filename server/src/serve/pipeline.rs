@@ -225,7 +225,10 @@ fn decoded_all<const N: usize>(
 }
 
 /// The neighbours' decodes `id` is meshed with. One that cannot be read (a corrupt record)
-/// is left out: it costs this tile its match there, not the tile itself.
+/// is left out: it costs this tile its match there, not the tile itself. One the store did
+/// not give, or whose file is being written over, fails the tile: that failure passes, and
+/// a tile meshed without its neighbour would carry cracks along that edge under the tile's
+/// ETag and an hour's freshness.
 fn usable<const N: usize>(
     d: &Dataset,
     id: TileId,
@@ -239,7 +242,7 @@ fn usable<const N: usize>(
         };
         match decode {
             Ok(t) => *slot = Some(t),
-            Err(e) if e.is::<Cancelled>() => return Err(e),
+            Err(e) if e.is::<Cancelled>() || super::storage::passing(&e) => return Err(e),
             Err(e) => tracing::warn!("meshing {id} of {} without neighbour {n}: {e:#}", d.name),
         }
     }

@@ -126,14 +126,7 @@ fn scan_dir(dir: &std::path::Path) -> Result<Vec<Found>> {
         {
             continue;
         }
-        // Through a link to the file it names, as opening it does; a link to nothing is
-        // still listed, and its open says why it is skipped.
-        let meta = match std::fs::metadata(&path).or_else(|_| std::fs::symlink_metadata(&path)) {
-            Ok(meta) => meta,
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => continue,
-            Err(e) => return Err(e).with_context(|| format!("{}", path.display())),
-        };
-        let Some(file) = path.file_name().map(|f| f.to_string_lossy().into_owned()) else {
+        let Some((file, meta)) = stat(&path)? else {
             continue;
         };
         let shown = file.clone();
@@ -147,7 +140,21 @@ fn scan_dir(dir: &std::path::Path) -> Result<Vec<Found>> {
     Ok(found)
 }
 
-fn file_stamp(meta: &std::fs::Metadata) -> Stamp {
+/// A listed file's name in its folder and its metadata, through a link to the file it names
+/// (as opening it does; a link to nothing is still listed, and its open says why it is
+/// skipped); `None` for a file gone since the listing. Any other error is the scan's.
+pub(super) fn stat(path: &std::path::Path) -> Result<Option<(String, std::fs::Metadata)>> {
+    let meta = match std::fs::metadata(path).or_else(|_| std::fs::symlink_metadata(path)) {
+        Ok(meta) => meta,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => return Err(e).with_context(|| format!("{}", path.display())),
+    };
+    Ok(path
+        .file_name()
+        .map(|f| (f.to_string_lossy().into_owned(), meta)))
+}
+
+pub(super) fn file_stamp(meta: &std::fs::Metadata) -> Stamp {
     use std::os::unix::fs::MetadataExt;
     let modified = meta
         .modified()
@@ -168,7 +175,8 @@ fn file_stamp(meta: &std::fs::Metadata) -> Stamp {
 }
 
 /// Rescans `origin` every `every` (never when `None`) and on SIGHUP, swapping a changed
-/// catalog into `state`; runs until the server stops. A scan that fails (the folder gone,
+/// catalog into `state`, and the object meshes beside it ([`super::mesh_reload`]); runs
+/// until the server stops. A scan that fails (the folder gone,
 /// the store unreachable) is logged and the datasets served stay as they were.
 pub async fn watch(
     state: AppState,
@@ -176,7 +184,7 @@ pub async fn watch(
     every: Option<Duration>,
     mut hangup: Option<tokio::signal::unix::Signal>,
 ) {
-    let mut failing = false;
+    let (mut failing, mut meshes_failing) = (false, false);
     loop {
         let tick = async {
             match every {
@@ -198,25 +206,44 @@ pub async fn watch(
             origin.scan().map(|found| current.rescan(found, asked))
         })
         .await;
-        // A failing scan is told when it starts failing and when it stops, not at every
-        // period (a folder gone for a day would log 17,000 lines).
-        let failing_before = failing;
-        failing = !matches!(scanned, Ok(Ok(_)));
-        match scanned {
-            Ok(Ok(found)) => {
-                if failing_before {
-                    tracing::info!("rescanning the datasets works again");
-                }
-                if let Some((catalog, changes)) = found {
-                    state.replace_catalog(catalog);
-                    tracing::info!("datasets rescanned: {changes}");
-                }
+        if let Some((catalog, changes)) = told("datasets", &mut failing, scanned).flatten() {
+            state.replace_catalog(catalog);
+            tracing::info!("datasets rescanned: {changes}");
+        }
+        let meshes = Arc::clone(&state.meshes);
+        let scanned = tokio::task::spawn_blocking(move || meshes.rescan(asked)).await;
+        if let Some(changes) = told("meshes", &mut meshes_failing, scanned).flatten() {
+            tracing::info!("meshes rescanned: {changes}");
+        }
+    }
+}
+
+/// A rescan's result, logging a failing one when it starts failing and when it stops, not
+/// at every period (a folder gone for a day would log 17,000 lines).
+fn told<T>(
+    what: &str,
+    failing: &mut bool,
+    scanned: Result<Result<T>, tokio::task::JoinError>,
+) -> Option<T> {
+    let was = std::mem::replace(failing, !matches!(scanned, Ok(Ok(_))));
+    match scanned {
+        Ok(Ok(found)) => {
+            if was {
+                tracing::info!("rescanning the {what} works again");
             }
-            Ok(Err(e)) if !failing_before => {
-                tracing::warn!("rescanning the datasets: {e:#} (serving them as they were)")
+            Some(found)
+        }
+        Ok(Err(e)) => {
+            if !was {
+                tracing::warn!("rescanning the {what}: {e:#} (serving them as they were)");
             }
-            Err(e) if !failing_before => tracing::error!("rescanning the datasets: {e}"),
-            Ok(Err(_)) | Err(_) => {}
+            None
+        }
+        Err(e) => {
+            if !was {
+                tracing::error!("rescanning the {what}: {e}");
+            }
+            None
         }
     }
 }

@@ -62,6 +62,14 @@ impl Source {
     }
 }
 
+/// Whether `e` will pass: the store did not give the bytes, or the dataset's file is being
+/// written over in place (a rescan serves the new one). A 503 to retry, not a corrupt
+/// record.
+pub fn passing(e: &anyhow::Error) -> bool {
+    e.downcast_ref::<super::dataset::ChangedOnDisk>().is_some()
+        || e.chain().any(|c| c.is::<object_store::Error>())
+}
+
 /// True when `data` names a store URL rather than a local folder.
 pub fn is_url(data: &str) -> bool {
     data.contains("://")
@@ -109,8 +117,15 @@ fn parse_store_url(url: &str) -> std::result::Result<(url::Url, StoreKind), Stri
 /// server that lists with WebDAV and answers ranges).
 ///
 /// Retries are few and bounded: a store that is down must fail a tile in seconds (the
-/// client retries, nginx tries the other replica) rather than hold it for minutes.
+/// client retries, nginx tries the other replica) rather than hold it for minutes; one
+/// that stopped answering is not asked again for a few seconds ([`super::store_breaker`]).
 pub fn open_url(url: &str) -> Result<(Arc<dyn ObjectStore>, ObjectPath)> {
+    let (store, prefix) = connect(url)?;
+    Ok((Arc::new(super::store_breaker::Breaker::new(store)), prefix))
+}
+
+/// [`open_url`]'s store as the client crate makes it, without the breaker.
+pub(super) fn connect(url: &str) -> Result<(Arc<dyn ObjectStore>, ObjectPath)> {
     use object_store::{BackoffConfig, ClientOptions, RetryConfig};
     use std::time::Duration;
     let (parsed, kind) =

@@ -48,7 +48,12 @@ pub async fn list(
 ) -> ApiResult<Response> {
     no_parameters(&query?, "the mesh list", "")?;
     let meshes: Vec<Value> = state.meshes.list().iter().map(|e| summary(e)).collect();
-    revalidate::json(&headers, &json!({ "meshes": meshes }), REVALIDATE)
+    let skipped = super::meta::skipped_json(&state.meshes.skipped());
+    revalidate::json(
+        &headers,
+        &json!({ "meshes": meshes, "skipped": skipped }),
+        REVALIDATE,
+    )
 }
 
 pub async fn describe(

@@ -58,14 +58,18 @@ pub fn dataset(state: &AppState, name: &str) -> ApiResult<Arc<Dataset>> {
     })
 }
 
+/// Files of the data folder not served, as the listings show them.
+pub fn skipped_json(skipped: &[(String, String)]) -> Vec<Value> {
+    skipped
+        .iter()
+        .map(|(file, why)| json!({ "file": file, "error": why }))
+        .collect()
+}
+
 pub async fn list(State(state): State<AppState>, headers: HeaderMap) -> ApiResult<Response> {
     let catalog = state.catalog();
     let datasets: Vec<Value> = catalog.iter().map(|d| summary(d)).collect();
-    let skipped: Vec<Value> = catalog
-        .skipped
-        .iter()
-        .map(|(file, why)| json!({ "file": file, "error": why }))
-        .collect();
+    let skipped = skipped_json(&catalog.skipped);
     revalidate::json(
         &headers,
         &json!({ "datasets": datasets, "skipped": skipped }),

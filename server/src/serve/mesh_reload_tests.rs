@@ -1,0 +1,221 @@
+//! Rescans of the mesh folder: what a server picks up, keeps and drops while it runs.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::{Duration, SystemTime};
+
+use zerotile_codec::mesh::io::Format;
+
+use super::catalog::Changes;
+use super::meshes::tests::{QUAD_PLY, TRI};
+use super::meshes::{MeshCatalog, MESH_DIR};
+
+const QUAD: &[u8] = b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3\nf 1 3 4\n";
+/// Reads, but repairs to nothing: the one face repeats a vertex.
+const NO_FACES: &[u8] = b"v 0 0 0\nv 1 0 0\nf 1 1 2\n";
+
+/// A data folder with an empty `meshes/`.
+fn data(tag: &str) -> PathBuf {
+    let dir = crate::fixtures::scratch(&format!("meshreload-{tag}"));
+    std::fs::create_dir_all(dir.join(MESH_DIR)).unwrap();
+    dir
+}
+
+/// Writes `bytes` as `meshes/NAME` the way a careful operator does (a whole file renamed
+/// over the name), dated `age` ago.
+fn place(data: &Path, name: &str, bytes: &[u8], age: Duration) {
+    let dir = data.join(MESH_DIR);
+    let tmp = dir.join(format!(".{name}.tmp"));
+    std::fs::write(&tmp, bytes).unwrap();
+    let file = std::fs::File::options().write(true).open(&tmp).unwrap();
+    file.set_modified(SystemTime::now() - age).unwrap();
+    std::fs::rename(&tmp, dir.join(name)).unwrap();
+}
+
+/// Placed long enough ago for a timed rescan to read it.
+fn settled(data: &Path, name: &str, bytes: &[u8]) {
+    place(data, name, bytes, Duration::from_secs(10));
+}
+
+/// A data folder holding `bytes` as `meshes/NAME`, settled, and its catalog.
+fn opened(tag: &str, name: &str, bytes: &[u8]) -> (PathBuf, MeshCatalog) {
+    let dir = data(tag);
+    settled(&dir, name, bytes);
+    let cat = MeshCatalog::open(&dir, 1 << 20);
+    (dir, cat)
+}
+
+fn names(cat: &MeshCatalog) -> Vec<String> {
+    cat.list().iter().map(|e| e.name.clone()).collect()
+}
+
+/// A timed rescan.
+fn rescan(cat: &MeshCatalog) -> Option<Changes> {
+    cat.rescan(false).unwrap()
+}
+
+#[test]
+fn a_mesh_added_replaced_or_removed_is_served_so_after_the_next_rescan() {
+    let (dir, cat) = opened("cycle", "a.obj", TRI);
+    assert_eq!(names(&cat), ["a"]);
+    assert_eq!(rescan(&cat), None, "nothing changed");
+
+    settled(&dir, "b.ply", QUAD_PLY);
+    let changes = rescan(&cat).expect("b added");
+    assert_eq!(changes.added, ["b.ply"]);
+    assert_eq!(names(&cat), ["a", "b"]);
+    assert_eq!(cat.get("b").unwrap().mesh.face_count(), 2);
+
+    let a = cat.get("a").unwrap();
+    settled(&dir, "a.obj", QUAD);
+    let changes = rescan(&cat).expect("a replaced");
+    assert_eq!(changes.replaced, ["a.obj"]);
+    let new_a = cat.get("a").unwrap();
+    assert_eq!(new_a.mesh.face_count(), 2);
+    assert_ne!(
+        new_a.content, a.content,
+        "a new mesh, new answers and ETags"
+    );
+
+    std::fs::remove_file(dir.join(MESH_DIR).join("b.ply")).unwrap();
+    let changes = rescan(&cat).expect("b removed");
+    assert_eq!(changes.removed, ["b.ply"]);
+    assert_eq!(names(&cat), ["a"]);
+    assert!(cat.get("b").is_none());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Unchanged files are not read again, and a file rewritten with the same mesh keeps its
+/// entry: the LOD structures built for it are not built again.
+#[test]
+fn an_unchanged_mesh_keeps_its_entry_and_its_lod_structures() {
+    let (dir, cat) = opened("keep", "a.obj", QUAD);
+    let a = cat.get("a").unwrap();
+    a.octree().unwrap();
+    assert_eq!(rescan(&cat), None);
+    settled(&dir, "a.obj", QUAD);
+    assert_eq!(rescan(&cat), None, "the same mesh in a new file");
+    assert!(Arc::ptr_eq(&a, &cat.get("a").unwrap()));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A file changed under [`super::mesh_reload::SETTLE`] ago may be a copy under way (an OBJ
+/// cut short still reads): a timed rescan leaves it, the mesh served so far stays, and the
+/// rescan asked for (SIGHUP) reads it.
+#[test]
+fn a_file_just_changed_waits_for_the_next_rescan_unless_one_is_asked_for() {
+    let (dir, cat) = opened("settle", "a.obj", TRI);
+    place(&dir, "a.obj", QUAD, Duration::ZERO);
+    place(&dir, "b.obj", QUAD, Duration::ZERO);
+    assert_eq!(rescan(&cat), None);
+    assert_eq!(names(&cat), ["a"]);
+    assert_eq!(cat.get("a").unwrap().mesh.face_count(), 1);
+
+    let changes = cat.rescan(true).unwrap().expect("read when asked");
+    assert_eq!(
+        (changes.added, changes.replaced),
+        (vec!["b.obj".to_owned()], vec!["a.obj".to_owned()])
+    );
+    assert_eq!(cat.get("a").unwrap().mesh.face_count(), 2);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A mesh is held whole in memory, so a file that no longer reads leaves the mesh read from
+/// it served (listed as skipped, saying so) until it reads again. One that never read is
+/// skipped alone.
+#[test]
+fn a_file_that_no_longer_reads_leaves_its_mesh_served() {
+    let (dir, cat) = opened("broken", "a.obj", QUAD);
+    let a = cat.get("a").unwrap();
+    settled(&dir, "a.obj", NO_FACES);
+    settled(&dir, "b.obj", NO_FACES);
+    let changes = rescan(&cat).expect("two files failed");
+    assert_eq!(changes.failed, ["a.obj", "b.obj"]);
+    assert!(changes.replaced.is_empty() && changes.added.is_empty());
+    assert!(Arc::ptr_eq(&a, &cat.get("a").unwrap()));
+    assert_eq!(rescan(&cat), None, "not read again while unchanged");
+    assert_eq!(names(&cat), ["a"]);
+    let skipped = cat.skipped();
+    let files: Vec<&str> = skipped.iter().map(|(f, _)| f.as_str()).collect();
+    assert_eq!(files, ["a.obj", "b.obj"]);
+    assert!(skipped[0]
+        .1
+        .ends_with("(the mesh read from it before is still served)"));
+    assert!(skipped[1].1.contains("no valid faces"), "{}", skipped[1].1);
+
+    settled(&dir, "a.obj", TRI);
+    assert_eq!(rescan(&cat).expect("a reads again").replaced, ["a.obj"]);
+    assert_eq!(cat.get("a").unwrap().mesh.face_count(), 1);
+    let files: Vec<String> = cat.skipped().into_iter().map(|(f, _)| f).collect();
+    assert_eq!(files, ["b.obj"]);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// What is not a mesh file to read is skipped with its reason and not opened: a FIFO would
+/// block the start (and every rescan) until something wrote to it.
+#[test]
+fn fifos_folders_dangling_links_bad_names_and_shadowed_files_are_skipped() {
+    let dir = data("odd");
+    let meshes = dir.join(MESH_DIR);
+    settled(&dir, "t.obj", TRI);
+    settled(&dir, "t.ply", QUAD_PLY);
+    settled(&dir, "bad name.obj", TRI);
+    std::fs::create_dir(meshes.join("d.obj")).unwrap();
+    std::os::unix::fs::symlink(meshes.join("nowhere"), meshes.join("l.obj")).unwrap();
+    let made = std::process::Command::new("mkfifo")
+        .arg(meshes.join("f.obj"))
+        .status()
+        .unwrap();
+    assert!(made.success());
+    let (tx, rx) = std::sync::mpsc::channel();
+    let d = dir.clone();
+    std::thread::spawn(move || tx.send(MeshCatalog::open(&d, 1 << 20)).unwrap());
+    let cat = rx
+        .recv_timeout(Duration::from_secs(30))
+        .expect("opening the folder hung on its FIFO");
+    assert_eq!(names(&cat), ["t"]);
+    let skipped: Vec<(String, String)> = cat.skipped();
+    let files: Vec<&str> = skipped.iter().map(|(f, _)| f.as_str()).collect();
+    assert_eq!(files, ["bad name.obj", "d.obj", "f.obj", "l.obj", "t.ply"]);
+    let why = |i: usize| skipped[i].1.as_str();
+    assert!(why(0).contains("mesh name"), "{}", why(0));
+    assert_eq!(why(1), "a folder");
+    assert_eq!(why(2), "not a regular file (a FIFO, socket or device)");
+    assert_eq!(why(3), "a link to nothing");
+    assert_eq!(why(4), "the mesh t is served from t.obj");
+    assert_eq!(rescan(&cat), None);
+
+    // The shadowing file gone, the other is read.
+    std::fs::remove_file(meshes.join("t.obj")).unwrap();
+    let changes = rescan(&cat).expect("t from t.ply");
+    assert_eq!(changes.replaced, ["t.ply"]);
+    assert_eq!(cat.get("t").unwrap().mesh.face_count(), 2);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// An upload's file is taken for read: the rescan after it changes nothing.
+#[test]
+fn an_upload_is_not_read_again_by_the_next_rescan() {
+    let (dir, cat) = opened("upload", "a.ply", QUAD_PLY);
+    let (e, replaced) = cat.upload("a", TRI, Some(Format::Obj)).unwrap();
+    assert!(replaced);
+    assert_eq!(rescan(&cat), None);
+    assert!(Arc::ptr_eq(&e, &cat.get("a").unwrap()));
+    assert_eq!(cat.get("a").unwrap().mesh.face_count(), 1);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `meshes/` removed: no meshes. The data folder gone (an unmounted volume): an error, and
+/// the meshes stay as the datasets do.
+#[test]
+fn without_meshes_there_are_none_and_without_the_data_folder_they_stay() {
+    let (dir, cat) = opened("gone", "a.obj", TRI);
+    std::fs::rename(&dir, dir.with_extension("moved")).unwrap();
+    assert!(cat.rescan(false).is_err());
+    assert_eq!(names(&cat), ["a"]);
+    std::fs::rename(dir.with_extension("moved"), &dir).unwrap();
+    std::fs::remove_dir_all(dir.join(MESH_DIR)).unwrap();
+    assert_eq!(rescan(&cat).expect("a removed").removed, ["a.obj"]);
+    assert!(cat.list().is_empty());
+    let _ = std::fs::remove_dir_all(&dir);
+}
