@@ -654,3 +654,95 @@ fn a_reader_that_goes_away_ends_the_output_quietly() {
     assert_eq!(out.status.code(), Some(0), "{err}");
     assert!(err.is_empty(), "{err}");
 }
+
+/// `info` on copies of one good dataset: under a file name serve would not take it exits 0
+/// with a note (it exited 3, "a check failed"); with a bad header, unknown flags or bytes
+/// appended it exits 3 naming what, and `--json` prints one object with `ok` and `error`
+/// for each (a header failure printed nothing); a device is "not a regular file" (it was
+/// "no such dataset file").
+#[test]
+fn info_tells_a_bad_copy_from_a_badly_named_one() {
+    let data = fresh_dir("cli-info-copies");
+    zerotile_tests::ingest_n44_geodetic(&data);
+    let good = std::fs::read(data.join("n44g.ztd")).unwrap();
+    let info = |file: &str, bytes: &[u8], json: bool| {
+        let path = data.join(file);
+        std::fs::write(&path, bytes).unwrap();
+        let mut cmd = Command::new(zerotile_bin());
+        cmd.arg("info").arg(&path).args(["--verify", "--quiet"]);
+        if json {
+            cmd.arg("--json");
+        }
+        let out = cmd.output().unwrap();
+        let text = |b: &[u8]| String::from_utf8_lossy(b).into_owned();
+        (out.status.code(), text(&out.stdout), text(&out.stderr))
+    };
+
+    let (code, out, err) = info("n44.v2.ztd", &good, false);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(out.contains("verified: all"), "{out}");
+    assert!(
+        out.contains("note: serve skips this file under its name (dataset name \"n44.v2\"")
+            && out.contains("e.g. as n44-v2.ztd"),
+        "{out}"
+    );
+
+    let mut magic = good.clone();
+    magic[0] ^= 1;
+    let mut flags = good.clone();
+    flags[6] = 1;
+    let mut junk = good.clone();
+    junk.extend_from_slice(&[0; 1000]);
+    for (file, bytes, says) in [
+        ("magic.ztd", &magic, "not a zerotile dataset (bad magic)"),
+        ("flags.ztd", &flags, "header flags 0x0001 are not known"),
+        ("junk.ztd", &junk, "1000 bytes follow the last tile record"),
+    ] {
+        let (code, _, err) = info(file, bytes, false);
+        assert_eq!(code, Some(3), "{file}: {err}");
+        assert!(err.contains(file) && err.contains(says), "{file}: {err}");
+        let (code, out, err) = info(file, bytes, true);
+        assert_eq!(code, Some(3), "{file}: {err}");
+        let v: serde_json::Value = serde_json::from_str(&out).unwrap_or_else(|e| {
+            panic!("{file}: stdout is not one JSON object ({e}): {out:?}");
+        });
+        assert_eq!(v["ok"], false, "{file}: {v}");
+        assert!(v["error"].as_str().unwrap().contains(says), "{file}: {v}");
+        assert!(v["path"].as_str().unwrap().ends_with(file), "{file}: {v}");
+    }
+
+    let out = Command::new(zerotile_bin())
+        .args(["info", "/dev/null"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("/dev/null: not a regular file (a device)"),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&data);
+}
+
+/// `healthcheck` against a server that takes the connection and never answers says it
+/// timed out, within its 3 s: it said "Resource temporarily unavailable (os error 11)".
+#[test]
+fn healthcheck_says_a_silent_server_timed_out() {
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = listener.local_addr().unwrap().to_string();
+    // Accepted by the kernel's backlog; never read nor answered.
+    let t = std::time::Instant::now();
+    let out = Command::new(zerotile_bin())
+        .args(["healthcheck", "--addr", &addr])
+        .output()
+        .unwrap();
+    let elapsed = t.elapsed();
+    drop(listener);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert_eq!(
+        err.trim(),
+        format!("zerotile: no answer from {addr} within 3 s")
+    );
+    assert!(elapsed < std::time::Duration::from_secs(5), "{elapsed:?}");
+}

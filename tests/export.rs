@@ -231,12 +231,10 @@ fn a_failed_export_leaves_the_previous_tree_and_says_why() {
         ],
         &dir,
     );
-    assert_eq!(
-        out.status.code(),
-        Some(1),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    // The record's failure names the dataset file it is in, not only the tile.
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("data/lux.ztd: tile "), "{err}");
     assert_eq!(files(&dir.join("tree"), "png"), before);
     let bytes_after: Vec<Vec<u8>> = before.iter().map(|p| std::fs::read(p).unwrap()).collect();
     assert!(bytes_after == bytes_before);
@@ -301,15 +299,38 @@ fn export_refuses_to_replace_what_is_not_an_export() {
         assert!(err.contains(says), "{dataset}: {err}");
     }
 
-    // An empty folder is replaced, and so is an earlier export, which says it is one.
+    // An empty folder is replaced, and so is an earlier export, which says it is one: its
+    // stale tiles (another zoom's) go with it.
     std::fs::create_dir_all(dir.join("empty")).unwrap();
     assert_success(&export("empty"));
     assert!(!files(&dir.join("empty"), "png").is_empty());
     assert!(dir.join("empty/.zerotile-export").is_file());
-    std::fs::write(dir.join("empty/3/stale.png"), "old").unwrap();
+    std::fs::create_dir_all(dir.join("empty/9/99")).unwrap();
+    std::fs::write(dir.join("empty/9/99/99.png"), "old").unwrap();
     assert_success(&export("empty"));
-    assert!(!dir.join("empty/3/stale.png").exists());
+    assert!(!dir.join("empty/9").exists());
     assert!(!files(&dir.join("empty"), "png").is_empty());
+
+    // But not once the user has put a file of their own into it: the swap deleted it with
+    // exit 0. Refused with exit 1, the file named and every tile left as it was.
+    std::fs::write(dir.join("empty/index.html"), "<html>mine</html>").unwrap();
+    let before = files(&dir.join("empty"), "png");
+    let r = export("empty");
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains(
+            "empty: an earlier zerotile export, but index.html in it is not the export's own"
+        ) && err.contains("move index.html out first or give another --out"),
+        "{err}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(dir.join("empty/index.html")).unwrap(),
+        "<html>mine</html>"
+    );
+    assert_eq!(files(&dir.join("empty"), "png"), before);
+    std::fs::remove_file(dir.join("empty/index.html")).unwrap();
+    assert_success(&export("empty"));
 
     assert_no_temporary_folders(&dir);
     let _ = std::fs::remove_dir_all(&dir);

@@ -50,8 +50,8 @@ pub enum Command {
     /// 1.1M-face bunny the QEM figures use: `subdivide stanford-bunny.obj bunny-x16.obj`.
     #[command(allow_negative_numbers = true)]
     Subdivide(SubdivideArgs),
-    /// Exit 0 if a server answers GET /healthz with 200 (for container health checks, where
-    /// there is no curl).
+    /// Exit 0 if a server answers GET /healthz with 200 within 3 s (for container health
+    /// checks, where there is no curl).
     Healthcheck(HealthArgs),
 }
 
@@ -65,8 +65,9 @@ pub struct ExportArgs {
     /// Tile format: terrain (Cesium quantized-mesh), png (terrain-RGB, 512²) or json (mesh).
     #[arg(long, default_value = "terrain")]
     pub format: String,
-    /// Output folder: new, empty or an earlier export (any other folder or a file is refused);
-    /// replaced atomically when the export is complete.
+    /// Output folder: new, empty or an earlier export holding only its own files (any other
+    /// folder, a file, or an export with files added is refused); replaced atomically when
+    /// the export is complete.
     #[arg(long)]
     pub out: PathBuf,
     /// Zooms to export: A-B or Z (default: all).
@@ -128,7 +129,8 @@ pub struct DemoArgs {
     /// Folder of datasets.
     #[arg(long, default_value = "data")]
     pub data: PathBuf,
-    /// Rebuild even when the folder already has datasets and meshes.
+    /// Build the demo's files even when the folder already has datasets and meshes; files of
+    /// the same names the demo did not write (your own meshes/torus.obj) are kept, with a note.
     #[arg(long)]
     pub force: bool,
     /// No progress bar.
@@ -569,26 +571,70 @@ fn host_port(s: &str) -> Result<String, String> {
     }
 }
 
+/// How long `healthcheck` waits for the whole check, name lookup to status line: a
+/// container runtime kills a check that outlives its own timeout, and reports that, not why.
+const HEALTH_DEADLINE: std::time::Duration = std::time::Duration::from_secs(3);
+
 fn healthcheck(addr: &str) -> anyhow::Result<()> {
+    check_health(addr, HEALTH_DEADLINE)
+}
+
+/// [`healthcheck`] within `limit`. One deadline for every step: a timeout per read let a
+/// server dripping a byte every 2 s hold the check for 22 s and then pass it.
+fn check_health(addr: &str, limit: std::time::Duration) -> anyhow::Result<()> {
     use anyhow::Context;
-    use std::io::{Read, Write};
-    use std::net::ToSocketAddrs;
-    use std::time::Duration;
-    let timeout = Duration::from_secs(3);
+    use std::io::{ErrorKind, Read, Write};
+    use std::time::Instant;
+    let deadline = Instant::now() + limit;
+    let secs = limit.as_secs_f64();
+    let late = |what: &str| anyhow::anyhow!("{what} {addr} within {secs} s");
+    let left = || {
+        deadline
+            .checked_duration_since(Instant::now())
+            .filter(|d| !d.is_zero())
+    };
+    let target = resolve(addr, limit)?;
     // Each step names the address: a bare "Connection refused" does not say which server.
-    let target = addr
-        .to_socket_addrs()
-        .with_context(|| format!("--addr {addr}"))?
-        .next()
-        .ok_or_else(|| anyhow::anyhow!("--addr {addr}: no address"))?;
-    let mut s = std::net::TcpStream::connect_timeout(&target, timeout)
-        .with_context(|| format!("connecting to {addr}"))?;
-    s.set_read_timeout(Some(timeout))?;
+    let mut s = std::net::TcpStream::connect_timeout(
+        &target,
+        left().ok_or_else(|| late("no connection to"))?,
+    )
+    .map_err(|e| match e.kind() {
+        ErrorKind::TimedOut | ErrorKind::WouldBlock => late("no connection to"),
+        _ => anyhow::Error::new(e).context(format!("connecting to {addr}")),
+    })?;
+    s.set_write_timeout(Some(left().ok_or_else(|| late("no answer from"))?))?;
     s.write_all(format!("GET /healthz HTTP/1.0\r\nHost: {addr}\r\n\r\n").as_bytes())
-        .with_context(|| format!("asking {addr} for /healthz"))?;
+        .map_err(|e| match e.kind() {
+            ErrorKind::TimedOut | ErrorKind::WouldBlock => late("no answer from"),
+            _ => anyhow::Error::new(e).context(format!("asking {addr} for /healthz")),
+        })?;
+    // "HTTP/1.x 200": the status is all the check reads.
+    let late_status = |got: usize| match got {
+        0 => late("no answer from"),
+        _ => late("no whole status line from"),
+    };
     let mut head = [0u8; 12];
-    s.read_exact(&mut head)
-        .with_context(|| format!("reading {addr}'s answer to /healthz"))?;
+    let mut got = 0;
+    while let Some(rest) = head.get_mut(got..).filter(|r| !r.is_empty()) {
+        let Some(wait) = left() else {
+            return Err(late_status(got));
+        };
+        s.set_read_timeout(Some(wait))?;
+        match s.read(rest) {
+            Ok(0) => anyhow::bail!(
+                "reading {addr}'s answer to /healthz: it closed the connection after {got} bytes"
+            ),
+            Ok(n) => got += n,
+            Err(e) if e.kind() == ErrorKind::Interrupted => {}
+            Err(e) if matches!(e.kind(), ErrorKind::TimedOut | ErrorKind::WouldBlock) => {
+                return Err(late_status(got))
+            }
+            Err(e) => {
+                return Err(e).with_context(|| format!("reading {addr}'s answer to /healthz"))
+            }
+        }
+    }
     if &head[9..12] != b"200" {
         anyhow::bail!(
             "{addr}: /healthz answered {}",
@@ -596,6 +642,28 @@ fn healthcheck(addr: &str) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+/// `addr`'s first address, looked up within `limit`: a resolver that does not answer (a
+/// container's DNS still starting) would otherwise hold the check past its deadline. The
+/// lookup runs on a thread left behind if it is late; the process ends soon after.
+fn resolve(addr: &str, limit: std::time::Duration) -> anyhow::Result<std::net::SocketAddr> {
+    use anyhow::Context;
+    use std::net::ToSocketAddrs;
+    let (tx, rx) = std::sync::mpsc::channel();
+    let owned = addr.to_string();
+    std::thread::spawn(move || {
+        let _ = tx.send(owned.to_socket_addrs().map(|mut a| a.next()));
+    });
+    match rx.recv_timeout(limit) {
+        Ok(found) => found
+            .with_context(|| format!("--addr {addr}"))?
+            .ok_or_else(|| anyhow::anyhow!("--addr {addr}: no address")),
+        Err(_) => anyhow::bail!(
+            "--addr {addr}: the name did not resolve within {} s",
+            limit.as_secs_f64()
+        ),
+    }
 }
 
 fn demo_data(a: &DemoArgs) -> anyhow::Result<()> {

@@ -415,14 +415,31 @@ fn done_lines_say_what_was_built() {
 
 /// A one-connection server answering `reply` to whatever it is asked; its address.
 fn answering(reply: &'static [u8]) -> String {
+    serving(reply, None)
+}
+
+/// [`answering`], or with `drip`, sending `reply` a byte every `drip` and holding the
+/// connection open after.
+fn serving(reply: &'static [u8], drip: Option<std::time::Duration>) -> String {
     let listener = TcpListener::bind("127.0.0.1:0").unwrap();
     let addr = listener.local_addr().unwrap().to_string();
     std::thread::spawn(move || {
-        if let Ok((mut s, _)) = listener.accept() {
-            let mut ask = [0u8; 256];
-            let _ = s.read(&mut ask);
+        let Ok((mut s, _)) = listener.accept() else {
+            return;
+        };
+        let mut ask = [0u8; 256];
+        let _ = s.read(&mut ask);
+        let Some(gap) = drip else {
             let _ = s.write_all(reply);
+            return;
+        };
+        for b in reply {
+            std::thread::sleep(gap);
+            if s.write_all(&[*b]).is_err() {
+                return;
+            }
         }
+        std::thread::sleep(std::time::Duration::from_secs(5));
     });
     addr
 }
@@ -452,6 +469,41 @@ fn healthcheck_passes_on_200_only_and_names_the_address() {
     assert!(msg.contains(&format!("connecting to {closed}")), "{msg}");
     let msg = refusal(healthcheck("no-port"));
     assert!(msg.contains("--addr no-port"), "{msg}");
+}
+
+/// A server that takes the connection and then says nothing, or drips its status line a
+/// byte at a time, fails the check at its one deadline, saying it timed out: before, each
+/// read had the whole 3 s (a drip of a byte every 2 s passed after 22 s) and a silent
+/// server failed with "Resource temporarily unavailable (os error 11)".
+#[test]
+fn healthcheck_fails_a_silent_or_dripping_server_at_its_deadline() {
+    use std::time::{Duration, Instant};
+    let limit = Duration::from_millis(600);
+    let silent = serving(b"", Some(Duration::ZERO));
+    let t = Instant::now();
+    let msg = refusal(check_health(&silent, limit));
+    assert_eq!(msg, format!("no answer from {silent} within 0.6 s"));
+    assert!(
+        t.elapsed() < Duration::from_millis(1500),
+        "{:?}",
+        t.elapsed()
+    );
+    // Every byte well within a read timeout of the whole limit; the line not within it.
+    let slow = serving(b"HTTP/1.1 200 OK\r\n\r\n", Some(Duration::from_millis(100)));
+    let t = Instant::now();
+    let msg = refusal(check_health(&slow, limit));
+    assert_eq!(
+        msg,
+        format!("no whole status line from {slow} within 0.6 s")
+    );
+    assert!(
+        t.elapsed() < Duration::from_millis(1500),
+        "{:?}",
+        t.elapsed()
+    );
+    // The same line at once passes.
+    let quick = serving(b"HTTP/1.1 200 OK\r\n\r\n", Some(Duration::ZERO));
+    assert!(check_health(&quick, limit).is_ok());
 }
 
 /// A negative number is a value, refused by its option's own check, not an unknown flag

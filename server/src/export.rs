@@ -5,8 +5,8 @@
 //!
 //! Written into a temporary folder beside `--out` and swapped in at the end: a failed export
 //! leaves an existing `--out` as it was. Only an empty folder or an earlier export (which
-//! holds [`MARKER`]) is replaced: the swap deletes what `--out` held, so anything else there
-//! is the user's and is refused.
+//! holds [`MARKER`]) holding nothing but what an export writes is replaced: the swap deletes
+//! what `--out` held, so anything else there is the user's and is refused.
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
@@ -83,7 +83,7 @@ pub fn parse_zooms(s: &str) -> Result<(u8, u8), String> {
 }
 
 /// Errors unless `out` may be replaced by an export: absent, an empty folder or an earlier
-/// export. Refusing before any work keeps a user's files (or a file named like the folder)
+/// export with nothing added. Refusing before any work keeps a user's files (or a file named like the folder)
 /// from being swapped away.
 fn check_out(out: &Path) -> Result<()> {
     // `.` inside an earlier export is a folder, but one with no name to make a sibling by.
@@ -112,7 +112,7 @@ fn check_out(out: &Path) -> Result<()> {
         );
     }
     if out.join(MARKER).is_file() {
-        return Ok(());
+        return only_own_files(out);
     }
     let mut entries = std::fs::read_dir(out).with_context(|| format!("--out {}", out.display()))?;
     if entries.next().is_some() {
@@ -123,6 +123,76 @@ fn check_out(out: &Path) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// Errors unless the earlier export `out` holds only what an export writes: the swap deletes
+/// the whole folder, and the marker alone said nothing of an `index.html` a user had added
+/// since (it was deleted with exit 0). Names the first few, and how many there are.
+fn only_own_files(out: &Path) -> Result<()> {
+    const SHOWN: usize = 5;
+    let foreign = foreign_entries(out).with_context(|| format!("--out {}", out.display()))?;
+    let (what, them) = match foreign.as_slice() {
+        [] => return Ok(()),
+        [one] => (
+            format!("{} in it is", one.display()),
+            one.display().to_string(),
+        ),
+        many => {
+            let mut listed = many
+                .iter()
+                .take(SHOWN)
+                .map(|p| p.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", ");
+            if many.len() > SHOWN {
+                listed += &format!(" and {} more", many.len() - SHOWN);
+            }
+            (
+                format!("{} entries in it ({listed}) are", many.len()),
+                "them".into(),
+            )
+        }
+    };
+    bail!(
+        "--out {}: an earlier zerotile export, but {what} not the export's own; an export \
+         replaces the whole folder, so move {them} out first or give another --out",
+        out.display()
+    );
+}
+
+/// What in the export `out` no export writes, relative to `out`, sorted: anything but
+/// [`MARKER`], `layer.json`, `tiles.json` and `{z}/{x}/{y}.{terrain,png,json}`. A folder
+/// that is not the export's is one entry, not walked; a symbolic link is never its own.
+fn foreign_entries(out: &Path) -> std::io::Result<Vec<PathBuf>> {
+    let digits = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit());
+    let tile = |s: &str| {
+        s.split_once('.')
+            .is_some_and(|(y, ext)| digits(y) && ["terrain", "png", "json"].contains(&ext))
+    };
+    let mut foreign = Vec::new();
+    // (folder relative to `out`, its depth: 0 the root, 1 a zoom, 2 a column)
+    let mut stack = vec![(PathBuf::new(), 0u8)];
+    while let Some((rel, depth)) = stack.pop() {
+        for entry in std::fs::read_dir(out.join(&rel))? {
+            let entry = entry?;
+            let kind = entry.file_type()?;
+            let name = entry.file_name();
+            let path = rel.join(&name);
+            let name = name.to_str().unwrap_or("");
+            let own = match depth {
+                0 if kind.is_file() => [MARKER, "layer.json", "tiles.json"].contains(&name),
+                0 | 1 => kind.is_dir() && digits(name),
+                _ => kind.is_file() && tile(name),
+            };
+            if !own {
+                foreign.push(path);
+            } else if kind.is_dir() {
+                stack.push((path, depth + 1));
+            }
+        }
+    }
+    foreign.sort();
+    Ok(foreign)
 }
 
 pub fn run(job: &Export) -> Result<Exported> {
@@ -353,7 +423,7 @@ fn render_all(
         order.par_iter().try_for_each(|&id| -> Result<()> {
             let t = threshold::default_threshold(d, id.z);
             let enc = render_tile(state, d, id, t, format, variant, false, &Cancel::default())
-                .with_context(|| format!("tile {}/{}/{}", id.z, id.x, id.y))?;
+                .with_context(|| format!("{}: tile {}/{}/{}", d.location, id.z, id.x, id.y))?;
             // Paths follow the serving URLs, which use the stored y: TMS rows for geodetic
             // (layer.json scheme "tms"), XYZ rows for mercator ("slippyMap").
             let y = id.y;
@@ -438,5 +508,61 @@ mod tests {
             assert!(err.contains("name the folder itself"), "{nameless}: {err}");
         }
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// An earlier export is replaced only while it holds nothing but an export's files
+    /// (stale tiles of other zooms or formats included); a user's file there, or a folder,
+    /// or a link, is named and refused, the first five of many with their count.
+    #[test]
+    fn an_earlier_export_with_a_users_files_is_refused_by_name() {
+        let dir = crate::fixtures::scratch("check-out-own").join("tiles");
+        let put = |files: &[&str], body: &str| {
+            for file in files {
+                let path = dir.join(file);
+                std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+                std::fs::write(path, body).unwrap();
+            }
+        };
+        put(
+            &[
+                MARKER,
+                "layer.json",
+                "tiles.json",
+                "3/1/2.terrain",
+                "4/0/7.png",
+            ],
+            "x",
+        );
+        std::fs::create_dir_all(dir.join("5/0")).unwrap();
+        assert!(check_out(&dir).is_ok());
+
+        std::fs::write(dir.join("index.html"), "mine").unwrap();
+        let err = check_out(&dir).unwrap_err().to_string();
+        assert!(
+            err.contains("tiles: an earlier zerotile export, but index.html in it is not")
+                && err.contains("move index.html out first or give another --out"),
+            "{err}"
+        );
+        put(
+            &[
+                "3/1/notes.txt",
+                "3/README",
+                "3/1/2.terrain.bak",
+                "assets/a.css",
+            ],
+            "mine",
+        );
+        std::os::unix::fs::symlink(dir.join("3"), dir.join("6")).unwrap();
+        std::fs::write(dir.join(".htaccess"), "mine").unwrap();
+        let err = check_out(&dir).unwrap_err().to_string();
+        assert!(
+            err.contains(
+                "7 entries in it (.htaccess, 3/1/2.terrain.bak, 3/1/notes.txt, 3/README, 6 and \
+                 2 more) are not the export's own"
+            ) && err.contains("move them out first"),
+            "{err}"
+        );
+        assert_eq!(std::fs::read(dir.join("index.html")).unwrap(), b"mine");
+        let _ = std::fs::remove_dir_all(dir.parent().unwrap());
     }
 }

@@ -147,9 +147,8 @@ pub fn budget_note(p: &MeshPoint) -> Option<String> {
     if let Param::Faces(n) = p.param {
         if n >= p.faces_in {
             return Some(format!(
-                "--faces {n}: the mesh has only {} faces, so the budget asks for no \
-                 simplification",
-                p.faces_in
+                "--faces {n}: the mesh has only {}, so the budget asks for no simplification",
+                counted(p.faces_in, "face", "faces")
             ));
         }
     }
@@ -310,10 +309,10 @@ pub fn subdivide(args: &crate::cli::SubdivideArgs) -> Result<()> {
     io::write_path(&mesh, &args.output)
         .with_context(|| format!("writing {}", args.output.display()))?;
     eprintln!(
-        "{}: {} vertices, {} faces",
+        "{}: {}, {}",
         args.output.display(),
-        mesh.vertex_count(),
-        mesh.face_count()
+        counted(mesh.vertex_count(), "vertex", "vertices"),
+        counted(mesh.face_count(), "face", "faces")
     );
     Ok(())
 }
@@ -500,6 +499,11 @@ pub(super) fn measure(
     Ok(Some(surface_distance(input, output, &options)?))
 }
 
+/// `n` and the noun: "1 face", not "1 faces", which a one-triangle mesh was told.
+fn counted(n: usize, one: &str, many: &str) -> String {
+    format!("{n} {}", if n == 1 { one } else { many })
+}
+
 /// The table `eval mesh` prints for people: the input's counts, then one row for the point.
 pub(super) fn table(p: &MeshPoint) -> String {
     let pct = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{}%", cell(v, 4, 10)));
@@ -509,12 +513,12 @@ pub(super) fn table(p: &MeshPoint) -> String {
         Param::Faces(n) => format!("faces {n}"),
     };
     format!(
-        "{} ({} vertices, {} faces)\n\
+        "{} ({}, {})\n\
          {:>10} {:>14} {:>9} {:>9} {:>9} {:>11} {:>11}\n\
          {:>10} {:>14} {:>9} {:>9} {:>9} {:>11} {:>11}\n",
         p.input,
-        p.vertices_in,
-        p.faces_in,
+        counted(p.vertices_in, "vertex", "vertices"),
+        counted(p.faces_in, "face", "faces"),
         "method",
         "param",
         "vertices",

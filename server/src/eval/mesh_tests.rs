@@ -556,3 +556,24 @@ fn an_output_that_is_the_input_is_refused_and_the_input_kept() {
     assert!(other.exists());
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A one-triangle mesh was told "only 1 faces" and tabled as "1 faces": the counts take
+/// their noun's number.
+#[test]
+fn a_one_face_mesh_is_counted_in_the_singular() {
+    let dir = scratch("evalmesh-one-face");
+    let path = dir.join("tri.obj");
+    std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let p = evaluate(&MeshArgs {
+        input: path,
+        ..faces("cow.obj", Method::Qem, 1)
+    })
+    .unwrap();
+    assert_eq!(
+        budget_note(&p).as_deref(),
+        Some("--faces 1: the mesh has only 1 face, so the budget asks for no simplification")
+    );
+    let text = table(&p);
+    assert!(text.contains("tri.obj (3 vertices, 1 face)\n"), "{text}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

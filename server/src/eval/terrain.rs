@@ -81,6 +81,10 @@ pub struct Point {
     pub mesher: &'static str,
     pub mode: &'static str,
     pub param: Option<f64>,
+    /// The threshold of the last pass decoded; infinite (`null` in the JSON, `inf` in the
+    /// table) when the decode read no pass: none reached the threshold it was read to, or the
+    /// stream holds none (a `--step` near or past the window's height range codes every
+    /// coefficient as zero).
     pub threshold: f64,
     pub bytes: usize,
     pub bps: f64,
@@ -95,9 +99,10 @@ pub struct Point {
     pub encode_ms: f64,
     pub decode_ms: f64,
     pub mesh_ms: f64,
-    /// Bintree threshold points: the decode alone erred by more than T, so the mesh keeps
-    /// every sample and its error is the stream's floor, not T (see [`floor_warning`]). Not
-    /// in the JSON, whose fields are the benchmark scripts' contract; its errors say it.
+    /// Bintree threshold points: the decode alone erred by more than T, so the mesh gets none
+    /// of T (it follows the decoded heights exactly) and its error is the stream's floor, not
+    /// T (see [`floor_warning`]). Not in the JSON, whose fields are the benchmark scripts'
+    /// contract; its errors say it.
     #[serde(skip)]
     pub below_floor: bool,
 }
@@ -468,13 +473,30 @@ fn measure(
 
 /// What to tell the user about a point whose T the stream cannot reach: a lossy stream
 /// stops at a finest pass set by the height step, and below its error no threshold buys more.
+/// The mesh is then cut at 0 on the decoded heights, which drops every vertex they place on a
+/// plane: it said "keeps every sample" over 2 triangles when a `--step` past the window's
+/// range had coded no pass and the decode was flat. So the warning gives the mesh's size.
 pub fn floor_warning(p: &Point) -> Option<String> {
     let t = short(p.param.filter(|_| p.below_floor)?, 12);
+    let reach = if p.threshold.is_finite() {
+        format!("its last pass decodes within {:.4}", p.max_abs_err)
+    } else {
+        format!(
+            "it decodes no pass at all, so only within {:.4}; a --step near or past the \
+             window's height range leaves the stream none",
+            p.max_abs_err
+        )
+    };
     Some(format!(
-        "warning: --threshold {t}: below what this {} stream can reach (its last pass decodes \
-         within {:.4}), so the mesh keeps every sample and errs by up to {:.4}, not {t}; \
-         --wavelet 53 decodes exactly, a smaller --step lowers the floor",
-        p.wavelet, p.max_abs_err, p.mesh_max_abs_err,
+        "warning: --threshold {t}: below what this {} stream can reach ({reach}), so none of T \
+         is left for the mesh: it follows the decoded heights exactly ({} triangles, {} of \
+         {} samples) and errs by up to {:.4}, not {t}; --wavelet 53 decodes exactly, a \
+         smaller --step lowers the floor",
+        p.wavelet,
+        p.mesh_triangles,
+        p.mesh_vertices,
+        p.rows * p.cols,
+        p.mesh_max_abs_err,
     ))
 }
 

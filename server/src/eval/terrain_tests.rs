@@ -522,3 +522,38 @@ fn a_threshold_below_the_streams_floor_is_flagged() {
     .unwrap();
     assert!(!exact[0].below_floor && exact[0].mesh_max_abs_err <= 0.001);
 }
+
+/// A `--step` past the window's height range codes no pass: the decode is flat, the mesh
+/// that follows it exactly is 2 triangles, and the warning said "the mesh keeps every
+/// sample". It now gives the mesh's size, and the threshold no pass reached is infinite,
+/// `null` in the JSON as the README says.
+#[test]
+fn a_step_that_codes_no_pass_is_warned_of_for_what_it_does() {
+    let p = &run(&TerrainEval {
+        step: Some(1e30),
+        ..n44(65, Sweep::Threshold(vec![4.0]))
+    })
+    .unwrap()[0];
+    assert!(p.below_floor && p.threshold.is_infinite(), "{p:?}");
+    assert_eq!((p.mesh_triangles, p.mesh_vertices), (2, 4), "{p:?}");
+    let w = floor_warning(p).unwrap();
+    assert!(!w.contains("every sample"), "{w}");
+    assert!(
+        w.contains("decodes no pass at all")
+            && w.contains("follows the decoded heights exactly (2 triangles, 4 of 4225 samples)"),
+        "{w}"
+    );
+    let json = serde_json::to_value(p).unwrap();
+    assert_eq!(json["threshold"], serde_json::Value::Null);
+    // A floor the stream does reach is its last pass's.
+    let p = &run(&n44(65, Sweep::Threshold(vec![0.001]))).unwrap()[0];
+    let w = floor_warning(p).unwrap();
+    assert!(
+        p.threshold.is_finite() && w.contains("its last pass decodes within"),
+        "{w}"
+    );
+    assert!(
+        w.contains(&format!("({} triangles, ", p.mesh_triangles)),
+        "{w}"
+    );
+}
