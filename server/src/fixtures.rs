@@ -51,3 +51,28 @@ pub fn local_257(stream_bytes: u64) -> Metadata {
         created: "2026-11-25T00:00:00Z".into(),
     }
 }
+
+/// Makes a FIFO at `path`: what a server must skip without opening, since an open (or a
+/// read) waits for a writer that never comes.
+pub fn mkfifo(path: &std::path::Path) {
+    let made = std::process::Command::new("mkfifo")
+        .arg(path)
+        .status()
+        .unwrap();
+    assert!(made.success(), "mkfifo {}", path.display());
+}
+
+/// `f`'s result, failing the test with `hung` if it takes more than `secs`: a blocked open
+/// fails the test instead of hanging the suite.
+pub fn within<T: Send + 'static>(
+    secs: u64,
+    hung: &str,
+    f: impl FnOnce() -> T + Send + 'static,
+) -> T {
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let _ = tx.send(f());
+    });
+    rx.recv_timeout(std::time::Duration::from_secs(secs))
+        .expect(hung)
+}

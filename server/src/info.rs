@@ -715,11 +715,7 @@ mod tests {
     fn a_fifo_or_device_is_not_a_regular_file() {
         let dir = crate::fixtures::scratch("info-fifo");
         let fifo = dir.join("f.ztd");
-        let made = std::process::Command::new("mkfifo")
-            .arg(&fifo)
-            .status()
-            .unwrap();
-        assert!(made.success());
+        crate::fixtures::mkfifo(&fifo);
         let job = |dataset: &str| Info {
             dataset: dataset.into(),
             data: dir.clone(),

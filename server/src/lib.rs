@@ -13,5 +13,6 @@ pub mod export;
 mod fixtures;
 pub mod info;
 pub mod ingest;
+pub mod regular_file;
 pub mod serve;
 pub mod usage;

@@ -122,7 +122,10 @@ pub fn existing_dataset_path(dataset: &str, data: &Path) -> Result<PathBuf> {
     if !path.is_file() {
         // A FIFO or device that is there is not a typo to look for (and opening a FIFO
         // would block until something wrote to it).
-        if let Some(what) = std::fs::metadata(&path).ok().and_then(|m| special(&m)) {
+        if let Some(what) = std::fs::metadata(&path)
+            .ok()
+            .and_then(|m| crate::regular_file::kind(&m))
+        {
             bail!(
                 "{}: not a regular file ({what}); give a .ztd file",
                 path.display()
@@ -135,21 +138,6 @@ pub fn existing_dataset_path(dataset: &str, data: &Path) -> Result<PathBuf> {
         );
     }
     Ok(path)
-}
-
-/// What a file that is neither a regular file nor a folder is, for messages.
-fn special(meta: &std::fs::Metadata) -> Option<&'static str> {
-    use std::os::unix::fs::FileTypeExt;
-    let kind = meta.file_type();
-    if kind.is_fifo() {
-        Some("a FIFO")
-    } else if kind.is_socket() {
-        Some("a socket")
-    } else if kind.is_char_device() || kind.is_block_device() {
-        Some("a device")
-    } else {
-        None
-    }
 }
 
 /// Dataset names become file names: keep them to a safe alphabet.

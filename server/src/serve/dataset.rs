@@ -5,7 +5,6 @@
 //! memory, and a dataset in an object store costs one range request per tile. Records carry
 //! their own CRC: a flipped bit fails that tile, not the dataset.
 
-use std::fs::File;
 use std::hash::{Hash, Hasher};
 use std::path::Path;
 use std::sync::Arc;
@@ -67,21 +66,11 @@ impl Dataset {
     }
 
     fn open_file(path: &Path, shown: &str, named: bool) -> Result<Self> {
-        // Only a regular file: opening a FIFO blocks until something writes to it (a server
-        // that found one named `x.ztd` never started, or stopped rescanning).
-        let kind = std::fs::metadata(path).with_context(|| format!("opening {shown}"))?;
-        if !kind.is_file() {
-            bail!(
-                "opening {shown}: not a regular file (a {})",
-                if kind.is_dir() {
-                    "folder"
-                } else {
-                    "FIFO, socket or device"
-                }
-            );
-        }
-        let file = File::open(path).with_context(|| format!("opening {shown}"))?;
-        let meta = file.metadata()?;
+        // Only a regular file, opened without blocking: opening a FIFO blocks until something
+        // writes to it (a server that found one named `x.ztd` never started, or stopped
+        // rescanning), and a stat before the open leaves time for a swap.
+        let (file, meta) =
+            crate::regular_file::open(path).with_context(|| format!("opening {shown}"))?;
         let mut d = Self::from_source(
             path.file_stem().map(|s| s.to_string_lossy().into_owned()),
             path.display().to_string(),

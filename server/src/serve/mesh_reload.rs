@@ -69,111 +69,131 @@ impl MeshCatalog {
         // reader that panicked) leaves only a cache of stamps: carry on with it.
         let mut seen = self.store.lock().unwrap_or_else(PoisonError::into_inner);
         let listed = list(&self.dir)?;
-        let current = self
-            .entries
-            .read()
-            .map_err(|_| anyhow::anyhow!("mesh catalog lock poisoned"))?
-            .clone();
+        let current = self.served().clone();
         let mut next: BTreeMap<String, Arc<MeshEntry>> = BTreeMap::new();
         let mut read = BTreeMap::new();
         let mut skipped = Vec::new();
         let mut changes = Changes::default();
-        // Each name's file: the first in name order (json, obj, ply, stl).
-        let mut named: BTreeMap<String, String> = BTreeMap::new();
-        let now = SystemTime::now();
-        for Listed { file, path, meta } in listed {
-            let stem = path
+        // Each name's candidate files in name order (json, obj, ply, stl).
+        let mut named: BTreeMap<String, Vec<Listed>> = BTreeMap::new();
+        for listed in listed {
+            let Listed { file, meta, .. } = &listed;
+            let stem = listed
+                .path
                 .file_stem()
                 .and_then(|s| s.to_str())
                 .unwrap_or_default()
                 .to_owned();
             if let Err(e) = crate::ingest::check_name_of("mesh", &stem) {
-                skipped.push((file, format!("{e:#}")));
+                skipped.push((file.clone(), format!("{e:#}")));
                 continue;
             }
-            if let Some(first) = named.get(&stem) {
-                // Two files of one name only come from outside (an upload removes the other
-                // formats'); which one is served would otherwise be a guess.
-                skipped.push((file, format!("the mesh {stem} is served from {first}")));
-                continue;
-            }
-            named.insert(stem.clone(), file.clone());
-            // Read, a FIFO would block the rescan until something wrote to it.
-            if !meta.is_file() {
+            // Not read: a FIFO would block the rescan until something wrote to it ([`load`]
+            // opens without blocking too, for a file swapped for one since this stat).
+            if let Some(what) = crate::regular_file::kind(meta) {
                 let why = if meta.is_symlink() {
-                    "a link to nothing"
-                } else if meta.is_dir() {
-                    "a folder"
+                    what.to_string()
                 } else {
-                    "not a regular file (a FIFO, socket or device)"
+                    format!("not a regular file ({what})")
                 };
-                skipped.push((file, why.into()));
+                skipped.push((file.clone(), why));
                 continue;
             }
+            named.entry(stem).or_default().push(listed);
+        }
+        let now = SystemTime::now();
+        for (stem, files) in named {
             let old = current.get(&stem);
-            let from_this = old.filter(|e| e.source == path).cloned();
-            let stamp = file_stamp(&meta);
-            match seen.read.get(&file) {
-                Some((s, None)) if *s == stamp => {
-                    if let Some(e) = from_this {
-                        next.insert(stem, e);
-                        read.insert(file, (stamp, None));
-                        continue;
-                    }
-                }
-                Some((s, Some(why))) if *s == stamp && !asked => {
-                    if let Some(e) = from_this {
-                        next.insert(stem, e);
-                    }
-                    skipped.push((file.clone(), why.clone()));
-                    read.insert(file, (stamp, Some(why.clone())));
+            // The first file that gives the name a mesh serves it. Two files of one name only
+            // come from outside (an upload removes the other formats'); one that does not
+            // read leaves the name to the next rather than serve nothing.
+            let mut served_from: Option<(String, bool)> = None;
+            for Listed { file, path, meta } in files {
+                if let Some((first, serving)) = &served_from {
+                    let why = if *serving {
+                        format!("the mesh {stem} is served from {first}")
+                    } else {
+                        format!("the mesh {stem} is read from {first} once its writing settles")
+                    };
+                    skipped.push((file, why));
                     continue;
                 }
-                _ => {}
-            }
-            let changed = meta
-                .modified()
-                .ok()
-                .and_then(|t| now.duration_since(t).ok());
-            if !asked && changed.is_some_and(|age| age < SETTLE) {
-                // Still being written, perhaps: the mesh served so far stays until it settles.
-                if let Some(e) = old {
-                    next.insert(stem, Arc::clone(e));
-                }
-                continue;
-            }
-            match load(&path) {
-                Ok(mesh) => {
-                    let entry = MeshEntry::new(stem.clone(), mesh, path);
-                    // The same mesh (a file touched, or copied again) keeps its LOD structures.
-                    let entry = match old {
-                        Some(e) if e.content == entry.content && e.source == entry.source => {
-                            Arc::clone(e)
+                let from_this = old.filter(|e| e.source == path).cloned();
+                let stamp = file_stamp(&meta);
+                match seen.read.get(&file) {
+                    Some((s, None)) if *s == stamp => {
+                        if let Some(e) = from_this {
+                            next.insert(stem.clone(), e);
+                            read.insert(file.clone(), (stamp, None));
+                            served_from = Some((file, true));
+                            continue;
                         }
-                        Some(_) => {
-                            changes.replaced.push(file.clone());
-                            Arc::new(entry)
-                        }
-                        None => {
-                            changes.added.push(file.clone());
-                            Arc::new(entry)
-                        }
-                    };
-                    next.insert(stem, entry);
-                    read.insert(file, (stamp, None));
-                }
-                Err(e) => {
-                    let mut why = format!("{e:#}");
-                    if let Some(e) = from_this {
-                        why.push_str(" (the mesh read from it before is still served)");
-                        next.insert(stem, e);
                     }
-                    changes.failed.push(file.clone());
-                    skipped.push((file.clone(), why.clone()));
-                    read.insert(file, (stamp, Some(why)));
+                    Some((s, Some(why))) if *s == stamp && !asked => {
+                        skipped.push((file.clone(), why.clone()));
+                        read.insert(file.clone(), (stamp, Some(why.clone())));
+                        if let Some(e) = from_this {
+                            next.insert(stem.clone(), e);
+                            served_from = Some((file, true));
+                        }
+                        continue;
+                    }
+                    _ => {}
+                }
+                let changed = meta
+                    .modified()
+                    .ok()
+                    .and_then(|t| now.duration_since(t).ok());
+                if !asked && changed.is_some_and(|age| age < SETTLE) {
+                    // Still being written, perhaps: the mesh served so far stays until it
+                    // settles.
+                    if let Some(e) = old {
+                        next.insert(stem.clone(), Arc::clone(e));
+                    }
+                    served_from = Some((file, from_this.is_some()));
+                    continue;
+                }
+                match load(&path) {
+                    Ok(mesh) => {
+                        let entry = MeshEntry::new(stem.clone(), mesh, path);
+                        // The same mesh (a file touched, or copied again) keeps its LOD
+                        // structures.
+                        let entry = match old {
+                            Some(e) if e.content == entry.content && e.source == entry.source => {
+                                Arc::clone(e)
+                            }
+                            Some(_) => {
+                                changes.replaced.push(file.clone());
+                                Arc::new(entry)
+                            }
+                            None => {
+                                changes.added.push(file.clone());
+                                Arc::new(entry)
+                            }
+                        };
+                        next.insert(stem.clone(), entry);
+                        read.insert(file.clone(), (stamp, None));
+                        served_from = Some((file, true));
+                    }
+                    Err(e) => {
+                        let mut why = format!("{e:#}");
+                        let kept = from_this.is_some();
+                        if let Some(e) = from_this {
+                            why.push_str(" (the mesh read from it before is still served)");
+                            next.insert(stem.clone(), e);
+                        }
+                        changes.failed.push(file.clone());
+                        skipped.push((file.clone(), why.clone()));
+                        read.insert(file.clone(), (stamp, Some(why)));
+                        if kept {
+                            served_from = Some((file, true));
+                        }
+                    }
                 }
             }
         }
+        // Skipped files in name order, as the folder lists them.
+        skipped.sort();
         changes.removed = current
             .iter()
             .filter(|(name, _)| !next.contains_key(*name))
@@ -194,10 +214,7 @@ impl MeshCatalog {
         if changes == Changes::default() {
             return Ok(None);
         }
-        *self
-            .entries
-            .write()
-            .map_err(|_| anyhow::anyhow!("mesh catalog lock poisoned"))? = next;
+        *self.served_mut() = next;
         Ok(Some(changes))
     }
 }

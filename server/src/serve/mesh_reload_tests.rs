@@ -9,6 +9,7 @@ use zerotile_codec::mesh::io::Format;
 use super::catalog::Changes;
 use super::meshes::tests::{QUAD_PLY, TRI};
 use super::meshes::{MeshCatalog, MESH_DIR};
+use crate::fixtures::{mkfifo, within};
 
 const QUAD: &[u8] = b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3\nf 1 3 4\n";
 /// Reads, but repairs to nothing: the one face repeats a vertex.
@@ -162,25 +163,19 @@ fn fifos_folders_dangling_links_bad_names_and_shadowed_files_are_skipped() {
     settled(&dir, "bad name.obj", TRI);
     std::fs::create_dir(meshes.join("d.obj")).unwrap();
     std::os::unix::fs::symlink(meshes.join("nowhere"), meshes.join("l.obj")).unwrap();
-    let made = std::process::Command::new("mkfifo")
-        .arg(meshes.join("f.obj"))
-        .status()
-        .unwrap();
-    assert!(made.success());
-    let (tx, rx) = std::sync::mpsc::channel();
+    mkfifo(&meshes.join("f.obj"));
     let d = dir.clone();
-    std::thread::spawn(move || tx.send(MeshCatalog::open(&d, 1 << 20)).unwrap());
-    let cat = rx
-        .recv_timeout(Duration::from_secs(30))
-        .expect("opening the folder hung on its FIFO");
+    let cat = within(30, "opening the folder hung on its FIFO", move || {
+        MeshCatalog::open(&d, 1 << 20)
+    });
     assert_eq!(names(&cat), ["t"]);
     let skipped: Vec<(String, String)> = cat.skipped();
     let files: Vec<&str> = skipped.iter().map(|(f, _)| f.as_str()).collect();
     assert_eq!(files, ["bad name.obj", "d.obj", "f.obj", "l.obj", "t.ply"]);
     let why = |i: usize| skipped[i].1.as_str();
     assert!(why(0).contains("mesh name"), "{}", why(0));
-    assert_eq!(why(1), "a folder");
-    assert_eq!(why(2), "not a regular file (a FIFO, socket or device)");
+    assert_eq!(why(1), "not a regular file (a folder)");
+    assert_eq!(why(2), "not a regular file (a FIFO)");
     assert_eq!(why(3), "a link to nothing");
     assert_eq!(why(4), "the mesh t is served from t.obj");
     assert_eq!(rescan(&cat), None);
@@ -217,5 +212,52 @@ fn without_meshes_there_are_none_and_without_the_data_folder_they_stay() {
     std::fs::remove_dir_all(dir.join(MESH_DIR)).unwrap();
     assert_eq!(rescan(&cat).expect("a removed").removed, ["a.obj"]);
     assert!(cat.list().is_empty());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Of two files of one name, the first that reads serves it: one that does not read, or is
+/// a FIFO, leaves the name to the next instead of serving nothing (t.obj unreadable shadowed
+/// a good t.ply, and the skip said t was "served from" it).
+#[test]
+fn a_file_that_does_not_read_leaves_its_name_to_the_next() {
+    let dir = data("shadow");
+    let meshes = dir.join(MESH_DIR);
+    settled(&dir, "t.obj", NO_FACES);
+    settled(&dir, "t.ply", QUAD_PLY);
+    mkfifo(&meshes.join("u.obj"));
+    settled(&dir, "u.ply", QUAD_PLY);
+    let cat = MeshCatalog::open(&dir, 1 << 20);
+    assert_eq!(names(&cat), ["t", "u"]);
+    assert_eq!(cat.get("t").unwrap().mesh.face_count(), 2);
+    let skipped = cat.skipped();
+    let files: Vec<&str> = skipped.iter().map(|(f, _)| f.as_str()).collect();
+    assert_eq!(files, ["t.obj", "u.obj"]);
+    assert!(skipped[0].1.contains("no valid faces"), "{}", skipped[0].1);
+    assert_eq!(skipped[1].1, "not a regular file (a FIFO)");
+    // Nothing changed: the failed file is not read again, and t stays t.ply's.
+    assert_eq!(rescan(&cat), None);
+
+    // The first file mended takes its name back; then t.ply is the shadowed one.
+    settled(&dir, "t.obj", TRI);
+    assert_eq!(rescan(&cat).expect("t from t.obj").replaced, ["t.obj"]);
+    assert_eq!(cat.get("t").unwrap().mesh.face_count(), 1);
+    let skipped = cat.skipped();
+    assert!(
+        skipped.contains(&("t.ply".into(), "the mesh t is served from t.obj".into())),
+        "{skipped:?}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A file swapped for a FIFO after the rescan's stat is refused by the read, at once: the
+/// read opened it blocking, and the rescan (and every one after it) waited for a writer.
+#[test]
+fn reading_a_file_swapped_for_a_fifo_does_not_block() {
+    let dir = data("swap");
+    let fifo = dir.join(MESH_DIR).join("s.obj");
+    mkfifo(&fifo);
+    let read = move || super::meshes::load(&fifo).map_err(|e| format!("{e:#}"));
+    let e = within(10, "reading the FIFO blocked", read).unwrap_err();
+    assert!(e.ends_with("s.obj: not a regular file (a FIFO)"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }

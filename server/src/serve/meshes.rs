@@ -8,7 +8,7 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::sync::{Arc, Mutex, RwLock};
+use std::sync::{Arc, Mutex, PoisonError, RwLock, RwLockReadGuard, RwLockWriteGuard};
 use std::time::Duration;
 
 use anyhow::{Context, Result};
@@ -157,7 +157,7 @@ pub struct MeshCatalog {
     read_only: bool,
     /// [`DEFAULT_MESH_QUOTA`] unless set.
     quota: u64,
-    pub(super) entries: RwLock<BTreeMap<String, Arc<MeshEntry>>>,
+    entries: RwLock<BTreeMap<String, Arc<MeshEntry>>>,
     /// Held from an upload's write to its insert, so the file on disk and the mesh served
     /// are the same upload's when two arrive for one name (and an upload under another
     /// extension cannot remove the file the other just wrote), and through a rescan of the
@@ -240,21 +240,30 @@ impl MeshCatalog {
     }
 
     pub fn list(&self) -> Vec<Arc<MeshEntry>> {
-        self.entries
-            .read()
-            .map(|m| m.values().cloned().collect())
-            .unwrap_or_default()
+        self.served().values().cloned().collect()
     }
 
     pub fn get(&self, name: &str) -> Option<Arc<MeshEntry>> {
-        self.entries.read().ok()?.get(name).cloned()
+        self.served().get(name).cloned()
+    }
+
+    /// The served meshes. A poisoned lock is taken as it is: every write is one insert or a
+    /// whole map swapped in, so the map is sound whatever panicked, and refusing it would
+    /// answer every mesh 404 until a restart.
+    pub(super) fn served(&self) -> RwLockReadGuard<'_, BTreeMap<String, Arc<MeshEntry>>> {
+        self.entries.read().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// [`MeshCatalog::served`] to change.
+    pub(super) fn served_mut(&self) -> RwLockWriteGuard<'_, BTreeMap<String, Arc<MeshEntry>>> {
+        self.entries.write().unwrap_or_else(PoisonError::into_inner)
     }
 
     /// Mesh files of the folder not served, with the reason, as of the last rescan.
     pub fn skipped(&self) -> Vec<(String, String)> {
         self.skipped
             .read()
-            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .unwrap_or_else(PoisonError::into_inner)
             .clone()
     }
 
@@ -279,10 +288,7 @@ impl MeshCatalog {
         // extension `open` reads it back by.
         let path = self.dir.join(format!("{name}.{}", format.extension()));
         // A poisoned lock (a rescan's reader that panicked) guards only a cache of stamps.
-        let mut seen = self
-            .store
-            .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        let mut seen = self.store.lock().unwrap_or_else(PoisonError::into_inner);
         // Under the store lock, so two uploads cannot both take the last room. A mesh
         // replaced frees its own charge.
         let held: u64 = self
@@ -307,10 +313,7 @@ impl MeshCatalog {
         // The rescan then knows the file for the one it has just been read as.
         self.uploaded(&mut seen, name, &path);
         let entry = Arc::new(MeshEntry::new(name.to_string(), mesh, path));
-        let mut map = self
-            .entries
-            .write()
-            .map_err(|_| UploadError::Store(anyhow::anyhow!("mesh catalog lock poisoned")))?;
+        let mut map = self.served_mut();
         let replaced = map.insert(name.to_string(), entry.clone()).is_some();
         Ok((entry, replaced))
     }
@@ -353,8 +356,10 @@ fn content_hash(mesh: &TriMesh) -> u64 {
 }
 
 pub(super) fn load(path: &Path) -> Result<TriMesh> {
-    let mesh =
-        io::read_path(path, &limits()).with_context(|| format!("reading {}", path.display()))?;
+    let reading = || format!("reading {}", path.display());
+    // Opened without blocking: the file a rescan listed may be a FIFO by now.
+    let (file, _) = crate::regular_file::open(path).with_context(reading)?;
+    let mesh = io::read_file(file, path, &limits()).with_context(reading)?;
     repaired(&mesh)
 }
 

@@ -186,9 +186,24 @@ fn limit(what: &'static str, got: u64, limit: u64) -> Result<(), MeshError> {
 /// Reads a mesh file, choosing the format by extension (or by content when the extension is
 /// unknown). The file's size is checked against `limits` before it is read.
 pub fn read_path(path: &Path, limits: &MeshLimits) -> Result<TriMesh, MeshError> {
+    read_file(std::fs::File::open(path)?, path, limits)
+}
+
+/// [`read_path`] of a file already open (`path` names its format): a server opens it its
+/// own way, so as not to block on a FIFO. No more than `limits` allows is read into memory,
+/// even from a pipe, whose size says nothing, or a file that grows while it is read.
+pub fn read_file(
+    file: std::fs::File,
+    path: &Path,
+    limits: &MeshLimits,
+) -> Result<TriMesh, MeshError> {
+    use std::io::Read;
     // Refuse oversized files before reading them into memory.
-    limits.bytes(std::fs::metadata(path)?.len())?;
-    let bytes = std::fs::read(path)?;
+    let len = file.metadata()?.len();
+    limits.bytes(len)?;
+    let mut bytes = Vec::with_capacity(usize::try_from(len).unwrap_or(0));
+    file.take(limits.max_bytes.saturating_add(1))
+        .read_to_end(&mut bytes)?;
     let by_name = Format::from_path(path);
     match read_bytes(&bytes, by_name, limits) {
         // Any text with a line starting `v` sniffs as OBJ: under a name that does not say
