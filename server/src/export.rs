@@ -383,21 +383,11 @@ pub fn run(job: &Export) -> Result<Exported> {
         let _ = std::fs::remove_dir_all(&tmp);
         return Err(e);
     }
+    // One step where the OS offers it: a web server publishing `--out` never finds it gone.
     let old = parent.join(format!(".{name}.old-{}", std::process::id()));
-    let had_old = job.out.exists();
-    if had_old {
-        std::fs::rename(&job.out, &old)
-            .with_context(|| format!("moving {} aside", job.out.display()))?;
-    }
-    if let Err(e) = std::fs::rename(&tmp, &job.out) {
-        if had_old {
-            let _ = std::fs::rename(&old, &job.out);
-        }
+    if let Err(e) = crate::swap_dir::replace(&tmp, &job.out, &old) {
         let _ = std::fs::remove_dir_all(&tmp);
         return Err(e).with_context(|| format!("writing {}", job.out.display()));
-    }
-    if had_old {
-        let _ = std::fs::remove_dir_all(&old);
     }
     Ok(exported)
 }

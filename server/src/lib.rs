@@ -15,4 +15,5 @@ pub mod info;
 pub mod ingest;
 pub mod regular_file;
 pub mod serve;
+pub mod swap_dir;
 pub mod usage;
