@@ -405,6 +405,71 @@ fn a_source_across_the_antimeridian_is_ingested_on_both_sides() {
     );
     assert_eq!(v.status, 200, "{}", String::from_utf8_lossy(&v.body));
     assert_eq!(v.json()["zoom"], 10);
+    // Looking down on the seam from its west side, the eye a few metres east of it: the
+    // footprint (some 6 km across) runs on past 180° round the target, and the mesh holds
+    // the data either side of the seam as one piece, its east side moved a turn round
+    // (x past 180°), welded where the sides meet. Taking the eye as 359.998° away cut the
+    // view to one side, or refused it.
+    let v = s.get(
+        "/v1/datasets/seam/view?eye=-179.999,44.87,5000&target=179.999,44.87,0&fov=60",
+        &[],
+    );
+    assert_eq!(v.status, 200, "{}", String::from_utf8_lossy(&v.body));
+    let v = v.json();
+    let lons: Vec<f64> = v["footprint"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p[0].as_f64().unwrap())
+        .collect();
+    assert!(lons.iter().any(|&x| x > 180.01), "{lons:?}");
+    assert!(lons.iter().any(|&x| x < 179.99), "{lons:?}");
+    assert!(
+        lons.iter().all(|&x| (179.9..180.1).contains(&x)),
+        "{lons:?}"
+    );
+    let positions: Vec<f64> = v["mesh"]["positions"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    let xs: Vec<f64> = positions.iter().copied().step_by(3).collect();
+    assert!(
+        xs.iter().all(|&x| (179.9..180.1).contains(&x)),
+        "a vertex off the view"
+    );
+    let west = xs.iter().filter(|&&x| x < 180.0).count();
+    let east = xs.iter().filter(|&&x| x > 180.0).count();
+    let on = xs.iter().filter(|&&x| x == 180.0).count();
+    assert!(
+        west > 10 && east > 10 && on > 2,
+        "{west} west, {east} east, {on} on the seam"
+    );
+    let places: std::collections::HashSet<[u64; 2]> = positions
+        .chunks(3)
+        .map(|p| [p[0].to_bits(), p[1].to_bits()])
+        .collect();
+    assert_eq!(places.len(), xs.len(), "vertices not welded");
+    // The same on the mercator build, a turn being the world's width in metres.
+    let v = s.get(
+        "/v1/datasets/seam-m/view?eye=-179.999,44.87,5000&target=179.999,44.87,0&fov=60",
+        &[],
+    );
+    assert_eq!(v.status, 200, "{}", String::from_utf8_lossy(&v.body));
+    let half = 6_378_137.0 * std::f64::consts::PI;
+    let xs: Vec<f64> = v.json()["mesh"]["positions"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .step_by(3)
+        .map(|x| x.as_f64().unwrap() / half)
+        .collect();
+    assert!(
+        xs.iter().all(|&x| (0.999..1.001).contains(&x)),
+        "a vertex off the view"
+    );
+    assert!(xs.iter().any(|&x| x < 1.0) && xs.iter().any(|&x| x > 1.0));
     // A footprint away from the data, in the gap between its ends round the world, is empty.
     let v = s.get(
         "/v1/datasets/seam/view?eye=0,44.9,3000&target=0,44.8999,500&fov=10",

@@ -22,6 +22,12 @@
 
 use super::Bounds;
 
+/// `lon` brought within [−180°, 180°) by whole turns: a difference of longitudes the short
+/// way round (179.9° − −179.9° is −0.2°, not 359.8°).
+pub fn wrap_longitude(lon: f64) -> f64 {
+    lon - 360.0 * ((lon + 180.0) / 360.0).floor()
+}
+
 impl Bounds {
     /// Whether west is past east: the rectangle crosses the antimeridian.
     pub fn crosses_antimeridian(&self) -> bool {
@@ -98,6 +104,16 @@ mod tests {
             max_x,
             max_y: 10.0,
         }
+    }
+
+    #[test]
+    fn longitudes_wrap_the_short_way_round() {
+        assert_eq!(wrap_longitude(359.8), 359.8 - 360.0);
+        assert_eq!(wrap_longitude(-359.8), -359.8 + 360.0);
+        assert_eq!(wrap_longitude(10.0), 10.0);
+        assert_eq!(wrap_longitude(-180.0), -180.0);
+        assert_eq!(wrap_longitude(180.0), -180.0);
+        assert_eq!(wrap_longitude(725.0), 5.0);
     }
 
     #[test]

@@ -25,6 +25,7 @@ pub mod bounds;
 pub mod ellipsoid;
 pub mod tiling;
 
+pub use antimeridian::wrap_longitude;
 pub use bounds::{horizon_occlusion_point, is_scaled_point_visible, BoundingSphere};
 pub use ellipsoid::Ellipsoid;
 pub use tiling::{

@@ -174,7 +174,8 @@ pub struct ViewPlane {
     pub a_v: f64,
     pub a_t: f64,
     /// The footprint, a convex polygon in the query's own coordinates: longitude and
-    /// latitude degrees, or column and row.
+    /// latitude degrees, or column and row. Longitudes run on round the target, so a
+    /// footprint across the antimeridian has some past ±180°.
     pub footprint: Vec<[f64; 2]>,
     /// The camera's target, in the same coordinates: what the view looks at, so inside the
     /// footprint whenever the target is on the ground.
@@ -208,7 +209,8 @@ pub fn view_plane(d: &Dataset, q: &HashMap<String, String>) -> Result<ViewPlane,
     let aspect = q.get("aspect").map_or(Ok(1.0), |s| aspect(s, 1e-3, 1e3))?;
 
     // Horizontal metres around the target (degrees scaled at the target's latitude; grid
-    // samples as they are, rows flipped so y points north), and back.
+    // samples as they are, rows flipped so y points north), and back. Longitudes the short
+    // way round: an eye at 179.9° is 0.2° from a target at −179.9°, not 359.8°.
     let (lon0, lat0) = (target.x, target.y);
     let k = lat0.to_radians().cos().max(1e-6);
     let to_plane = |p: DVec3| {
@@ -216,7 +218,7 @@ pub fn view_plane(d: &Dataset, q: &HashMap<String, String>) -> Result<ViewPlane,
             DVec3::new(p.x, -p.y, p.z)
         } else {
             DVec3::new(
-                (p.x - lon0) * METRES_PER_DEGREE * k,
+                zerotile_codec::geo::wrap_longitude(p.x - lon0) * METRES_PER_DEGREE * k,
                 (p.y - lat0) * METRES_PER_DEGREE,
                 p.z,
             )
@@ -255,8 +257,8 @@ pub fn view_plane(d: &Dataset, q: &HashMap<String, String>) -> Result<ViewPlane,
     let mut footprint: Vec<DVec2> = points.iter().map(from_plane).collect();
     if !local {
         // Near a pole a metre of longitude is many degrees: the footprint stops at the
-        // globe's edges. It still holds the target, which is on the globe.
-        footprint = clip_to_globe(&footprint);
+        // globe's edges (and at one turn round the target). It still holds the target.
+        footprint = clip_to_globe(&footprint, lon0);
     }
     Ok(ViewPlane {
         ratio: a_v / a_t,

@@ -84,11 +84,13 @@ pub fn footprint(cam: &Camera, far: f64) -> Result<Vec<DVec2>, ViewError> {
     Ok(polygon)
 }
 
-/// The part of a convex longitude/latitude polygon (degrees) on the globe: within ±180° of
-/// longitude and ±90° of latitude.
-pub fn clip_to_globe(polygon: &[DVec2]) -> Vec<DVec2> {
-    let mut p = clip(polygon, |q| 180.0 + q.x);
-    p = clip(&p, |q| 180.0 - q.x);
+/// The part of a convex longitude/latitude polygon (degrees) on the globe: within ±90° of
+/// latitude, and one turn of longitude round `lon0` (±180° of it). Longitudes stay as they
+/// are round `lon0`, so a polygon across the antimeridian goes past ±180° rather than
+/// jumping round the world.
+pub fn clip_to_globe(polygon: &[DVec2], lon0: f64) -> Vec<DVec2> {
+    let mut p = clip(polygon, |q| 180.0 + (q.x - lon0));
+    p = clip(&p, |q| 180.0 - (q.x - lon0));
     p = clip(&p, |q| 90.0 + q.y);
     clip(&p, |q| 90.0 - q.y)
 }
@@ -267,9 +269,17 @@ mod tests {
             DVec2::new(600.0, 100.0),
             DVec2::new(-600.0, 100.0),
         ];
-        let on = clip_to_globe(&square);
+        let on = clip_to_globe(&square, 0.0);
         assert!(
             on.iter().all(|p| p.x.abs() <= 180.0 && p.y.abs() <= 90.0),
+            "{on:?}"
+        );
+        assert!((polygon_area(&on) - 360.0 * 10.0).abs() < 1e-9, "{on:?}");
+        // Round a target by the antimeridian, the turn kept is the one round it.
+        let on = clip_to_globe(&square, 170.0);
+        assert!(
+            on.iter()
+                .all(|p| (-10.0..=350.0).contains(&p.x) && p.y <= 90.0),
             "{on:?}"
         );
         assert!((polygon_area(&on) - 360.0 * 10.0).abs() < 1e-9, "{on:?}");
@@ -279,6 +289,6 @@ mod tests {
             DVec2::new(11.0, 10.0),
             DVec2::new(11.0, 11.0),
         ];
-        assert_eq!(clip_to_globe(&small), small.to_vec());
+        assert_eq!(clip_to_globe(&small, 10.0), small.to_vec());
     }
 }

@@ -189,15 +189,25 @@ fn tiles_in_view(d: &Dataset, plane: &ViewPlane) -> ApiResult<(u8, Vec<TileId>)>
     let hi = |v: &[f64]| v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     // The footprint's box cut to the data: to each part of it either side of the
     // antimeridian when it crosses (west past east), so a footprint wider than the data
-    // counts only the tiles over the data, and one away from it is empty.
+    // counts only the tiles over the data, and one away from it is empty. The box itself
+    // is cut at the antimeridian too when the footprint runs past it.
+    let local = matches!(d.tiling.scheme(), Scheme::Local { .. });
+    let spans = if local {
+        vec![(lo(&xs), hi(&xs))]
+    } else {
+        on_globe(lo(&xs), hi(&xs))
+    };
+    let (y0, y1) = (lo(&ys), hi(&ys));
     let boxes: Vec<Bounds> = Bounds::from(m.bounds)
         .split_at_antimeridian()
         .iter()
-        .map(|part| Bounds {
-            min_x: lo(&xs).max(part.min_x.min(part.max_x)),
-            max_x: hi(&xs).min(part.min_x.max(part.max_x)),
-            min_y: lo(&ys).max(part.min_y.min(part.max_y)),
-            max_y: hi(&ys).min(part.min_y.max(part.max_y)),
+        .flat_map(|part| {
+            spans.iter().map(move |&(x0, x1)| Bounds {
+                min_x: x0.max(part.min_x.min(part.max_x)),
+                max_x: x1.min(part.min_x.max(part.max_x)),
+                min_y: y0.max(part.min_y.min(part.max_y)),
+                max_y: y1.min(part.min_y.max(part.max_y)),
+            })
         })
         .filter(|b| b.min_x <= b.max_x && b.min_y <= b.max_y)
         .collect();
@@ -222,7 +232,7 @@ fn tiles_in_view(d: &Dataset, plane: &ViewPlane) -> ApiResult<(u8, Vec<TileId>)>
         if count > MAX_VIEW_TILES && z > m.min_zoom {
             continue;
         }
-        // Two parts can meet in one tile (mercator's single root): each tile once.
+        // Two boxes can meet in one tile (mercator's single root): each tile once.
         let mut tiles: Vec<TileId> = ranges
             .iter()
             .flat_map(|r| r.tiles())
@@ -242,7 +252,21 @@ fn tiles_in_view(d: &Dataset, plane: &ViewPlane) -> ApiResult<(u8, Vec<TileId>)>
     Err(empty())
 }
 
-/// The stitched meshes of `tiles` at `t`, cut to the footprint and welded into one.
+/// A footprint box's longitudes `lo..hi` (which run on round the target, one turn at most)
+/// on the globe: one span, or two when it runs past ±180°.
+fn on_globe(lo: f64, hi: f64) -> Vec<(f64, f64)> {
+    if hi > 180.0 {
+        vec![(lo, 180.0), (-180.0, hi - 360.0)]
+    } else if lo < -180.0 {
+        vec![(lo + 360.0, 180.0), (-180.0, hi)]
+    } else {
+        vec![(lo, hi)]
+    }
+}
+
+/// The stitched meshes of `tiles` at `t`, cut to the footprint and welded into one. Across
+/// the antimeridian the tiles past it are moved a turn round (360° or the mercator world's
+/// width) to the footprint's side, so the mesh is one piece, as the footprint is.
 fn view_mesh(
     state: &AppState,
     d: &Dataset,
@@ -258,6 +282,15 @@ fn view_mesh(
         Scheme::Mercator => lonlat_to_mercator([x, y]),
     };
     let polygon: Vec<[f64; 2]> = plane.footprint.iter().copied().map(to_mesh).collect();
+    // A turn of longitude in the mesh's x; none on a local grid.
+    let turn = match d.tiling.scheme() {
+        Scheme::Local { .. } => None,
+        _ => Some(to_mesh([180.0, 0.0])[0] - to_mesh([-180.0, 0.0])[0]),
+    };
+    let shifts: Vec<f64> = match turn {
+        None => vec![0.0],
+        Some(w) => vec![0.0, w, -w],
+    };
     // A footprint smaller or thinner than a triangle holds no centroid: the triangles under
     // the target stand in for it then, rather than an empty view over the data. (Not the
     // polygon's vertex mean: a grazing view's sliver runs far past the data, and so can it.)
@@ -292,8 +325,8 @@ fn view_mesh(
                 anyhow::bail!("tile {id} mesh has a face past its vertices");
             };
             let c = (p[0] + p[1] + p[2]) / 3.0;
-            if inside(&polygon, [c.x, c.y]) {
-                faces.push(p);
+            if let Some(&s) = shifts.iter().find(|&&s| inside(&polygon, [c.x + s, c.y])) {
+                faces.push(p.map(|q| DVec3::new(q.x + s, q.y, q.z)));
             } else if faces.is_empty() && covers(&p, middle) {
                 under_middle.push(p);
             }
