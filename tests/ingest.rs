@@ -377,20 +377,34 @@ fn a_source_across_the_antimeridian_is_ingested_on_both_sides() {
         let r = s.get(&format!("/v1/datasets/seam/tiles/10/{x}/767.terrain"), &[]);
         assert_eq!(r.status, 200, "tile {x}");
     }
+    // A view's answer, and every `stride`-th number from `at` of one of its arrays.
+    let view = |query: &str| {
+        let r = s.get(&format!("/v1/datasets/{query}"), &[]);
+        assert_eq!(r.status, 200, "{}", String::from_utf8_lossy(&r.body));
+        r.json()
+    };
+    let numbers = |a: &serde_json::Value, stride: usize| -> Vec<f64> {
+        let flat: Vec<f64> = match a.as_array().unwrap().first() {
+            Some(serde_json::Value::Array(_)) => a
+                .as_array()
+                .unwrap()
+                .iter()
+                .flat_map(|p| p.as_array().unwrap().clone())
+                .map(|x| x.as_f64().unwrap())
+                .collect(),
+            _ => a
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|x| x.as_f64().unwrap())
+                .collect(),
+        };
+        flat.into_iter().step_by(stride).collect()
+    };
     // Looking almost straight down east of the seam: the footprint, some 200 m across, lies
     // wholly within −180..−179.75.
-    let v = s.get(
-        "/v1/datasets/seam/view?eye=-179.9,44.9,3000&target=-179.9,44.8999,500&fov=10",
-        &[],
-    );
-    assert_eq!(v.status, 200, "{}", String::from_utf8_lossy(&v.body));
-    let v = v.json();
-    let lons: Vec<f64> = v["footprint"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|p| p[0].as_f64().unwrap())
-        .collect();
+    let v = view("seam/view?eye=-179.9,44.9,3000&target=-179.9,44.8999,500&fov=10");
+    let lons = numbers(&v["footprint"], 2);
     assert!(lons.iter().all(|&x| x < -179.75), "{lons:?}");
     assert!(v["triangles"].as_u64().unwrap() > 0, "{v}");
     let a_t = v["a_t"].as_f64().unwrap();
@@ -410,30 +424,15 @@ fn a_source_across_the_antimeridian_is_ingested_on_both_sides() {
     // the data either side of the seam as one piece, its east side moved a turn round
     // (x past 180°), welded where the sides meet. Taking the eye as 359.998° away cut the
     // view to one side, or refused it.
-    let v = s.get(
-        "/v1/datasets/seam/view?eye=-179.999,44.87,5000&target=179.999,44.87,0&fov=60",
-        &[],
-    );
-    assert_eq!(v.status, 200, "{}", String::from_utf8_lossy(&v.body));
-    let v = v.json();
-    let lons: Vec<f64> = v["footprint"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|p| p[0].as_f64().unwrap())
-        .collect();
+    let v = view("seam/view?eye=-179.999,44.87,5000&target=179.999,44.87,0&fov=60");
+    let lons = numbers(&v["footprint"], 2);
     assert!(lons.iter().any(|&x| x > 180.01), "{lons:?}");
     assert!(lons.iter().any(|&x| x < 179.99), "{lons:?}");
     assert!(
         lons.iter().all(|&x| (179.9..180.1).contains(&x)),
         "{lons:?}"
     );
-    let positions: Vec<f64> = v["mesh"]["positions"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|x| x.as_f64().unwrap())
-        .collect();
+    let positions = numbers(&v["mesh"]["positions"], 1);
     let xs: Vec<f64> = positions.iter().copied().step_by(3).collect();
     assert!(
         xs.iter().all(|&x| (179.9..180.1).contains(&x)),
@@ -452,18 +451,11 @@ fn a_source_across_the_antimeridian_is_ingested_on_both_sides() {
         .collect();
     assert_eq!(places.len(), xs.len(), "vertices not welded");
     // The same on the mercator build, a turn being the world's width in metres.
-    let v = s.get(
-        "/v1/datasets/seam-m/view?eye=-179.999,44.87,5000&target=179.999,44.87,0&fov=60",
-        &[],
-    );
-    assert_eq!(v.status, 200, "{}", String::from_utf8_lossy(&v.body));
+    let v = view("seam-m/view?eye=-179.999,44.87,5000&target=179.999,44.87,0&fov=60");
     let half = 6_378_137.0 * std::f64::consts::PI;
-    let xs: Vec<f64> = v.json()["mesh"]["positions"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .step_by(3)
-        .map(|x| x.as_f64().unwrap() / half)
+    let xs: Vec<f64> = numbers(&v["mesh"]["positions"], 3)
+        .into_iter()
+        .map(|x| x / half)
         .collect();
     assert!(
         xs.iter().all(|&x| (0.999..1.001).contains(&x)),
