@@ -90,13 +90,16 @@ pub(crate) fn check_shape(
     let too_big = || {
         RasterError::limit(
             path,
-            format!("{rows}×{cols} samples, more than the limit of {max_samples} (max_samples)"),
+            format!(
+                "{rows} rows × {cols} columns of samples, more than the limit of {max_samples} \
+                 (max_samples)"
+            ),
         )
     };
     if rows == 0 || cols == 0 {
         return Err(RasterError::format(
             path,
-            format!("empty raster ({rows}×{cols} samples)"),
+            format!("empty raster ({rows} rows × {cols} columns of samples)"),
         ));
     }
     let n = rows.checked_mul(cols).ok_or_else(too_big)?;

@@ -527,9 +527,15 @@ fn check_span(job: &Ingest, lo: f64, hi: f64, fill: f64, step: f64) -> Result<()
             "--fill {f}: with heights {lo} … {hi} the dataset would {what}; give a fill near \
              the heights"
         ),
+        // 9/7 (the default) codes the wider range: no other wavelet to point to then.
+        None if job.wavelet == Wavelet::LeGall53 => bail!(
+            "{}: heights {a} … {b} {what} (a no-data value the file does not mark as such? \
+             --wavelet 97 takes a wider range)",
+            job.input.display()
+        ),
         None => bail!(
-            "{}: heights {a} … {b} {what} (a no-data value not marked as such? --wavelet 97 \
-             takes a wider range)",
+            "{}: heights {a} … {b} {what} (a no-data value the file does not mark as such? \
+             mark it, e.g. gdal_edit.py -a_nodata VALUE FILE)",
             job.input.display()
         ),
     }
@@ -553,7 +559,8 @@ fn check_local_lattice(rows: usize, cols: usize) -> Result<()> {
     let samples = r as u64 * c as u64;
     if samples > MAX_LOCAL_LATTICE {
         bail!(
-            "a {rows}×{cols} grid pads to whole {TILE_SIDE}-sample tiles as a {r}×{c} lattice \
+            "a grid of {rows} rows × {cols} columns pads to whole {TILE_SIDE}-sample tiles as \
+             {r} × {c} \
              ({samples} samples, more than the {MAX_LOCAL_LATTICE} an ingest holds): a long, \
              thin grid pads most; crop it, or split it into datasets"
         );
@@ -720,7 +727,10 @@ mod tests {
         assert!(check_local_lattice(2, 400_000).is_ok());
         let e = check_local_lattice(2, 30_000_000).unwrap_err().to_string();
         assert!(
-            e.starts_with("a 2×30000000 grid pads to whole 257-sample tiles as a 257×30000129"),
+            e.starts_with(
+                "a grid of 2 rows × 30000000 columns pads to whole 257-sample tiles as \
+                 257 × 30000129"
+            ),
             "{e}"
         );
         // Through the ingest: refused before any lattice (514 M samples here) is built.
@@ -735,7 +745,10 @@ mod tests {
             "{:#}",
             build(&job("thin", "local", &data), map).unwrap_err()
         );
-        assert!(e.contains("cannot be tiled: a 2×2000000 grid pads"), "{e}");
+        assert!(
+            e.contains("cannot be tiled: a grid of 2 rows × 2000000 columns pads"),
+            "{e}"
+        );
         assert!(!data.join("thin.ztd").exists());
         let _ = std::fs::remove_dir_all(&data);
     }
@@ -866,6 +879,34 @@ mod tests {
                     );
                 }
             }
+        }
+    }
+
+    /// Heights past the wavelet's range point at an unmarked no-data value, and at 9/7 only
+    /// from 5/3: with 9/7 (the default) the hint was "--wavelet 97 takes a wider range".
+    #[test]
+    fn heights_past_the_range_get_a_hint_the_wavelet_can_use() {
+        let data = scratch("wide-heights");
+        let mut h = vec![1.0; 16];
+        (h[3], h[4]) = (3e38, -3e38);
+        let map = Heightmap::new(Grid::new(4, 4, h).unwrap(), Some(1.0), None);
+        for (wavelet, hint) in [
+            (Wavelet::LeGall53, "--wavelet 97 takes a wider range"),
+            (
+                Wavelet::Cdf97,
+                "mark it, e.g. gdal_edit.py -a_nodata VALUE FILE",
+            ),
+        ] {
+            let j = Ingest {
+                wavelet,
+                ..job("w", "local", &data)
+            };
+            let e = build(&j, map.clone()).unwrap_err().to_string();
+            assert!(
+                e.contains("(a no-data value the file does not mark as such? "),
+                "{e}"
+            );
+            assert!(e.ends_with(&format!("{hint})")), "{wavelet:?}: {e}");
         }
     }
 
