@@ -1,10 +1,12 @@
 //! Opening a file found by name without blocking on what is not a regular file.
 //!
-//! A stat then an open leaves a window: a file swapped for a FIFO between the two blocks the
-//! open (or the read) until something writes to the FIFO, and a server's rescan that does so
-//! stops for good. Opening with `O_NONBLOCK` returns at once whatever the file is, and the
-//! open file's own stat says what was opened; `O_NONBLOCK` changes nothing for a regular
-//! file's reads.
+//! A FIFO's open (or read) waits for a writer, and a server's rescan that does so stops for
+//! good; opening a device can have effects of its own (a tape rewinds on close). So the
+//! path is stat'ed first and only a regular file is opened, and, for a file swapped for
+//! something else between the two, the open is non-blocking and without a controlling
+//! terminal, and the open file's own stat has the last word. The file handed back is
+//! blocking again: a dataset reads from it for as long as it is served, and not every
+//! filesystem ignores `O_NONBLOCK` on a regular file.
 
 use std::fs::{File, Metadata, OpenOptions};
 use std::os::unix::fs::{FileTypeExt, OpenOptionsExt};
@@ -27,35 +29,45 @@ impl std::fmt::Display for OpenError {
     }
 }
 
+/// Transparent over the I/O error: it is already this error's text, and an error chain
+/// (`{:#}`) printed it twice ("No such file or directory (os error 2): No such file …").
 impl std::error::Error for OpenError {
     fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
         match self {
             Self::NotRegular(_) => None,
-            Self::Io(e) => Some(e),
+            Self::Io(e) => e.source(),
         }
     }
 }
 
-/// `path` opened for reading, and its metadata as opened, when it is a regular file (a link
-/// to one included).
+/// `path` opened for reading (blocking), and its metadata as opened, when it is a regular
+/// file (a link to one included).
 pub fn open(path: &Path) -> Result<(File, Metadata), OpenError> {
+    use rustix::fs::{fcntl_getfl, fcntl_setfl, OFlags};
+    let not_regular = |meta: &Metadata| kind(meta).map(OpenError::NotRegular);
+    if let Some(e) = std::fs::metadata(path).ok().as_ref().and_then(not_regular) {
+        return Err(e);
+    }
     let file = OpenOptions::new()
         .read(true)
-        .custom_flags(rustix::fs::OFlags::NONBLOCK.bits() as i32)
+        .custom_flags((OFlags::NONBLOCK | OFlags::NOCTTY).bits() as i32)
         .open(path)
         .map_err(|e| {
-            // A socket cannot be opened at all.
-            if e.raw_os_error() == Some(rustix::io::Errno::NXIO.raw_os_error()) {
-                OpenError::NotRegular("a socket")
-            } else {
-                OpenError::Io(e)
-            }
+            // A socket cannot be opened (nor a device without a driver): say which it is.
+            let swapped = (e.raw_os_error() == Some(rustix::io::Errno::NXIO.raw_os_error()))
+                .then(|| std::fs::metadata(path).ok())
+                .flatten()
+                .as_ref()
+                .and_then(not_regular);
+            swapped.unwrap_or(OpenError::Io(e))
         })?;
     let meta = file.metadata().map_err(OpenError::Io)?;
-    match kind(&meta) {
-        None => Ok((file, meta)),
-        Some(what) => Err(OpenError::NotRegular(what)),
+    if let Some(e) = not_regular(&meta) {
+        return Err(e);
     }
+    let flags = fcntl_getfl(&file).map_err(|e| OpenError::Io(e.into()))?;
+    fcntl_setfl(&file, flags - OFlags::NONBLOCK).map_err(|e| OpenError::Io(e.into()))?;
+    Ok((file, meta))
 }
 
 /// What a file that is not a regular file is, for messages; `None` for a regular file.
@@ -99,6 +111,8 @@ mod tests {
         std::fs::write(&file, b"v 0 0 0\n").unwrap();
         let (mut opened, meta) = open(&file).unwrap();
         assert_eq!(meta.len(), 8);
+        let flags = rustix::fs::fcntl_getfl(&opened).unwrap();
+        assert!(!flags.contains(rustix::fs::OFlags::NONBLOCK), "{flags:?}");
         let mut text = String::new();
         std::io::Read::read_to_string(&mut opened, &mut text).unwrap();
         assert_eq!(text, "v 0 0 0\n");
@@ -112,7 +126,14 @@ mod tests {
             other => panic!("{other:?}"),
         }
         match open(&d.join("absent")) {
-            Err(OpenError::Io(e)) => assert_eq!(e.kind(), std::io::ErrorKind::NotFound),
+            Err(e @ OpenError::Io(_)) => {
+                // Said once through a chain of contexts.
+                let said = format!("{:#}", anyhow::Error::new(e).context("opening absent"));
+                assert_eq!(
+                    said,
+                    "opening absent: No such file or directory (os error 2)"
+                );
+            }
             other => panic!("{other:?}"),
         }
         let _ = std::fs::remove_dir_all(&d);

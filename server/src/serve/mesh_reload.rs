@@ -77,7 +77,6 @@ impl MeshCatalog {
         // Each name's candidate files in name order (json, obj, ply, stl).
         let mut named: BTreeMap<String, Vec<Listed>> = BTreeMap::new();
         for listed in listed {
-            let Listed { file, meta, .. } = &listed;
             let stem = listed
                 .path
                 .file_stem()
@@ -85,18 +84,7 @@ impl MeshCatalog {
                 .unwrap_or_default()
                 .to_owned();
             if let Err(e) = crate::ingest::check_name_of("mesh", &stem) {
-                skipped.push((file.clone(), format!("{e:#}")));
-                continue;
-            }
-            // Not read: a FIFO would block the rescan until something wrote to it ([`load`]
-            // opens without blocking too, for a file swapped for one since this stat).
-            if let Some(what) = crate::regular_file::kind(meta) {
-                let why = if meta.is_symlink() {
-                    what.to_string()
-                } else {
-                    format!("not a regular file ({what})")
-                };
-                skipped.push((file.clone(), why));
+                skipped.push((listed.file, format!("{e:#}")));
                 continue;
             }
             named.entry(stem).or_default().push(listed);
@@ -104,12 +92,15 @@ impl MeshCatalog {
         let now = SystemTime::now();
         for (stem, files) in named {
             let old = current.get(&stem);
-            // The first file that gives the name a mesh serves it. Two files of one name only
-            // come from outside (an upload removes the other formats'); one that does not
-            // read leaves the name to the next rather than serve nothing.
-            let mut served_from: Option<(String, bool)> = None;
+            // The first file that reads serves the name, as a fresh start would: one that
+            // does not leaves it to the next. Only when none reads does a mesh read before
+            // from one of them stay served (`stale`). Two files of one name only come from
+            // outside (an upload removes the other formats').
+            let old_listed = old.is_some_and(|e| files.iter().any(|l| l.path == e.source));
+            let mut claimed: Option<(String, bool)> = None;
+            let mut stale: Option<(usize, Arc<MeshEntry>)> = None;
             for Listed { file, path, meta } in files {
-                if let Some((first, serving)) = &served_from {
+                if let Some((first, serving)) = &claimed {
                     let why = if *serving {
                         format!("the mesh {stem} is served from {first}")
                     } else {
@@ -119,23 +110,33 @@ impl MeshCatalog {
                     continue;
                 }
                 let from_this = old.filter(|e| e.source == path).cloned();
+                // Not read: a FIFO would block the rescan until something wrote to it
+                // ([`load`] opens without blocking too, for a file swapped for one since this
+                // stat). Not a removal either: a link swapped to a target not yet there.
+                if let Some(what) = crate::regular_file::kind(&meta) {
+                    let why = if meta.is_symlink() {
+                        what.to_string()
+                    } else {
+                        format!("not a regular file ({what})")
+                    };
+                    skipped.push((file, why));
+                    stale = from_this.map(|e| (skipped.len() - 1, e)).or(stale);
+                    continue;
+                }
                 let stamp = file_stamp(&meta);
                 match seen.read.get(&file) {
                     Some((s, None)) if *s == stamp => {
                         if let Some(e) = from_this {
                             next.insert(stem.clone(), e);
                             read.insert(file.clone(), (stamp, None));
-                            served_from = Some((file, true));
+                            claimed = Some((file, true));
                             continue;
                         }
                     }
                     Some((s, Some(why))) if *s == stamp && !asked => {
                         skipped.push((file.clone(), why.clone()));
-                        read.insert(file.clone(), (stamp, Some(why.clone())));
-                        if let Some(e) = from_this {
-                            next.insert(stem.clone(), e);
-                            served_from = Some((file, true));
-                        }
+                        read.insert(file, (stamp, Some(why.clone())));
+                        stale = from_this.map(|e| (skipped.len() - 1, e)).or(stale);
                         continue;
                     }
                     _ => {}
@@ -146,11 +147,16 @@ impl MeshCatalog {
                     .and_then(|t| now.duration_since(t).ok());
                 if !asked && changed.is_some_and(|age| age < SETTLE) {
                     // Still being written, perhaps: the mesh served so far stays until it
-                    // settles.
-                    if let Some(e) = old {
-                        next.insert(stem.clone(), Arc::clone(e));
+                    // settles, from the file it came from when that is a later one.
+                    if let Some(e) = from_this {
+                        next.insert(stem.clone(), e);
+                        claimed = Some((file, true));
+                    } else if !old_listed {
+                        if let Some(e) = old {
+                            next.insert(stem.clone(), Arc::clone(e));
+                        }
+                        claimed = Some((file, false));
                     }
-                    served_from = Some((file, from_this.is_some()));
                     continue;
                 }
                 match load(&path) {
@@ -173,23 +179,22 @@ impl MeshCatalog {
                         };
                         next.insert(stem.clone(), entry);
                         read.insert(file.clone(), (stamp, None));
-                        served_from = Some((file, true));
+                        claimed = Some((file, true));
                     }
                     Err(e) => {
-                        let mut why = format!("{e:#}");
-                        let kept = from_this.is_some();
-                        if let Some(e) = from_this {
-                            why.push_str(" (the mesh read from it before is still served)");
-                            next.insert(stem.clone(), e);
-                        }
+                        let why = format!("{e:#}");
                         changes.failed.push(file.clone());
                         skipped.push((file.clone(), why.clone()));
-                        read.insert(file.clone(), (stamp, Some(why)));
-                        if kept {
-                            served_from = Some((file, true));
-                        }
+                        read.insert(file, (stamp, Some(why)));
+                        stale = from_this.map(|e| (skipped.len() - 1, e)).or(stale);
                     }
                 }
+            }
+            if let (None, Some((at, e))) = (&claimed, stale) {
+                if let Some((_, why)) = skipped.get_mut(at) {
+                    why.push_str(" (the mesh read from it before is still served)");
+                }
+                next.insert(stem, e);
             }
         }
         // Skipped files in name order, as the folder lists them.

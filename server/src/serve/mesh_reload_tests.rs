@@ -249,15 +249,85 @@ fn a_file_that_does_not_read_leaves_its_name_to_the_next() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// A file swapped for a FIFO after the rescan's stat is refused by the read, at once: the
-/// read opened it blocking, and the rescan (and every one after it) waited for a writer.
+/// The read a rescan makes of a file it listed as a regular file refuses a FIFO at once,
+/// should the file have been swapped for one since the listing: it opened it blocking, and
+/// the rescan (and every one after it) waited for a writer. (The swap itself is not timed
+/// here: the read is given the FIFO directly.)
 #[test]
-fn reading_a_file_swapped_for_a_fifo_does_not_block() {
+fn the_read_of_a_listed_file_refuses_a_fifo_at_once() {
     let dir = data("swap");
     let fifo = dir.join(MESH_DIR).join("s.obj");
     mkfifo(&fifo);
     let read = move || super::meshes::load(&fifo).map_err(|e| format!("{e:#}"));
     let e = within(10, "reading the FIFO blocked", read).unwrap_err();
     assert!(e.ends_with("s.obj: not a regular file (a FIFO)"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A served mesh's file turned into a FIFO, a folder or a link to nothing keeps the mesh
+/// served, as a file that no longer reads does (and as a dataset does): they answered 404.
+#[test]
+fn a_mesh_whose_file_becomes_no_file_stays_served() {
+    let (dir, cat) = opened("nofile", "a.obj", TRI);
+    let file = dir.join(MESH_DIR).join("a.obj");
+    type Swap = fn(&Path);
+    let swaps: [(&str, Swap); 3] = [
+        ("not a regular file (a FIFO)", |p| mkfifo(p)),
+        ("not a regular file (a folder)", |p| {
+            std::fs::create_dir(p).unwrap()
+        }),
+        ("a link to nothing", |p| {
+            std::os::unix::fs::symlink(p.with_extension("gone"), p).unwrap()
+        }),
+    ];
+    for (why, swap) in swaps {
+        let _ = std::fs::remove_file(&file).or_else(|_| std::fs::remove_dir(&file));
+        swap(&file);
+        assert_eq!(cat.rescan(true).unwrap(), None, "{why}");
+        assert_eq!(cat.get("a").unwrap().mesh.face_count(), 1, "{why}");
+        assert_eq!(
+            cat.skipped(),
+            [(
+                "a.obj".to_string(),
+                format!("{why} (the mesh read from it before is still served)")
+            )]
+        );
+    }
+    // A file again: read anew.
+    std::fs::remove_file(&file).unwrap();
+    settled(&dir, "a.obj", QUAD);
+    assert_eq!(rescan(&cat).expect("a reads").replaced, ["a.obj"]);
+    assert_eq!(cat.get("a").unwrap().mesh.face_count(), 2);
+    assert!(cat.skipped().is_empty());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Of two files of one name the served mesh is the one a fresh start would serve: when the
+/// first stops reading, the next that reads takes the name (the first's old mesh stayed,
+/// and a restart then served the other); while a new first file settles, the file serving
+/// the name goes on serving it and is not listed as skipped.
+#[test]
+fn two_files_of_one_name_serve_what_a_start_would() {
+    let (dir, cat) = opened("two", "t.ply", QUAD_PLY);
+    assert_eq!(cat.get("t").unwrap().mesh.face_count(), 2);
+    // A new t.obj, just written: t.ply goes on serving t until it settles.
+    place(&dir, "t.obj", TRI, Duration::ZERO);
+    assert_eq!(rescan(&cat), None);
+    assert_eq!(cat.get("t").unwrap().mesh.face_count(), 2);
+    assert_eq!(cat.skipped(), []);
+    // Settled, it takes the name.
+    settled(&dir, "t.obj", TRI);
+    assert_eq!(rescan(&cat).expect("t from t.obj").replaced, ["t.obj"]);
+    assert_eq!(cat.get("t").unwrap().mesh.face_count(), 1);
+    // t.obj no longer reads: t.ply, which does, serves t, as after a restart.
+    settled(&dir, "t.obj", NO_FACES);
+    assert_eq!(rescan(&cat).expect("t from t.ply").replaced, ["t.ply"]);
+    assert_eq!(cat.get("t").unwrap().mesh.face_count(), 2);
+    let restarted = MeshCatalog::open(&dir, 1 << 20);
+    assert_eq!(restarted.get("t").unwrap().mesh.face_count(), 2);
+    let skipped = cat.skipped();
+    assert_eq!(skipped.len(), 1, "{skipped:?}");
+    assert_eq!(skipped[0].0, "t.obj");
+    assert!(!skipped[0].1.contains("still served"), "{skipped:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }

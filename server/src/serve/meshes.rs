@@ -204,7 +204,7 @@ impl MeshCatalog {
 
     /// Opens `data/meshes` (absent: an empty catalog). A mesh that fails to read is logged
     /// and skipped; of two files of one name, the first in name order (json, obj, ply, stl)
-    /// is served.
+    /// that reads is served.
     pub fn open(data: &Path, answer_bytes: u64) -> Self {
         let catalog = Self::with_entries(data.join(MESH_DIR), BTreeMap::new(), answer_bytes);
         if let Err(e) = catalog.rescan(true) {
