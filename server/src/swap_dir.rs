@@ -10,35 +10,50 @@ use std::io;
 use std::path::Path;
 
 /// Puts the folder `new` at `out`, deleting what `out` held; `aside` is a free name beside
-/// `out` for the fallback's old folder. On error `out` is as it was and `new` is kept.
+/// `out` for the fallback's old folder. On error `new` is kept, and `out` is as it was
+/// unless the error says where the old folder was left.
 pub fn replace(new: &Path, out: &Path, aside: &Path) -> io::Result<()> {
-    if std::fs::symlink_metadata(out).is_err() {
-        return std::fs::rename(new, out);
+    match std::fs::symlink_metadata(out) {
+        Err(e) if e.kind() == io::ErrorKind::NotFound => return std::fs::rename(new, out),
+        _ => {}
     }
-    match exchange(new, out) {
+    // Any failure of the exchange (not offered, a filter refusing the call, `out` gone since)
+    // leaves both names as they were: the renames then fail, or not, on their own.
+    if exchange(new, out).is_ok() {
         // `new` now names the old folder.
-        Ok(()) => {
-            let _ = std::fs::remove_dir_all(new);
-            return Ok(());
-        }
-        Err(e) if !unsupported(&e) => return Err(e),
-        Err(_) => {}
+        remove_leftover(new);
+        return Ok(());
     }
+    replace_by_renames(new, out, aside)
+}
+
+/// [`replace`] with two renames: the old folder aside, the new one in.
+fn replace_by_renames(new: &Path, out: &Path, aside: &Path) -> io::Result<()> {
     std::fs::rename(out, aside)?;
     if let Err(e) = std::fs::rename(new, out) {
-        let _ = std::fs::rename(aside, out);
-        return Err(e);
+        return match std::fs::rename(aside, out) {
+            Ok(()) => Err(e),
+            Err(back) => Err(io::Error::new(
+                e.kind(),
+                format!(
+                    "{e}; and moving the old folder back failed ({back}): it is at {}",
+                    aside.display()
+                ),
+            )),
+        };
     }
-    let _ = std::fs::remove_dir_all(aside);
+    remove_leftover(aside);
     Ok(())
 }
 
-/// Whether the exchange failed because it is not offered here, not because of the names.
-fn unsupported(e: &io::Error) -> bool {
-    use rustix::io::Errno;
-    [Errno::INVAL, Errno::NOSYS, Errno::OPNOTSUPP]
-        .iter()
-        .any(|n| e.raw_os_error() == Some(n.raw_os_error()))
+/// Deletes the old folder; one that cannot be deleted is said, not failed: the new one is in.
+fn remove_leftover(old: &Path) {
+    if let Err(e) = std::fs::remove_dir_all(old) {
+        tracing::warn!(
+            "the replaced folder could not be deleted ({e}): it is left at {}",
+            old.display()
+        );
+    }
 }
 
 #[cfg(target_os = "linux")]
@@ -77,6 +92,28 @@ mod tests {
         let _ = std::fs::remove_dir_all(&root);
     }
 
+    /// The fallback on its own: the new folder in and the old one gone; when the new one
+    /// cannot be moved in, the old one is put back.
+    #[test]
+    fn the_two_renames_swap_or_put_the_old_folder_back() {
+        let root = crate::fixtures::scratch("swapdir-renames");
+        let (new, out, aside) = (root.join("new"), root.join("out"), root.join(".out.old"));
+        std::fs::create_dir_all(&new).unwrap();
+        std::fs::create_dir_all(&out).unwrap();
+        std::fs::write(new.join("n"), "new").unwrap();
+        std::fs::write(out.join("o"), "old").unwrap();
+        replace_by_renames(&new, &out, &aside).unwrap();
+        assert_eq!(std::fs::read_to_string(out.join("n")).unwrap(), "new");
+        assert!(!out.join("o").exists() && !new.exists() && !aside.exists());
+
+        // No `new` to move in: the error, and `out` as it was.
+        let e = replace_by_renames(&new, &out, &aside).unwrap_err();
+        assert_eq!(e.kind(), io::ErrorKind::NotFound);
+        assert_eq!(std::fs::read_to_string(out.join("n")).unwrap(), "new");
+        assert!(!aside.exists());
+        let _ = std::fs::remove_dir_all(&root);
+    }
+
     /// This machine's filesystem exchanges names, so the test below tries the exchange and
     /// not the fallback.
     #[cfg(target_os = "linux")]
@@ -106,13 +143,14 @@ mod tests {
         let stop = Arc::new(AtomicBool::new(false));
         let (s, o) = (Arc::clone(&stop), out.clone());
         let watcher = std::thread::spawn(move || {
-            let mut missing = 0u32;
+            let (mut polls, mut missing) = (0u64, 0u64);
             while !s.load(Ordering::Relaxed) {
+                polls += 1;
                 if !o.is_dir() {
                     missing += 1;
                 }
             }
-            missing
+            (polls, missing)
         });
         for i in 0..100 {
             std::fs::create_dir_all(&new).unwrap();
@@ -120,7 +158,9 @@ mod tests {
             replace(&new, &out, &aside).unwrap();
         }
         stop.store(true, Ordering::Relaxed);
-        assert_eq!(watcher.join().unwrap(), 0);
+        let (polls, missing) = watcher.join().unwrap();
+        assert!(polls > 100, "the watcher polled {polls} times");
+        assert_eq!(missing, 0);
         assert_eq!(std::fs::read_to_string(out.join("n")).unwrap(), "99");
         let _ = std::fs::remove_dir_all(&root);
     }
