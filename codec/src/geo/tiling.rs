@@ -216,8 +216,8 @@ pub enum TilingError {
     #[error("tile side must be 2^n + 1 samples with 1 ≤ n ≤ 15, got {0}")]
     Side(u32),
     #[error(
-        "a local grid needs at least 2 × 2 samples and fits zoom {MAX_ZOOM}, got {rows} rows × \
-         {cols} columns"
+        "a local grid needs at least 2 × 2 samples and fits zoom {MAX_ZOOM}, got {rows} × {cols} \
+         (rows × columns)"
     )]
     LocalGrid { rows: usize, cols: usize },
     #[error("zoom {z} is deeper than this tiling's deepest zoom {max}")]

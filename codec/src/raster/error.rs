@@ -91,15 +91,15 @@ pub(crate) fn check_shape(
         RasterError::limit(
             path,
             format!(
-                "{rows} rows × {cols} columns of samples, more than the limit of {max_samples} \
-                 (max_samples)"
+                "{rows} × {cols} samples (rows × columns), more than the limit of \
+                 {max_samples} (max_samples)"
             ),
         )
     };
     if rows == 0 || cols == 0 {
         return Err(RasterError::format(
             path,
-            format!("empty raster ({rows} rows × {cols} columns of samples)"),
+            format!("empty raster ({rows} × {cols} samples, rows × columns)"),
         ));
     }
     let n = rows.checked_mul(cols).ok_or_else(too_big)?;

@@ -296,7 +296,7 @@ fn a_file_past_one_streams_limit_is_refused_from_its_header() {
         e.starts_with(
             "eval terrain codes the window as one stream of at most 67108864 samples; give \
              --crop ROW,COL,SIZE (SIZE up to 8192): "
-        ) && e.contains("big.npy: exceeds a limit: 8193 rows × 8193 columns of samples"),
+        ) && e.contains("big.npy: exceeds a limit: 8193 × 8193 samples (rows × columns)"),
         "{e}"
     );
     let _ = std::fs::remove_dir_all(&dir);

@@ -559,7 +559,8 @@ fn check_local_lattice(rows: usize, cols: usize) -> Result<()> {
     let samples = r as u64 * c as u64;
     if samples > MAX_LOCAL_LATTICE {
         bail!(
-            "a grid of {rows} rows × {cols} columns pads to whole {TILE_SIDE}-sample tiles as \
+            "a grid of {rows} × {cols} samples (rows × columns) pads to whole {TILE_SIDE}-sample \
+             tiles as \
              {r} × {c} \
              ({samples} samples, more than the {MAX_LOCAL_LATTICE} an ingest holds): a long, \
              thin grid pads most; crop it, or split it into datasets"
@@ -728,7 +729,8 @@ mod tests {
         let e = check_local_lattice(2, 30_000_000).unwrap_err().to_string();
         assert!(
             e.starts_with(
-                "a grid of 2 rows × 30000000 columns pads to whole 257-sample tiles as \
+                "a grid of 2 × 30000000 samples (rows × columns) pads to whole 257-sample \
+                 tiles as \
                  257 × 30000129"
             ),
             "{e}"
@@ -746,7 +748,7 @@ mod tests {
             build(&job("thin", "local", &data), map).unwrap_err()
         );
         assert!(
-            e.contains("cannot be tiled: a grid of 2 rows × 2000000 columns pads"),
+            e.contains("cannot be tiled: a grid of 2 × 2000000 samples (rows × columns) pads"),
             "{e}"
         );
         assert!(!data.join("thin.ztd").exists());
