@@ -20,6 +20,8 @@
 //! whose in-process tests build requests without one.
 
 use std::future::Future;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Arc;
 use std::time::Duration;
 
 use axum::extract::Request;
@@ -74,7 +76,35 @@ impl Default for Limits {
 /// connections' in-flight requests to finish, at most [`DRAIN_TIMEOUT`]. Whether they all
 /// did.
 pub async fn serve(listener: TcpListener, app: Router, stop: impl Future<Output = ()>) -> bool {
-    serve_with(listener, app, stop, Limits::default()).await
+    serve_with(listener, app, stop, Limits::default())
+        .await
+        .drained
+}
+
+/// How a stop went.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Stopped {
+    /// Every connection finished within the drain deadline.
+    pub drained: bool,
+    /// Requests whose handler was still running when the deadline cut them off (a long
+    /// build), as against answers a client was not taking.
+    pub answering: usize,
+}
+
+/// Counts a request as being answered until its handler returns (or is dropped).
+struct Answering(Arc<AtomicUsize>);
+
+impl Answering {
+    fn start(n: &Arc<AtomicUsize>) -> Self {
+        n.fetch_add(1, Ordering::Relaxed);
+        Self(Arc::clone(n))
+    }
+}
+
+impl Drop for Answering {
+    fn drop(&mut self) {
+        self.0.fetch_sub(1, Ordering::Relaxed);
+    }
 }
 
 /// [`serve`] with other time limits (the tests').
@@ -83,7 +113,7 @@ pub async fn serve_with(
     app: Router,
     stop: impl Future<Output = ()>,
     limits: Limits,
-) -> bool {
+) -> Stopped {
     let mut builder = Builder::new(TokioExecutor::new());
     builder
         .http1()
@@ -96,7 +126,20 @@ pub async fn serve_with(
         .http2()
         .timer(TokioTimer::new())
         .max_concurrent_streams(HTTP2_MAX_STREAMS);
-    let app = app.layer(axum::middleware::from_fn(one_host));
+    let answering = Arc::new(AtomicUsize::new(0));
+    let counted = Arc::clone(&answering);
+    let app = app
+        .layer(axum::middleware::from_fn(one_host))
+        .layer(axum::middleware::from_fn(
+            move |req: Request, next: Next| {
+                let busy = Answering::start(&counted);
+                async move {
+                    let answer = next.run(req).await;
+                    drop(busy);
+                    answer
+                }
+            },
+        ));
     let graceful = GracefulShutdown::new();
     let mut stop = std::pin::pin!(stop);
     let mut last_warned: Option<std::time::Instant> = None;
@@ -136,15 +179,23 @@ pub async fn serve_with(
     let drained = tokio::time::timeout(limits.drain, graceful.shutdown())
         .await
         .is_ok();
+    let answering = answering.load(Ordering::Relaxed);
     if !drained {
         // Their tasks end with the runtime.
-        tracing::warn!(
-            "connections still open {} s after the stop (a client not reading its answer, or \
-             a request half sent): closing them",
-            limits.drain.as_secs_f64()
-        );
+        let secs = limits.drain.as_secs_f64();
+        if answering > 0 {
+            tracing::warn!(
+                "{answering} request(s) still being answered {secs} s after the stop (a long \
+                 build, such as a large mesh's first LOD): cutting them off"
+            );
+        } else {
+            tracing::warn!(
+                "connections still open {secs} s after the stop (a client not reading its \
+                 answer, or a request half sent): closing them"
+            );
+        }
     }
-    drained
+    Stopped { drained, answering }
 }
 
 /// Middleware: 400 for an HTTP/1.1 request without a `Host` header, or any request with more
@@ -178,7 +229,7 @@ mod tests {
         rt: tokio::runtime::Runtime,
         addr: std::net::SocketAddr,
         stop: tokio::sync::oneshot::Sender<()>,
-        server: tokio::task::JoinHandle<()>,
+        server: tokio::task::JoinHandle<Stopped>,
     }
 
     impl Running {
@@ -189,13 +240,18 @@ mod tests {
             let (stop, rx) = tokio::sync::oneshot::channel::<()>();
             let app = Router::new()
                 .route("/", get(|| async { "hi" }))
-                .route("/big", get(|| async { vec![b'x'; BIG] }));
+                .route("/big", get(|| async { vec![b'x'; BIG] }))
+                .route(
+                    "/slow",
+                    get(|| async {
+                        tokio::time::sleep(Duration::from_secs(30)).await;
+                        "late"
+                    }),
+                );
             let stopped = async {
                 let _ = rx.await;
             };
-            let server = rt.spawn(async move {
-                serve_with(listener, app, stopped, limits).await;
-            });
+            let server = rt.spawn(serve_with(listener, app, stopped, limits));
             Self {
                 rt,
                 addr,
@@ -205,9 +261,9 @@ mod tests {
         }
 
         /// Ends the accept loop and waits for it.
-        fn stop(self) {
+        fn stop(self) -> Stopped {
             self.stop.send(()).unwrap();
-            self.rt.block_on(self.server).unwrap();
+            self.rt.block_on(self.server).unwrap()
         }
     }
 
@@ -318,12 +374,40 @@ mod tests {
         half.write_all(b"GET / HTTP/1.1\r\nHost: x\r\n").unwrap();
         std::thread::sleep(Duration::from_millis(300));
         let started = Instant::now();
-        s.stop();
+        let stopped = s.stop();
         let took = started.elapsed();
         assert!(took < Duration::from_secs(8), "{took:?}");
         assert!(
             took >= Duration::from_millis(900),
             "waited for them: {took:?}"
+        );
+        // Answers not taken, no handler running: the log blames the clients.
+        assert_eq!(
+            stopped,
+            Stopped {
+                drained: false,
+                answering: 0
+            }
+        );
+    }
+
+    /// A request whose handler outlives the drain deadline is counted as being answered, so
+    /// the stop's warning says a build was cut off (it blamed a client not reading). A
+    /// handler that returned is not counted (the test above).
+    #[test]
+    fn a_stop_tells_a_long_handler_from_a_client_not_reading() {
+        let s = Running::start(Limits {
+            drain: Duration::from_millis(500),
+            ..Limits::default()
+        });
+        let _slow = ask(s.addr, "/slow");
+        std::thread::sleep(Duration::from_millis(300));
+        assert_eq!(
+            s.stop(),
+            Stopped {
+                drained: false,
+                answering: 1
+            }
         );
     }
 
