@@ -377,7 +377,7 @@ fn a_source_across_the_antimeridian_is_ingested_on_both_sides() {
         let r = s.get(&format!("/v1/datasets/seam/tiles/10/{x}/767.terrain"), &[]);
         assert_eq!(r.status, 200, "tile {x}");
     }
-    // A view's answer, and every `stride`-th number from `at` of one of its arrays.
+    // A view's answer, and every `stride`-th number of one of its arrays (flattened).
     let view = |query: &str| {
         let r = s.get(&format!("/v1/datasets/{query}"), &[]);
         assert_eq!(r.status, 200, "{}", String::from_utf8_lossy(&r.body));
@@ -419,49 +419,55 @@ fn a_source_across_the_antimeridian_is_ingested_on_both_sides() {
     );
     assert_eq!(v.status, 200, "{}", String::from_utf8_lossy(&v.body));
     assert_eq!(v.json()["zoom"], 10);
-    // Looking down on the seam from its west side, the eye a few metres east of it: the
-    // footprint (some 6 km across) runs on past 180° round the target, and the mesh holds
-    // the data either side of the seam as one piece, its east side moved a turn round
-    // (x past 180°), welded where the sides meet. Taking the eye as 359.998° away cut the
-    // view to one side, or refused it.
-    let v = view("seam/view?eye=-179.999,44.87,5000&target=179.999,44.87,0&fov=60");
-    let lons = numbers(&v["footprint"], 2);
-    assert!(lons.iter().any(|&x| x > 180.01), "{lons:?}");
-    assert!(lons.iter().any(|&x| x < 179.99), "{lons:?}");
-    assert!(
-        lons.iter().all(|&x| (179.9..180.1).contains(&x)),
-        "{lons:?}"
-    );
-    let positions = numbers(&v["mesh"]["positions"], 1);
-    let xs: Vec<f64> = positions.iter().copied().step_by(3).collect();
-    assert!(
-        xs.iter().all(|&x| (179.9..180.1).contains(&x)),
-        "a vertex off the view"
-    );
-    let west = xs.iter().filter(|&&x| x < 180.0).count();
-    let east = xs.iter().filter(|&&x| x > 180.0).count();
-    let on = xs.iter().filter(|&&x| x == 180.0).count();
-    assert!(
-        west > 10 && east > 10 && on > 2,
-        "{west} west, {east} east, {on} on the seam"
-    );
-    let places: std::collections::HashSet<[u64; 2]> = positions
-        .chunks(3)
-        .map(|p| [p[0].to_bits(), p[1].to_bits()])
-        .collect();
-    assert_eq!(places.len(), xs.len(), "vertices not welded");
-    // The same on the mercator build, a turn being the world's width in metres.
-    let v = view("seam-m/view?eye=-179.999,44.87,5000&target=179.999,44.87,0&fov=60");
-    let half = 6_378_137.0 * std::f64::consts::PI;
-    let xs: Vec<f64> = numbers(&v["mesh"]["positions"], 3)
-        .into_iter()
-        .map(|x| x / half)
-        .collect();
-    assert!(
-        xs.iter().all(|&x| (0.999..1.001).contains(&x)),
-        "a vertex off the view"
-    );
-    assert!(xs.iter().any(|&x| x < 1.0) && xs.iter().any(|&x| x > 1.0));
+    // Looking down on the seam from an eye some 80 m across it: the footprint (some 6 km
+    // across) runs on past ±180° round the target, and the mesh holds the data either side
+    // of the seam as one piece, the far side moved a turn round, welded where the sides
+    // meet: a vertex on the seam serves faces on both sides. Taking the eye as 359.998°
+    // away cut the view to one side, or refused it. Both ways across, on both schemes
+    // (mercator's turn is the world's width in metres).
+    let half_mercator = 6_378_137.0 * std::f64::consts::PI;
+    for (name, half) in [("seam", 180.0), ("seam-m", half_mercator)] {
+        for (eye, target, seam) in [(-179.999, 179.999, 1.0), (179.999, -179.999, -1.0)] {
+            let camera = format!("eye={eye},44.87,5000&target={target},44.87,0&fov=60");
+            let v = view(&format!("{name}/view?{camera}"));
+            let at = format!("{name} {camera}");
+            if name == "seam" {
+                let lons = numbers(&v["footprint"], 2);
+                assert!(lons.iter().any(|&x| x * seam > 180.01), "{at}: {lons:?}");
+                assert!(lons.iter().any(|&x| x * seam < 179.99), "{at}: {lons:?}");
+            }
+            // x in half turns, the seam side's sign taken off: the seam is at 1.
+            let xs: Vec<f64> = numbers(&v["mesh"]["positions"], 3)
+                .into_iter()
+                .map(|x| x * seam / half)
+                .collect();
+            assert!(
+                xs.iter().all(|&x| (0.999..1.001).contains(&x)),
+                "{at}: a vertex off the view"
+            );
+            let indices: Vec<usize> = numbers(&v["mesh"]["indices"], 1)
+                .into_iter()
+                .map(|i| i as usize)
+                .collect();
+            let (mut near, mut far) = (
+                std::collections::HashSet::new(),
+                std::collections::HashSet::new(),
+            );
+            for f in indices.chunks(3) {
+                let side = if f.iter().any(|&i| xs[i] < 1.0) {
+                    &mut near
+                } else {
+                    &mut far
+                };
+                side.extend(f.iter().copied().filter(|&i| xs[i] == 1.0));
+            }
+            let shared = near.intersection(&far).count();
+            assert!(
+                shared > 2 && xs.iter().filter(|&&x| x > 1.0).count() > 10,
+                "{at}: {shared} seam vertices welded across it"
+            );
+        }
+    }
     // A footprint away from the data, in the gap between its ends round the world, is empty.
     let v = s.get(
         "/v1/datasets/seam/view?eye=0,44.9,3000&target=0,44.8999,500&fov=10",

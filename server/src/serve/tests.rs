@@ -2220,6 +2220,59 @@ async fn a_view_over_a_missing_tile_meshes_the_tiles_that_exist() {
     assert!(footprint.iter().any(|p| p[0].as_f64().unwrap() > 10.0));
 }
 
+/// A view of the pole meshes the same zoom whatever the target's longitude: its footprint,
+/// a whole turn round the target, is the globe once (it counted the tile column at the
+/// turn's ends twice, so a 16-tile zoom passed the cap at some longitudes and not others).
+#[tokio::test]
+async fn a_view_of_the_pole_meshes_one_zoom_at_any_longitude() {
+    let mut tiles = vec![ROOT, id(0, 1, 0)];
+    for z in 1..=3u8 {
+        for x in 0..(2u32 << z) {
+            for y in 0..(1u32 << z) {
+                tiles.push(id(z, x, y));
+            }
+        }
+    }
+    let app = router_over(hill_dataset("view-pole", "geodetic", &tiles));
+    let mut zooms = Vec::new();
+    for lon in [0.0, 10.0, -10.0, 22.5, 100.0] {
+        let uri = format!("/v1/datasets/hill/view?eye={lon},89,1000000&target={lon},89,0&fov=60");
+        let (status, headers, body) = get(&app, &uri).await;
+        assert_eq!(status, StatusCode::OK, "{}", String::from_utf8_lossy(&body));
+        zooms.push(headers["x-zoom"].to_str().unwrap().to_string());
+    }
+    assert!(zooms.iter().all(|z| *z == zooms[0]), "{zooms:?}");
+}
+
+/// A footprint that holds no triangle's centroid is answered with the triangles under its
+/// middle, across the seam too: with the target past the disk the view reaches and a mesh
+/// of a few large triangles, the middle lies past ±180° and was looked for only among
+/// triangles not moved a turn round (404 empty_view; 200 away from the seam).
+#[tokio::test]
+async fn a_view_too_small_for_a_centroid_finds_its_middle_across_the_seam() {
+    let path = hill_file_with("view-seam-middle", "geodetic", &[ROOT, id(0, 1, 0)], |m| {
+        m.bounds = [179.0, -1.0, -179.0, 1.0];
+        m.view = ViewParams { a: 0.0, b: 1e5 };
+    });
+    let app = router_over(Dataset::open(&path).unwrap());
+    for camera in [
+        "eye=-177.1,0,1000&target=179.9,0,0&fov=60",
+        "eye=177.1,0,1000&target=-179.9,0,0&fov=60",
+        "eye=-179.5,0,1000&target=-176.4,0,0&fov=60",
+    ] {
+        let uri = format!("/v1/datasets/hill/view?{camera}");
+        let (status, _, body) = get(&app, &uri).await;
+        assert_eq!(
+            status,
+            StatusCode::OK,
+            "{camera}: {}",
+            String::from_utf8_lossy(&body)
+        );
+        let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
+        assert!(v["triangles"].as_u64().unwrap() > 0, "{camera}: {v}");
+    }
+}
+
 /// A view meshes the deepest zoom whose tiles over the footprint are few enough: on a
 /// world dataset holding zooms 0 and 1, a footprint about 40° wide (a few zoom-1 tiles)
 /// is meshed at zoom 1.

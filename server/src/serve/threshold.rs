@@ -211,7 +211,13 @@ pub fn view_plane(d: &Dataset, q: &HashMap<String, String>) -> Result<ViewPlane,
     // Horizontal metres around the target (degrees scaled at the target's latitude; grid
     // samples as they are, rows flipped so y points north), and back. Longitudes the short
     // way round: an eye at 179.9° is 0.2° from a target at −179.9°, not 359.8°.
-    let (lon0, lat0) = (target.x, target.y);
+    // ±180° are one meridian: one camera, one answer (and cache entry) either way written.
+    let lon0 = if local {
+        target.x
+    } else {
+        zerotile_codec::geo::wrap_longitude(target.x)
+    };
+    let lat0 = target.y;
     let k = lat0.to_radians().cos().max(1e-6);
     let to_plane = |p: DVec3| {
         if local {
@@ -265,7 +271,7 @@ pub fn view_plane(d: &Dataset, q: &HashMap<String, String>) -> Result<ViewPlane,
         a_v,
         a_t,
         footprint: footprint.iter().map(|p| p.to_array()).collect(),
-        target: [target.x, target.y],
+        target: [lon0, lat0],
     })
 }
 

@@ -228,11 +228,13 @@ fn tiles_in_view(d: &Dataset, plane: &ViewPlane) -> ApiResult<(u8, Vec<TileId>)>
         if ranges.is_empty() {
             continue;
         }
+        let shallowest = z == m.min_zoom;
+        // Boxes can meet in one tile (mercator's single root, a footprint's two spans in one
+        // tile column): counted once. Past the cap times the boxes, none can bring it under.
         let count: u64 = ranges.iter().map(|r| r.count()).sum();
-        if count > MAX_VIEW_TILES && z > m.min_zoom {
+        if !shallowest && count > MAX_VIEW_TILES * ranges.len() as u64 {
             continue;
         }
-        // Two boxes can meet in one tile (mercator's single root): each tile once.
         let mut tiles: Vec<TileId> = ranges
             .iter()
             .flat_map(|r| r.tiles())
@@ -241,12 +243,15 @@ fn tiles_in_view(d: &Dataset, plane: &ViewPlane) -> ApiResult<(u8, Vec<TileId>)>
                 x: t.x,
                 y: t.y,
             })
-            .filter(|&id| d.has_tile(id))
             .collect();
         if ranges.len() > 1 {
             tiles.sort_by_key(|t| (t.y, t.x));
             tiles.dedup();
         }
+        if !shallowest && tiles.len() as u64 > MAX_VIEW_TILES {
+            continue;
+        }
+        tiles.retain(|&id| d.has_tile(id));
         return Ok((z, tiles));
     }
     Err(empty())
@@ -255,7 +260,9 @@ fn tiles_in_view(d: &Dataset, plane: &ViewPlane) -> ApiResult<(u8, Vec<TileId>)>
 /// A footprint box's longitudes `lo..hi` (which run on round the target, one turn at most)
 /// on the globe: one span, or two when it runs past ±180°.
 fn on_globe(lo: f64, hi: f64) -> Vec<(f64, f64)> {
-    if hi > 180.0 {
+    if hi - lo >= 360.0 {
+        vec![(-180.0, 180.0)]
+    } else if hi > 180.0 {
         vec![(lo, 180.0), (-180.0, hi - 360.0)]
     } else if lo < -180.0 {
         vec![(lo + 360.0, 180.0), (-180.0, hi)]
@@ -287,9 +294,10 @@ fn view_mesh(
         Scheme::Local { .. } => None,
         _ => Some(to_mesh([180.0, 0.0])[0] - to_mesh([-180.0, 0.0])[0]),
     };
+    // Faces are tried a turn round only when the footprint runs past the seam.
     let shifts: Vec<f64> = match turn {
-        None => vec![0.0],
-        Some(w) => vec![0.0, w, -w],
+        Some(w) if polygon.iter().any(|p| p[0].abs() > w / 2.0) => vec![0.0, w, -w],
+        _ => vec![0.0],
     };
     // A footprint smaller or thinner than a triangle holds no centroid: the triangles under
     // the target stand in for it then, rather than an empty view over the data. (Not the
@@ -325,10 +333,14 @@ fn view_mesh(
                 anyhow::bail!("tile {id} mesh has a face past its vertices");
             };
             let c = (p[0] + p[1] + p[2]) / 3.0;
+            let moved = |s: f64| p.map(|q| DVec3::new(q.x + s, q.y, q.z));
             if let Some(&s) = shifts.iter().find(|&&s| inside(&polygon, [c.x + s, c.y])) {
-                faces.push(p.map(|q| DVec3::new(q.x + s, q.y, q.z)));
-            } else if faces.is_empty() && covers(&p, middle) {
-                under_middle.push(p);
+                faces.push(moved(s));
+            } else if faces.is_empty() {
+                // `middle` may lie past the seam too.
+                if let Some(&s) = shifts.iter().find(|&&s| covers(&moved(s), middle)) {
+                    under_middle.push(moved(s));
+                }
             }
         }
     }
@@ -384,8 +396,17 @@ fn inside(poly: &[[f64; 2]], p: [f64; 2]) -> bool {
 
 #[cfg(test)]
 mod tests {
-    use super::{covers, inside};
+    use super::{covers, inside, on_globe};
     use glam::DVec3;
+
+    #[test]
+    fn a_box_past_the_seam_is_cut_into_the_spans_either_side() {
+        assert_eq!(on_globe(10.0, 20.0), [(10.0, 20.0)]);
+        assert_eq!(on_globe(170.0, 190.0), [(170.0, 180.0), (-180.0, -170.0)]);
+        assert_eq!(on_globe(-190.0, -170.0), [(170.0, 180.0), (-180.0, -170.0)]);
+        // A whole turn (a view of a pole): the globe once, not one column twice.
+        assert_eq!(on_globe(-170.0, 190.0), [(-180.0, 180.0)]);
+    }
 
     #[test]
     fn covers_takes_either_winding_and_the_edges() {
