@@ -229,7 +229,11 @@ pub fn run(job: &Info) -> Result<Report> {
 /// Whether opening failed in the operating system (no such file, no permission, an I/O
 /// error) rather than on what the file holds.
 fn system_refused(e: &anyhow::Error) -> bool {
-    e.chain().any(|c| c.is::<std::io::Error>())
+    e.chain().any(|c| {
+        c.is::<std::io::Error>()
+            || c.downcast_ref::<crate::regular_file::OpenError>()
+                .is_some_and(crate::regular_file::OpenError::is_io)
+    })
 }
 
 /// Announced tiles the file lacks.
@@ -707,6 +711,21 @@ mod tests {
             e.to_string().contains("metadata is invalid: max_zoom 200"),
             "{e:#}"
         );
+    }
+
+    /// A file the system would not open (none there, no permission) is a system error (exit
+    /// 1), not a bad copy (exit 3, which it became when the open's error stopped carrying
+    /// its io::Error); a FIFO is about the file.
+    #[test]
+    fn an_open_the_system_refuses_is_not_a_bad_copy() {
+        let dir = crate::fixtures::scratch("info-refused");
+        let open = |p: &std::path::Path| {
+            anyhow::Error::new(crate::regular_file::open(p).unwrap_err()).context("opening x")
+        };
+        assert!(system_refused(&open(&dir.join("absent.ztd"))));
+        let fifo = dir.join("f.ztd");
+        crate::fixtures::mkfifo(&fifo);
+        assert!(!system_refused(&open(&fifo)));
     }
 
     /// A FIFO or a device where the dataset is named is said to be one, not "no such

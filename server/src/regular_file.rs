@@ -31,6 +31,21 @@ impl std::fmt::Display for OpenError {
 
 /// Transparent over the I/O error: it is already this error's text, and an error chain
 /// (`{:#}`) printed it twice ("No such file or directory (os error 2): No such file …").
+impl OpenError {
+    /// Whether the operating system refused the open (no such file, no permission, an I/O
+    /// error), not the file's kind.
+    pub fn is_io(&self) -> bool {
+        matches!(self, Self::Io(_))
+    }
+
+    /// Whether a later try may well succeed: an I/O failure other than no such file or no
+    /// permission (out of descriptors, an interrupted or failed read of the device).
+    pub fn may_pass(&self) -> bool {
+        use std::io::ErrorKind::{NotFound, PermissionDenied};
+        matches!(self, Self::Io(e) if !matches!(e.kind(), NotFound | PermissionDenied))
+    }
+}
+
 impl std::error::Error for OpenError {
     fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
         match self {
@@ -43,11 +58,16 @@ impl std::error::Error for OpenError {
 /// `path` opened for reading (blocking), and its metadata as opened, when it is a regular
 /// file (a link to one included).
 pub fn open(path: &Path) -> Result<(File, Metadata), OpenError> {
+    if let Some(what) = std::fs::metadata(path).ok().as_ref().and_then(kind) {
+        return Err(OpenError::NotRegular(what));
+    }
+    open_as_found(path)
+}
+
+/// [`open`] without the stat before: what a file swapped since the stat meets.
+fn open_as_found(path: &Path) -> Result<(File, Metadata), OpenError> {
     use rustix::fs::{fcntl_getfl, fcntl_setfl, OFlags};
     let not_regular = |meta: &Metadata| kind(meta).map(OpenError::NotRegular);
-    if let Some(e) = std::fs::metadata(path).ok().as_ref().and_then(not_regular) {
-        return Err(e);
-    }
     let file = OpenOptions::new()
         .read(true)
         .custom_flags((OFlags::NONBLOCK | OFlags::NOCTTY).bits() as i32)
@@ -125,6 +145,25 @@ mod tests {
             Err(OpenError::NotRegular(what)) => assert_eq!(what, "a device"),
             other => panic!("{other:?}"),
         }
+        // What a file swapped after the stat meets: a FIFO opened without blocking and
+        // refused by its own stat, a socket by the open's ENXIO.
+        let f = fifo.clone();
+        let got = crate::fixtures::within(10, "opening a FIFO as found blocked", move || {
+            open_as_found(&f).map(|_| ()).map_err(|e| e.to_string())
+        });
+        assert_eq!(got, Err("not a regular file (a FIFO)".to_string()));
+        let socket = d.join("s.obj");
+        let _listening = std::os::unix::net::UnixListener::bind(&socket).unwrap();
+        match open_as_found(&socket) {
+            Err(OpenError::NotRegular(what)) => assert_eq!(what, "a socket"),
+            other => panic!("{other:?}"),
+        }
+        // Out of descriptors may pass; no such file or no permission will not.
+        let io = |k: std::io::ErrorKind| OpenError::Io(k.into());
+        assert!(io(std::io::ErrorKind::Other).may_pass());
+        assert!(!io(std::io::ErrorKind::NotFound).may_pass());
+        assert!(!io(std::io::ErrorKind::PermissionDenied).may_pass());
+        assert!(!OpenError::NotRegular("a FIFO").may_pass());
         match open(&d.join("absent")) {
             Err(e @ OpenError::Io(_)) => {
                 // Said once through a chain of contexts.

@@ -66,9 +66,9 @@ impl Dataset {
     }
 
     fn open_file(path: &Path, shown: &str, named: bool) -> Result<Self> {
-        // Only a regular file, opened without blocking: opening a FIFO blocks until something
+        // Only a regular file (see `regular_file`): opening a FIFO blocks until something
         // writes to it (a server that found one named `x.ztd` never started, or stopped
-        // rescanning), and a stat before the open leaves time for a swap.
+        // rescanning).
         let (file, meta) =
             crate::regular_file::open(path).with_context(|| format!("opening {shown}"))?;
         let mut d = Self::from_source(

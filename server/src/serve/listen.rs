@@ -87,7 +87,8 @@ pub struct Stopped {
     /// Every connection finished within the drain deadline.
     pub drained: bool,
     /// Requests whose handler was still running when the deadline cut them off (a long
-    /// build), as against answers a client was not taking.
+    /// build, or an upload whose body is still arriving), as against answers a client was
+    /// not taking.
     pub answering: usize,
 }
 
@@ -185,8 +186,9 @@ pub async fn serve_with(
         let secs = limits.drain.as_secs_f64();
         if answering > 0 {
             tracing::warn!(
-                "{answering} request(s) still being answered {secs} s after the stop (a long \
-                 build, such as a large mesh's first LOD): cutting them off"
+                "{answering} request(s) still being handled {secs} s after the stop (a long \
+                 build, such as a large mesh's first LOD, or an upload still arriving): \
+                 cutting them off"
             );
         } else {
             tracing::warn!(
@@ -224,6 +226,9 @@ mod tests {
 
     use super::*;
 
+    /// `/slow` handlers started (only the test that asks for it does).
+    static SLOW_STARTED: AtomicUsize = AtomicUsize::new(0);
+
     /// `serve_with` answering "hi" on `/` at a free local port, on its own runtime.
     struct Running {
         rt: tokio::runtime::Runtime,
@@ -244,6 +249,7 @@ mod tests {
                 .route(
                     "/slow",
                     get(|| async {
+                        SLOW_STARTED.fetch_add(1, Ordering::Relaxed);
                         tokio::time::sleep(Duration::from_secs(30)).await;
                         "late"
                     }),
@@ -401,7 +407,12 @@ mod tests {
             ..Limits::default()
         });
         let _slow = ask(s.addr, "/slow");
-        std::thread::sleep(Duration::from_millis(300));
+        // Until the handler has the request (2 busy cores can take a while).
+        let started = Instant::now();
+        while SLOW_STARTED.load(Ordering::Relaxed) == 0 {
+            assert!(started.elapsed() < Duration::from_secs(10), "never handled");
+            std::thread::sleep(Duration::from_millis(20));
+        }
         assert_eq!(
             s.stop(),
             Stopped {

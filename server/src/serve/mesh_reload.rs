@@ -7,7 +7,8 @@
 //! file changed less than [`SETTLE`] ago is left for the next rescan unless the rescan was
 //! asked for: a mesh is read whole, and an OBJ cut short by a copy still under way parses
 //! as a smaller mesh, where a dataset's records carry checksums. A file that now fails to
-//! read leaves the mesh read from it before served: it is whole, in memory.
+//! read leaves the mesh read from it before served (it is whole, in memory) unless another
+//! file of the name reads: the served mesh is the one a restart would serve.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -99,6 +100,9 @@ impl MeshCatalog {
             let old_listed = old.is_some_and(|e| files.iter().any(|l| l.path == e.source));
             let mut claimed: Option<(String, bool)> = None;
             let mut stale: Option<(usize, Arc<MeshEntry>)> = None;
+            // A first file still being written, while a later one serves the name: no file
+            // between them takes it meanwhile (it would, then lose it at the next rescan).
+            let mut settling: Option<String> = None;
             for Listed { file, path, meta } in files {
                 if let Some((first, serving)) = &claimed {
                     let why = if *serving {
@@ -110,6 +114,12 @@ impl MeshCatalog {
                     continue;
                 }
                 let from_this = old.filter(|e| e.source == path).cloned();
+                if let (Some(first), None) = (&settling, &from_this) {
+                    let why =
+                        format!("the mesh {stem} is read from {first} once its writing settles");
+                    skipped.push((file, why));
+                    continue;
+                }
                 // Not read: a FIFO would block the rescan until something wrote to it
                 // ([`load`] opens without blocking too, for a file swapped for one since this
                 // stat). Not a removal either: a link swapped to a target not yet there.
@@ -156,6 +166,8 @@ impl MeshCatalog {
                             next.insert(stem.clone(), Arc::clone(e));
                         }
                         claimed = Some((file, false));
+                    } else {
+                        settling = Some(file);
                     }
                     continue;
                 }
@@ -179,6 +191,16 @@ impl MeshCatalog {
                         };
                         next.insert(stem.clone(), entry);
                         read.insert(file.clone(), (stamp, None));
+                        claimed = Some((file, true));
+                    }
+                    // An open that may pass (out of descriptors under load, an I/O error) does
+                    // not move the name: the mesh read from the file stays, and the file is
+                    // read again at the next rescan.
+                    Err(e) if from_this.is_some() && passing(&e) => {
+                        tracing::warn!("reading mesh {file}: {e:#}; serving the mesh read before");
+                        if let Some(e) = from_this {
+                            next.insert(stem.clone(), e);
+                        }
                         claimed = Some((file, true));
                     }
                     Err(e) => {
@@ -222,6 +244,13 @@ impl MeshCatalog {
         *self.served_mut() = next;
         Ok(Some(changes))
     }
+}
+
+/// Whether `e` is an open the system may let through on another try (see
+/// [`crate::regular_file::OpenError::may_pass`]).
+fn passing(e: &anyhow::Error) -> bool {
+    e.downcast_ref::<crate::regular_file::OpenError>()
+        .is_some_and(crate::regular_file::OpenError::may_pass)
 }
 
 /// The mesh files of `dir` in name order, as [`stat`] sees them.

@@ -331,3 +331,27 @@ fn two_files_of_one_name_serve_what_a_start_would() {
     assert!(!skipped[0].1.contains("still served"), "{skipped:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// While a new first file of a name is being written and a later one serves the name, a
+/// file between them does not take it meanwhile: it did, then lost it to the first at the
+/// next rescan (two replacements, LODs built twice).
+#[test]
+fn a_file_between_a_settling_first_and_the_served_one_waits_too() {
+    const JSON_TRI: &[u8] = b"{\"positions\": [0, 0, 0, 1, 0, 0, 0, 1, 0], \"indices\": [0, 1, 2]}";
+    let (dir, cat) = opened("settle3", "t.ply", QUAD_PLY);
+    place(&dir, "t.json", JSON_TRI, Duration::ZERO);
+    settled(&dir, "t.obj", TRI);
+    assert_eq!(rescan(&cat), None);
+    assert!(cat.get("t").unwrap().source.ends_with("t.ply"));
+    assert_eq!(
+        cat.skipped(),
+        [(
+            "t.obj".to_string(),
+            "the mesh t is read from t.json once its writing settles".to_string()
+        )]
+    );
+    settled(&dir, "t.json", JSON_TRI);
+    assert_eq!(rescan(&cat).expect("t from t.json").replaced, ["t.json"]);
+    assert!(cat.get("t").unwrap().source.ends_with("t.json"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
