@@ -81,10 +81,15 @@ pub fn client_data(tag: &str) -> PathBuf {
 /// N44W072 on Cesium's geodetic grid as `n44g` in `data` (zooms to 10), beside
 /// [`client_data`]'s mercator `n44m`.
 pub fn ingest_n44_geodetic(data: &Path) {
+    ingest_n44_geodetic_as(data, "n44g");
+}
+
+/// [`ingest_n44_geodetic`] under the dataset name `name`.
+pub fn ingest_n44_geodetic_as(data: &Path, name: &str) {
     let hgt = shared_data().join("dem/N44W072.hgt");
     run_ok(&mut ingest_command(
         &hgt,
-        "n44g",
+        name,
         data,
         &["--scheme", "geodetic"],
     ));

@@ -65,13 +65,7 @@ fn data_dir() -> &'static Path {
         run_ok(&mut ingest_command(&asc, "crop", &dir, &[]));
         std::fs::remove_file(&asc).unwrap();
         // The whole SRTM tile on Cesium's geodetic grid.
-        let hgt = shared_data().join("dem/N44W072.hgt");
-        run_ok(&mut ingest_command(
-            &hgt,
-            "srtm",
-            &dir,
-            &["--scheme", "geodetic"],
-        ));
+        zerotile_tests::ingest_n44_geodetic_as(&dir, "srtm");
         write_world(&dir.join("world.ztd"), "geodetic", &[0, 1]);
         write_world(&dir.join("half.ztd"), "geodetic", &[0]);
         write_world(&dir.join("merc.ztd"), "mercator", &[0]);

@@ -16,7 +16,7 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use zerotile_tests::server::Server;
-use zerotile_tests::{ingest_command, run_ok, shared_data, tools_ready, zerotile_bin};
+use zerotile_tests::{ingest_n44_geodetic_as, tools_ready, zerotile_bin};
 
 /// A `moto_server` on a free loopback port, stopped on drop.
 struct Moto {
@@ -136,13 +136,7 @@ fn srtm(tag: &str) -> (PathBuf, Vec<u8>) {
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(tag);
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    let hgt = shared_data().join("dem/N44W072.hgt");
-    run_ok(&mut ingest_command(
-        &hgt,
-        "srtm",
-        &dir,
-        &["--scheme", "geodetic"],
-    ));
+    ingest_n44_geodetic_as(&dir, "srtm");
     let file = std::fs::read(dir.join("srtm.ztd")).unwrap();
     (dir, file)
 }

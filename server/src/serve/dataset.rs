@@ -141,7 +141,7 @@ impl Dataset {
             bail!("tile {id} record ends past the end of the file (truncated copy?)");
         }
         let m = &container.metadata;
-        let tiling = tiling_of(m)?;
+        let tiling = m.tiling().map_err(anyhow::Error::msg)?;
         let hierarchy = shared_hierarchy(m.tile_side)
             .with_context(|| format!("tile side {} is not 2^n + 1", m.tile_side))?;
         if container.tiles().any(|(id, _)| id.z > tiling.max_zoom()) {
@@ -256,9 +256,4 @@ fn shared_hierarchy(side: usize) -> Option<Arc<Hierarchy>> {
 pub struct OwnedRecord {
     pub corners: [f64; 4],
     pub stream: Vec<u8>,
-}
-
-/// The tiling a dataset's metadata names.
-pub fn tiling_of(m: &Metadata) -> Result<Tiling> {
-    m.tiling().map_err(anyhow::Error::msg)
 }

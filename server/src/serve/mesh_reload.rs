@@ -98,19 +98,15 @@ impl MeshCatalog {
             // from one of them stay served (`stale`). Two files of one name only come from
             // outside (an upload removes the other formats').
             let old_listed = old.is_some_and(|e| files.iter().any(|l| l.path == e.source));
-            let mut claimed: Option<(String, bool)> = None;
-            let mut stale: Option<(usize, Arc<MeshEntry>)> = None;
-            // A first file still being written, while a later one serves the name: no file
-            // between them takes it meanwhile (it would, then lose it at the next rescan).
+            // The file serving the name; a first file still being written, which no later
+            // file takes the name from meanwhile but the one the mesh served so far came
+            // from (any other would take it, then lose it at the next rescan).
+            let mut claimed: Option<String> = None;
             let mut settling: Option<String> = None;
+            let mut stale: Option<(usize, Arc<MeshEntry>)> = None;
             for Listed { file, path, meta } in files {
-                if let Some((first, serving)) = &claimed {
-                    let why = if *serving {
-                        format!("the mesh {stem} is served from {first}")
-                    } else {
-                        format!("the mesh {stem} is read from {first} once its writing settles")
-                    };
-                    skipped.push((file, why));
+                if let Some(first) = &claimed {
+                    skipped.push((file, format!("the mesh {stem} is served from {first}")));
                     continue;
                 }
                 let from_this = old.filter(|e| e.source == path).cloned();
@@ -139,7 +135,7 @@ impl MeshCatalog {
                         if let Some(e) = from_this {
                             next.insert(stem.clone(), e);
                             read.insert(file.clone(), (stamp, None));
-                            claimed = Some((file, true));
+                            claimed = Some(file);
                             continue;
                         }
                     }
@@ -158,16 +154,17 @@ impl MeshCatalog {
                 if !asked && changed.is_some_and(|age| age < SETTLE) {
                     // Still being written, perhaps: the mesh served so far stays until it
                     // settles, from the file it came from when that is a later one.
-                    if let Some(e) = from_this {
-                        next.insert(stem.clone(), e);
-                        claimed = Some((file, true));
-                    } else if !old_listed {
-                        if let Some(e) = old {
-                            next.insert(stem.clone(), Arc::clone(e));
+                    match (from_this, old) {
+                        (Some(e), _) => {
+                            next.insert(stem.clone(), e);
+                            claimed = Some(file);
                         }
-                        claimed = Some((file, false));
-                    } else {
-                        settling = Some(file);
+                        // From a file no longer listed: kept here, as no later file has it.
+                        (None, Some(e)) if !old_listed => {
+                            next.insert(stem.clone(), Arc::clone(e));
+                            settling = Some(file);
+                        }
+                        (None, _) => settling = Some(file),
                     }
                     continue;
                 }
@@ -191,25 +188,27 @@ impl MeshCatalog {
                         };
                         next.insert(stem.clone(), entry);
                         read.insert(file.clone(), (stamp, None));
-                        claimed = Some((file, true));
+                        claimed = Some(file);
                     }
-                    // An open that may pass (out of descriptors under load, an I/O error) does
-                    // not move the name: the mesh read from the file stays, and the file is
-                    // read again at the next rescan.
-                    Err(e) if from_this.is_some() && passing(&e) => {
-                        tracing::warn!("reading mesh {file}: {e:#}; serving the mesh read before");
-                        if let Some(e) = from_this {
-                            next.insert(stem.clone(), e);
+                    Err(e) => match from_this {
+                        // An open that may pass (out of descriptors under load, an I/O error)
+                        // does not move the name: the mesh read from the file stays, and the
+                        // file is read again at the next rescan.
+                        Some(kept) if passing(&e) => {
+                            tracing::warn!(
+                                "reading mesh {file}: {e:#}; serving the mesh read before"
+                            );
+                            next.insert(stem.clone(), kept);
+                            claimed = Some(file);
                         }
-                        claimed = Some((file, true));
-                    }
-                    Err(e) => {
-                        let why = format!("{e:#}");
-                        changes.failed.push(file.clone());
-                        skipped.push((file.clone(), why.clone()));
-                        read.insert(file, (stamp, Some(why)));
-                        stale = from_this.map(|e| (skipped.len() - 1, e)).or(stale);
-                    }
+                        from_this => {
+                            let why = format!("{e:#}");
+                            changes.failed.push(file.clone());
+                            skipped.push((file.clone(), why.clone()));
+                            read.insert(file, (stamp, Some(why)));
+                            stale = from_this.map(|e| (skipped.len() - 1, e)).or(stale);
+                        }
+                    },
                 }
             }
             if let (None, Some((at, e))) = (&claimed, stale) {

@@ -355,3 +355,23 @@ fn a_file_between_a_settling_first_and_the_served_one_waits_too() {
     assert!(cat.get("t").unwrap().source.ends_with("t.json"));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// While a new first file settles, the file serving the name failing to read keeps its
+/// mesh served: the name is not left empty until the first settles.
+#[test]
+fn a_served_file_failing_while_a_first_settles_keeps_its_mesh() {
+    let (dir, cat) = opened("settle-fail", "t.ply", QUAD_PLY);
+    place(&dir, "t.obj", TRI, Duration::ZERO);
+    settled(&dir, "t.ply", b"ply\nnot a mesh\n");
+    assert_eq!(rescan(&cat).expect("t.ply fails").failed, ["t.ply"]);
+    assert_eq!(cat.get("t").unwrap().mesh.face_count(), 2);
+    let skipped = cat.skipped();
+    assert!(
+        skipped.len() == 1
+            && skipped[0]
+                .1
+                .ends_with("(the mesh read from it before is still served)"),
+        "{skipped:?}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

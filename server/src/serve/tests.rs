@@ -2154,7 +2154,7 @@ fn a_local_tiling_is_rows_by_columns() {
     use zerotile_codec::geo::Scheme;
     let mut m = hill_dataset("tiling", "local", &[ROOT]).metadata().clone();
     m.source_size = [300, 600];
-    let tiling = crate::serve::dataset::tiling_of(&m).unwrap();
+    let tiling = m.tiling().unwrap();
     assert_eq!(
         tiling.scheme(),
         Scheme::Local {
