@@ -86,20 +86,19 @@ impl ApiError {
                 "the dataset's file is being replaced; retry shortly",
             );
         }
-        if let Some(store) = e
-            .chain()
-            .find_map(|c| c.downcast_ref::<object_store::Error>())
-        {
-            if matches!(store, object_store::Error::NotSupported { .. }) {
-                // A store that ignores Range will not start taking it on a retry.
-                tracing::error!("the data store cannot serve tiles: {e:#}");
-                return Self::new(
-                    StatusCode::BAD_GATEWAY,
-                    "storage_unsupported",
-                    "the dataset's storage does not answer byte ranges, which serving from \
-                     it needs; the server's log says more",
-                );
-            }
+        if let Some(super::storage::RangeMisanswered(what)) = e.downcast_ref() {
+            // A store that ignores Range, or answers another one, will not mend on a retry.
+            tracing::error!("the data store cannot serve tiles: {e:#}");
+            return Self::new(
+                StatusCode::BAD_GATEWAY,
+                "storage_unsupported",
+                format!(
+                    "the dataset's storage answered a byte-range read with {what}; serving \
+                     from it needs byte ranges; the server's log says more"
+                ),
+            );
+        }
+        if e.chain().any(|c| c.is::<object_store::Error>()) {
             if e.chain()
                 .any(|c| c.is::<super::store_breaker::NotAnswering>())
             {
@@ -292,19 +291,23 @@ mod tests {
     }
 
     /// A store that ignores Range is a 502 without Retry-After: retrying will not help, and
-    /// "retry shortly" sent clients round for good.
+    /// "retry shortly" sent clients round for good. (`storage.rs` tests that both store
+    /// clients' ways of saying so come to this error.)
     #[test]
     fn a_store_that_takes_no_ranges_is_a_502_not_a_retry() {
-        let e = anyhow::Error::new(object_store::Error::NotSupported {
-            source: "Range request not supported by a.ztd".into(),
-        })
-        .context("reading tile 3/1/2");
+        let e = anyhow::Error::new(super::super::storage::RangeMisanswered("another range"))
+            .context("reading bytes 10..20 of a.ztd")
+            .context("reading tile 3/1/2");
         let err = ApiError::render(e);
         assert_eq!(
             (err.status, err.code),
             (StatusCode::BAD_GATEWAY, "storage_unsupported")
         );
-        assert!(err.message.contains("byte ranges"), "{}", err.message);
+        assert!(
+            err.message.contains("with another range"),
+            "{}",
+            err.message
+        );
         let res = err.into_response();
         assert!(res.headers().get(header::RETRY_AFTER).is_none());
     }

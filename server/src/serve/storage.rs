@@ -1,6 +1,6 @@
-//! Where a dataset's bytes live: a local file (the default) or an object in any store the
-//! `object_store` crate reaches by URL (`s3://bucket/prefix` on AWS or any S3-compatible
-//! server, `http(s)://` with range support, `gs://`, `az://`).
+//! Where a dataset's bytes live: a local file (the default) or an object in a store reached
+//! by URL (`s3://bucket/prefix` on AWS or any S3-compatible server, or `http(s)://` with
+//! WebDAV listing and range support).
 //!
 //! Every read is one byte range: the header once at open, then one record per tile. A remote
 //! dataset is never downloaded whole, and a replica needs no disk.
@@ -50,23 +50,77 @@ impl Source {
                 let end = offset.saturating_add(len as u64);
                 let bytes = io_runtime()?
                     .block_on(store.get_range(path, offset..end))
+                    .map_err(|e| match misanswered(&e) {
+                        Some(what) => anyhow::Error::new(e).context(RangeMisanswered(what)),
+                        None => anyhow::Error::new(e),
+                    })
                     .with_context(|| format!("reading bytes {offset}..{end} of {path}"))?;
-                anyhow::ensure!(
-                    bytes.len() == len,
-                    "store returned {} bytes for a {len}-byte range of {path}",
-                    bytes.len()
-                );
+                if bytes.len() != len {
+                    return Err(anyhow::Error::new(RangeMisanswered(
+                        "a body of another length",
+                    )))
+                    .with_context(|| {
+                        format!(
+                            "reading bytes {offset}..{end} of {path}: {} bytes came",
+                            bytes.len()
+                        )
+                    });
+                }
                 Ok(bytes.to_vec())
             }
         }
     }
 }
 
+/// A store answered a byte-range read with something other than that range. It will answer
+/// the same way again, so the client gets a 502 (a fault upstream), not a 503 to retry.
+#[derive(Debug, thiserror::Error)]
+#[error("the store answered a byte-range read with {0}")]
+pub struct RangeMisanswered(pub &'static str);
+
+/// How the store misanswered a range read, when `e` says it did.
+///
+/// The HTTP client says "ignores ranges" in a variant of its own; the S3 client puts every
+/// answer it cannot take as a range into `Generic` with a private error type, so only its
+/// message tells them apart. `misanswered_ranges_are_told_from_other_failures` runs both
+/// clients against a store answering each way, so a crate upgrade that rewords one fails
+/// there rather than turning 502s back into 503s unnoticed.
+fn misanswered(e: &object_store::Error) -> Option<&'static str> {
+    const WHOLE: &str = "the whole object (it ignores Range)";
+    match e {
+        object_store::Error::NotSupported { .. } => Some(WHOLE),
+        object_store::Error::Generic { source, .. } => {
+            let said = source.to_string();
+            [
+                ("non-partial response when range requested", WHOLE),
+                ("Content-Range header not present", "no Content-Range"),
+                (
+                    "value for CONTENT_RANGE header",
+                    "a Content-Range it could not parse",
+                ),
+                (
+                    "Content-Range header contained non UTF-8",
+                    "a Content-Range it could not parse",
+                ),
+            ]
+            .into_iter()
+            .find(|(says, _)| said.contains(says))
+            .map(|(_, what)| what)
+            .or_else(|| {
+                (said.starts_with("Requested ") && said.contains(", got "))
+                    .then_some("another range")
+            })
+        }
+        _ => None,
+    }
+}
+
 /// Whether `e` will pass: the store did not give the bytes, or the dataset's file is being
-/// written over in place (a rescan serves the new one). A 503 to retry, not a corrupt
-/// record.
+/// written over in place (a rescan serves the new one). Not a corrupt record: the tile
+/// fails rather than being meshed without this read.
 pub fn passing(e: &anyhow::Error) -> bool {
     e.downcast_ref::<super::dataset::ChangedOnDisk>().is_some()
+        || e.downcast_ref::<RangeMisanswered>().is_some()
         || e.chain().any(|c| c.is::<object_store::Error>())
 }
 
@@ -243,6 +297,120 @@ mod tests {
             assert!(source.read_at(990, 20).is_err(), "{source:?}: past the end");
         }
         let _ = std::fs::remove_file(&path);
+    }
+
+    /// One way a store can answer `Range: bytes=10-19` of a 1000-byte object.
+    #[derive(Clone, Copy, Debug)]
+    enum Answer {
+        Right,
+        Whole,
+        Shifted,
+        NoContentRange,
+        Garbled,
+        Short,
+        Missing,
+    }
+
+    /// A store on loopback that answers every GET as `answer` says; its base URL.
+    fn store_answering(answer: Answer) -> String {
+        use std::io::{BufRead, BufReader, Write};
+        let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+        let base = format!("http://{}", listener.local_addr().unwrap());
+        std::thread::spawn(move || {
+            for conn in listener.incoming().flatten() {
+                let mut reader = BufReader::new(conn.try_clone().unwrap());
+                let mut line = String::new();
+                while reader.read_line(&mut line).is_ok_and(|n| n > 2) {
+                    line.clear();
+                }
+                let all = bytes();
+                let (status, range, body): (&str, Option<&str>, &[u8]) = match answer {
+                    Answer::Right => (
+                        "206 Partial Content",
+                        Some("bytes 10-19/1000"),
+                        &all[10..20],
+                    ),
+                    Answer::Whole => ("200 OK", None, &all),
+                    Answer::Shifted => (
+                        "206 Partial Content",
+                        Some("bytes 11-20/1000"),
+                        &all[11..21],
+                    ),
+                    Answer::NoContentRange => ("206 Partial Content", None, &all[10..20]),
+                    Answer::Garbled => (
+                        "206 Partial Content",
+                        Some("bytes ten-19/1000"),
+                        &all[10..20],
+                    ),
+                    Answer::Short => (
+                        "206 Partial Content",
+                        Some("bytes 10-19/1000"),
+                        &all[10..15],
+                    ),
+                    Answer::Missing => ("404 Not Found", None, b""),
+                };
+                let mut head = format!(
+                    "HTTP/1.1 {status}\r\nContent-Length: {}\r\nETag: \"e1\"\r\n\
+                     Last-Modified: Mon, 07 Dec 2026 10:00:00 GMT\r\nConnection: close\r\n",
+                    body.len()
+                );
+                if let Some(range) = range {
+                    head += &format!("Content-Range: {range}\r\n");
+                }
+                let mut conn = conn;
+                let _ = conn.write_all(format!("{head}\r\n").as_bytes());
+                let _ = conn.write_all(body);
+            }
+        });
+        base
+    }
+
+    /// Each way a store can answer a range read with something else is a
+    /// [`RangeMisanswered`] through both store clients (the 502 in error.rs), and the
+    /// store's other failures are not: this pins the S3 client's messages `misanswered`
+    /// reads.
+    #[test]
+    fn misanswered_ranges_are_told_from_other_failures() {
+        use object_store::aws::AmazonS3Builder;
+        for (answer, said) in [
+            (Answer::Right, None),
+            (Answer::Whole, Some("the whole object (it ignores Range)")),
+            (Answer::Shifted, Some("another range")),
+            (Answer::NoContentRange, Some("no Content-Range")),
+            (Answer::Garbled, Some("a Content-Range it could not parse")),
+            (Answer::Short, Some("a body of another length")),
+            (Answer::Missing, None),
+        ] {
+            let base = store_answering(answer);
+            let s3: Arc<dyn ObjectStore> = Arc::new(
+                AmazonS3Builder::new()
+                    .with_bucket_name("tiles")
+                    .with_region("us-east-1")
+                    .with_endpoint(&base)
+                    .with_allow_http(true)
+                    .with_skip_signature(true)
+                    .build()
+                    .unwrap(),
+            );
+            let (http, _) = connect(&format!("{base}/prod")).unwrap();
+            for (client, store) in [("s3", s3), ("http", http)] {
+                let source = Source::Object {
+                    store,
+                    path: ObjectPath::from("prod/a.ztd"),
+                };
+                let read = source.read_at(10, 10);
+                let got = read
+                    .as_ref()
+                    .err()
+                    .and_then(|e| e.downcast_ref::<RangeMisanswered>())
+                    .map(|m| m.0);
+                assert_eq!(got, said, "{answer:?} through {client}: {read:?}");
+                match answer {
+                    Answer::Right => assert_eq!(read.unwrap(), bytes()[10..20]),
+                    _ => assert!(read.is_err(), "{answer:?} through {client}"),
+                }
+            }
+        }
     }
 
     /// /metrics counts the bytes of each read, so it shows ranges rather than downloads.
