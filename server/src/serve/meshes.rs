@@ -191,6 +191,17 @@ impl MeshCatalog {
         answer_bytes: u64,
     ) -> Self {
         let items = (answer_bytes / 200_000).clamp(16, 1 << 16) as usize;
+        // One shard: quick_cache admits nothing heavier than a shard's hot share, and by
+        // default a shard is 1/(4 × cores) of the budget, so an 11 MB answer (the bunny's
+        // `curvature?error=0.3`, half a minute of work) was never kept and every ask of it
+        // was computed again. Answers are few and slow to make; a lock held for a lookup
+        // costs nothing beside them.
+        let options = quick_cache::OptionsBuilder::new()
+            .shards(1)
+            .estimated_items_capacity(items)
+            .weight_capacity(answer_bytes.max(1))
+            .build()
+            .unwrap_or_else(|_| unreachable!("both capacities are set"));
         Self {
             dir,
             read_only: false,
@@ -198,7 +209,12 @@ impl MeshCatalog {
             entries: RwLock::new(entries),
             store: Mutex::new(Seen::default()),
             skipped: RwLock::default(),
-            answers: Cache::with_weighter(items, answer_bytes.max(1), AnswerBytes),
+            answers: Cache::with_options(
+                options,
+                AnswerBytes,
+                Default::default(),
+                Default::default(),
+            ),
         }
     }
 
@@ -437,6 +453,30 @@ pub(super) mod tests {
         let dir = crate::fixtures::scratch(&format!("meshcat-{tag}"));
         std::fs::create_dir_all(dir.join(MESH_DIR)).unwrap();
         dir
+    }
+
+    /// An answer is kept whatever its size under the budget, not only under one shard's
+    /// share of it (an 11 MB answer was computed again on every ask under 64 MiB).
+    #[test]
+    fn an_answer_of_most_of_the_budget_is_kept() {
+        let budget = 64 << 20;
+        let cat = MeshCatalog::empty(budget);
+        let answer = |len: usize| {
+            Arc::new(MeshAnswer {
+                bytes: bytes::Bytes::from(vec![0u8; len]),
+                vertices: 3,
+                faces: 1,
+                error: 0.0,
+                max_level: None,
+            })
+        };
+        cat.answers.insert(1, answer(11 << 20));
+        assert!(cat.answers.get(&1).is_some(), "an 11 MiB answer");
+        cat.answers.insert(2, answer(40 << 20));
+        assert!(cat.answers.get(&2).is_some(), "a 40 MiB answer");
+        // Over the budget: not kept, rather than kept by evicting everything and more.
+        cat.answers.insert(3, answer(budget as usize + 1));
+        assert!(cat.answers.get(&3).is_none());
     }
 
     #[test]
