@@ -218,6 +218,17 @@ impl Decimator {
         self.run_to_error_until(max_error, 0);
     }
 
+    /// Climbs the fixed ladder of bounds up to `max_error` ([`super::ladder`]), so a larger
+    /// bound never keeps more faces; a bound below its first rung is one run to it.
+    pub fn climb_to_error(&mut self, max_error: f64) {
+        match super::ladder::top_rung(max_error) {
+            Some(top) => super::ladder::climb(self, top, 0),
+            None => {
+                self.run_to_error(max_error);
+            }
+        }
+    }
+
     /// [`Self::run_to_error`], stopping early once at most `floor` faces remain.
     ///
     /// A removal's ε changes when its ring changes (it is then re-queued) and also as the
@@ -225,7 +236,12 @@ impl Decimator {
     /// drift is parked until the scale has grown enough for it to pass, then re-queued by
     /// W; without that a level kept every vertex refused early on, which the scale had
     /// freed by the end (the vase kept 78 % at ε = 0.15, now 68 %).
-    pub fn run_to_error_until(&mut self, max_error: f64, floor: usize) {
+    ///
+    /// Returns the least ε of the removals refused for it, for a caller that found nothing
+    /// removed: the bound at which something goes next.
+    pub fn run_to_error_until(&mut self, max_error: f64, floor: usize) -> Option<f64> {
+        let mut least: Option<f64> = None;
+        let mut refuse = |e: f64| least = Some(least.map_or(e, |l| l.min(e)));
         let mut heap: BinaryHeap<Entry> = (0..self.pos.len() as u32)
             .filter_map(|v| self.entry(v))
             .collect::<Vec<_>>()
@@ -256,6 +272,7 @@ impl Decimator {
             match refused {
                 Some(None) => continue,
                 Some(Some(drift)) if epsilon(drift, x) > max_error => {
+                    refuse(epsilon(drift, x));
                     park(&mut parked, drift, max_error, x, v, ver);
                     continue;
                 }
@@ -268,6 +285,7 @@ impl Decimator {
             };
             let error = epsilon(&r.drift, x);
             if error > max_error {
+                refuse(error);
                 park(&mut parked, &r.drift, max_error, x, v, ver);
                 let drift = Some(r.drift.into_vec().into_boxed_slice());
                 self.refused[v as usize] = Some(Refusal { stamp, drift });
@@ -293,6 +311,7 @@ impl Decimator {
                 }
             }
         }
+        least
     }
 
     /// Reaches at most `target` faces the paper's way: levels of growing ε, each removing in

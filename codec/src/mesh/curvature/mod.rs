@@ -10,6 +10,7 @@
 //! `curvature.md` beside this file.
 
 pub(crate) mod decimate;
+pub(crate) mod ladder;
 pub mod measure;
 pub(crate) mod refill;
 pub(crate) mod retriangulate;
@@ -150,14 +151,23 @@ pub fn to_faces(
     Ok((d.mesh(), d.worst_error()))
 }
 
-/// Decimates to one ε bound.
+/// Decimates to ε ≤ `error`, climbing the fixed ladder of bounds to its highest rung at or
+/// below `error` ([`ladder`]): a larger bound never keeps more faces, which one greedy run
+/// straight to the bound does not give. From 0.15 up it continues the run [`levels`] cuts
+/// the paper's levels from (`to_error(0.25)` is their third); below, one run to `error`.
 pub fn to_error(
     mesh: &TriMesh,
     error: f64,
     options: &CurvatureOptions,
 ) -> Result<TriMesh, MeshError> {
-    let mut l = levels(mesh, &[error], options)?;
-    Ok(l.pop().map_or_else(|| mesh.clone(), |l| l.mesh))
+    options.check()?;
+    mesh.check()?;
+    if !(error.is_finite() && error >= 0.0) {
+        return Err(bad("ε", "finite and ≥ 0", error).into());
+    }
+    let mut d = Decimator::new(mesh, options.weights, options.lambda_c);
+    d.climb_to_error(error);
+    Ok(d.mesh())
 }
 
 fn bad(name: &'static str, expected: &'static str, got: f64) -> ParamError {

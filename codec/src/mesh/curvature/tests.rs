@@ -420,6 +420,42 @@ fn a_face_target_costs_at_most_a_step_past_the_level_that_meets_it() {
 }
 
 #[test]
+fn a_looser_bound_never_keeps_more_faces() {
+    // One greedy run straight to each bound kept the vase's 5,851 vertices down to 1 face
+    // at ε = 2 and 207 faces at ε = 3, and the teapot 65 faces at 2 but 72 at 2.5.
+    let o = CurvatureOptions::default();
+    for (name, bounds) in [
+        ("vase-lathe.obj", &[1.0, 1.8, 2.0, 3.0, 4.0, 5.0][..]),
+        ("teapot.obj", &[2.0, 2.5][..]),
+    ] {
+        let mesh = shared_mesh(name);
+        let faces: Vec<usize> = bounds
+            .iter()
+            .map(|&e| to_error(&mesh, e, &o).unwrap().faces.len())
+            .collect();
+        assert!(
+            faces.windows(2).all(|w| w[1] <= w[0]),
+            "{name}: {bounds:?} keep {faces:?}"
+        );
+        // A face target was a prefix of one run already (its levels' bounds follow only
+        // whether faces went, the same for every target until one stops).
+        let targets = [faces[0], faces[0] / 2, faces[0] / 4];
+        let kept: Vec<usize> = targets
+            .iter()
+            .map(|&n| to_faces(&mesh, n, &o).unwrap().0.faces.len())
+            .collect();
+        assert!(
+            kept.windows(2).all(|w| w[1] <= w[0])
+                && kept
+                    .iter()
+                    .zip(targets)
+                    .all(|(k, t)| *k <= t || *k == kept[2]),
+            "{name}: targets {targets:?} keep {kept:?}"
+        );
+    }
+}
+
+#[test]
 fn a_level_that_removed_nothing_leaves_the_next_as_a_fresh_one_runs() {
     // Bound 0 refuses every removal and remembers each refusal; the next level must
     // decide as a fresh decimator does, parking included (the vase parks many).
@@ -443,4 +479,25 @@ fn a_level_that_removed_nothing_leaves_the_next_as_a_fresh_one_runs() {
         assert!(fresh.faces() < mesh.faces.len());
         assert_eq!(d.mesh(), fresh.mesh());
     }
+}
+
+#[test]
+fn a_bound_on_a_paper_level_is_that_level() {
+    // From 0.15 up, a bound continues the one run the levels are cut from.
+    let fandisk = shared_mesh("fandisk.obj");
+    let o = CurvatureOptions::default();
+    let nested = levels(&fandisk, &PAPER_LEVELS, &o).unwrap();
+    for (level, e) in nested.iter().zip(PAPER_LEVELS) {
+        assert_eq!(to_error(&fandisk, e, &o).unwrap(), level.mesh, "ε {e}");
+    }
+    // Between rungs, the rung below.
+    assert_eq!(to_error(&fandisk, 0.249, &o).unwrap(), nested[1].mesh);
+}
+
+fn shared_mesh(name: &str) -> TriMesh {
+    crate::mesh::io::read_path(
+        &crate::fixtures::shared_data(&format!("meshes/{name}")),
+        &crate::mesh::io::MeshLimits::default(),
+    )
+    .unwrap()
 }
