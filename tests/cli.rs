@@ -210,7 +210,7 @@ fn flags_that_would_be_ignored_are_refused() {
     let hgt = hgt.to_str().unwrap();
     let tif = tif.to_str().unwrap();
     let fandisk = fandisk.to_str().unwrap();
-    let cases: [(&[&str], i32, &str); 13] = [
+    let cases: [(&[&str], i32, &str); 15] = [
         (
             &["ingest", hgt, "--name", "x", "--encoding", "terrarium"],
             2,
@@ -302,6 +302,18 @@ fn flags_that_would_be_ignored_are_refused() {
             &["subdivide", "gone.obj", "x.txt"],
             2,
             "OUTPUT x.txt: unknown mesh extension",
+        ),
+        (
+            &[
+                "eval", "mesh", fandisk, "--method", "qem", "--faces", "9", "--out", fandisk,
+            ],
+            2,
+            "writing the result there would replace it",
+        ),
+        (
+            &["subdivide", fandisk, fandisk],
+            2,
+            "writing the result there would replace it",
         ),
         (
             &[

@@ -259,9 +259,10 @@ fn takes(method: Method, param: Param) -> Result<()> {
 
 /// Refuses an output that is the input file itself (by another name too: a symlink, a
 /// hard link, `./`): the atomic write would replace the mesh the user gave with its result.
+/// A usage error (2): no input could make that command line right.
 fn not_the_input(input: &Path, output: &Path) -> Result<()> {
     if same_file(input, output) {
-        bail!(
+        bail_usage!(
             "{} is the input {}: writing the result there would replace it; choose another output",
             output.display(),
             input.display()

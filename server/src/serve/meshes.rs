@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, PoisonError, RwLock, RwLockReadGuard, RwLockWriteGuard};
 use std::time::Duration;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use quick_cache::sync::Cache;
 use quick_cache::Weighter;
 use zerotile_codec::mesh::curvature::{self, CurvatureOptions, Level, PAPER_LEVELS};
@@ -371,11 +371,13 @@ fn content_hash(mesh: &TriMesh) -> u64 {
     h.finish()
 }
 
+/// The served mesh read from `path`. Errors do not name the path: the rescan's log line and
+/// `/v1/meshes`' skipped entry name the file, and the listing is public, so the server's
+/// folder stays out of it.
 pub(super) fn load(path: &Path) -> Result<TriMesh> {
-    let reading = || format!("reading {}", path.display());
     // Opened without blocking: the file a rescan listed may be a FIFO by now.
-    let (file, _) = crate::regular_file::open(path).with_context(reading)?;
-    let mesh = io::read_file(file, path, &limits()).with_context(reading)?;
+    let (file, _) = crate::regular_file::open(path)?;
+    let mesh = io::read_file(file, path, &limits())?;
     repaired(&mesh)
 }
 
