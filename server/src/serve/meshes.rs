@@ -176,6 +176,7 @@ pub fn limits() -> MeshLimits {
         max_faces: MAX_FACES,
         max_vertices: MAX_FACES,
         max_bytes: MAX_UPLOAD_BYTES as u64,
+        ..MeshLimits::default()
     }
 }
 

@@ -1,12 +1,13 @@
 //! Wavefront OBJ through `tobj`: positions and faces only (normals, texture coordinates,
-//! materials, points and polylines are ignored), polygons fanned into triangles.
+//! materials, points and polylines are ignored), polygons cut into triangles by [`Triangulator`].
 
 use std::borrow::Cow;
 use std::io::Write;
 
 use glam::DVec3;
 
-use super::{push_fan, MeshLimits};
+use super::polygon::Triangulator;
+use super::MeshLimits;
 use crate::mesh::error::{InvalidMesh, MeshError};
 use crate::mesh::indexed::TriMesh;
 
@@ -25,9 +26,9 @@ pub(super) fn read(bytes: &[u8], limits: &MeshLimits) -> Result<TriMesh, MeshErr
     let (v_lines, f_lines) = count_statements(bytes);
     limits.vertices(v_lines)?;
     limits.faces(f_lines)?;
-    // Parse: positions indexed per model, polygons fanned by tobj.
+    // Parse: positions indexed per model, polygons as the file has them (tobj would fan them).
     let options = tobj::LoadOptions {
-        triangulate: true,
+        triangulate: false,
         ignore_points: true,
         ignore_lines: true,
         ..tobj::LoadOptions::default()
@@ -45,10 +46,13 @@ pub(super) fn read(bytes: &[u8], limits: &MeshLimits) -> Result<TriMesh, MeshErr
         let at = super::obj_locate::locate(&text, &e);
         MeshError::decode(FORMAT, at.map_or(e.to_string(), |at| format!("{e}: {at}")))
     })?;
-    // Concatenate models; tobj gives each its own copy of the vertices it uses.
+    // Concatenate models (tobj gives each its own copy of the vertices it uses), cutting
+    // their polygons into triangles.
     let mut positions = Vec::new();
     let mut faces = Vec::new();
     let mut model_of = Vec::new();
+    let mut cut = Triangulator::new();
+    let mut polygon = Vec::new();
     for (m, model) in models.iter().enumerate() {
         let base = positions.len() as u32;
         let mesh = &model.mesh;
@@ -58,10 +62,16 @@ pub(super) fn read(bytes: &[u8], limits: &MeshLimits) -> Result<TriMesh, MeshErr
                 .map(|p| DVec3::new(p[0], p[1], p[2])),
         );
         model_of.resize(positions.len(), m as u32);
-        for t in mesh.indices.chunks(3) {
-            if t.len() == 3 {
-                push_fan(&mut faces, &[base + t[0], base + t[1], base + t[2]]);
+        // No arities: every face is a triangle.
+        let mut corners = mesh.indices.iter().map(|&i| base + i);
+        let arities = mesh.face_arities.iter().map(|&n| n as usize);
+        for n in arities.chain(std::iter::repeat(3)) {
+            polygon.clear();
+            polygon.extend(corners.by_ref().take(n));
+            if polygon.len() < n {
+                break;
             }
+            cut.push(&positions, &polygon, &mut faces, limits)?;
         }
     }
     let count = positions.iter().filter(|p| !p.is_finite()).count();

@@ -14,8 +14,9 @@ use ply_rs_bw::ply::{
 };
 use ply_rs_bw::writer::Writer;
 
-use super::{push_fan, MeshLimits};
-use crate::mesh::error::MeshError;
+use super::polygon::Triangulator;
+use super::MeshLimits;
+use crate::mesh::error::{InvalidMesh, MeshError};
 use crate::mesh::indexed::TriMesh;
 
 const FORMAT: &str = "PLY";
@@ -30,7 +31,7 @@ pub(super) fn read(bytes: &[u8], limits: &MeshLimits) -> Result<TriMesh, MeshErr
     check_counts(&header, reader.get_ref().len(), limits)?;
     // Payload, element by element in header order (the format's only order).
     let mut positions = Vec::new();
-    let mut faces = Vec::new();
+    let mut polygons = Vec::new();
     for (name, def) in &header.elements {
         match name.as_str() {
             "vertex" => {
@@ -40,26 +41,9 @@ pub(super) fn read(bytes: &[u8], limits: &MeshLimits) -> Result<TriMesh, MeshErr
                 positions = vs.into_iter().map(|v| DVec3::from_array(v.xyz)).collect();
             }
             "face" => {
-                let fs = Parser::<PlyFace>::new()
+                polygons = Parser::<PlyFace>::new()
                     .read_payload_for_element(&mut reader, def, &header)
                     .map_err(decode)?;
-                faces.reserve(fs.len());
-                for f in &fs {
-                    if f.negative {
-                        return Err(MeshError::decode(FORMAT, "a face has a negative index"));
-                    }
-                    if f.indices.len() < 3 {
-                        return Err(MeshError::decode(
-                            FORMAT,
-                            format!(
-                                "a face has {} corners (3 or more expected)",
-                                f.indices.len()
-                            ),
-                        ));
-                    }
-                    push_fan(&mut faces, &f.indices);
-                    limits.faces(faces.len() as u64)?;
-                }
             }
             _ => {
                 Parser::<Skip>::new()
@@ -68,7 +52,56 @@ pub(super) fn read(bytes: &[u8], limits: &MeshLimits) -> Result<TriMesh, MeshErr
             }
         }
     }
+    // Faces once the vertices are known: a header may list the faces first, and cutting a
+    // polygon needs its corners' positions.
+    check_faces(&polygons, positions.len())?;
+    let mut faces = Vec::with_capacity(polygons.len());
+    let mut cut = Triangulator::new();
+    for f in &polygons {
+        cut.push(&positions, &f.indices, &mut faces, limits)?;
+        limits.faces(faces.len() as u64)?;
+    }
     Ok(TriMesh::new(positions, faces))
+}
+
+/// Refuses faces with a negative index, fewer than three corners, or an index past the
+/// vertices; the last named by the face's number in the file (from 0), which its triangles
+/// would not keep.
+fn check_faces(polygons: &[PlyFace], vertices: usize) -> Result<(), MeshError> {
+    for f in polygons {
+        if f.negative {
+            return Err(MeshError::decode(FORMAT, "a face has a negative index"));
+        }
+        if f.indices.len() < 3 {
+            return Err(MeshError::decode(
+                FORMAT,
+                format!(
+                    "a face has {} corners (3 or more expected)",
+                    f.indices.len()
+                ),
+            ));
+        }
+    }
+    let past = |i: &&u32| **i as usize >= vertices;
+    let first = polygons
+        .iter()
+        .enumerate()
+        .find_map(|(face, f)| f.indices.iter().find(past).map(|&i| (face, i)));
+    if let Some((face, index)) = first {
+        let count = polygons
+            .iter()
+            .flat_map(|f| &f.indices)
+            .filter(past)
+            .count();
+        return Err(InvalidMesh::IndexOutOfRange {
+            count,
+            face,
+            index: u64::from(index),
+            vertices,
+        }
+        .into());
+    }
+    Ok(())
 }
 
 /// The parser's message on one line: for a header line it cannot parse it prints the line

@@ -721,6 +721,7 @@ property float x\nproperty float y\nproperty float z\nend_header\n\0\0\0\0";
         max_vertices: usize::MAX,
         max_faces: usize::MAX,
         max_bytes: u64::MAX,
+        max_polygon_corners: usize::MAX,
     };
     assert!(matches!(
         read_bytes(ply, None, &generous),
@@ -785,11 +786,193 @@ fn garbage_is_unsupported_or_malformed_never_a_panic() {
     ));
 }
 
+/// The QA pass's pentagon, notched at (1, 0.5): area 2.5, normal +z.
+const NOTCHED: [[f64; 2]; 5] = [[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [1.0, 0.5], [0.0, 2.0]];
+
+/// An OBJ of one polygon through `corners`.
+fn obj_polygon(corners: &[DVec3]) -> Vec<u8> {
+    let mut text = String::new();
+    for p in corners {
+        text.push_str(&format!("v {} {} {}\n", p.x, p.y, p.z));
+    }
+    let refs: Vec<String> = (1..=corners.len()).map(|i| i.to_string()).collect();
+    text.push_str(&format!("f {}\n", refs.join(" ")));
+    text.into_bytes()
+}
+
+/// The summed areas of `m`'s triangles, and the least of their areas signed along `normal`
+/// (negative: a triangle wound against it).
+fn areas_along(m: &TriMesh, normal: DVec3) -> (f64, f64) {
+    let vector_area = |t: &[u32; 3]| {
+        let [a, b, c] = t.map(|i| m.positions[i as usize]);
+        (b - a).cross(c - a) / 2.0
+    };
+    let total = m.faces.iter().map(|t| vector_area(t).length()).sum();
+    let least = m
+        .faces
+        .iter()
+        .map(|t| vector_area(t).dot(normal.normalize()))
+        .fold(f64::INFINITY, f64::min);
+    (total, least)
+}
+
+/// A concave polygon was fanned from its first corner: the QA pass's pentagon gave a triangle
+/// outside it, over another and wound the other way (areas 3.5 for 2.5). Cut in its own plane,
+/// in any plane and either way round, its triangles cover it once, wound as it is; in a PLY
+/// too, whose faces may come before its vertices. Convex polygons are fanned as before.
 #[test]
-fn polygons_are_fanned_into_triangles() {
+fn polygons_are_cut_inside_themselves_and_wound_as_they_are() {
+    let tilt = glam::DMat3::from_axis_angle(DVec3::new(1.0, -2.0, 0.5).normalize(), 1.1);
+    let far = DVec3::new(-7.9e6, 5.5e6, 312.0);
+    for (place, at) in [
+        ("flat", &(|p: DVec3| p) as &dyn Fn(DVec3) -> DVec3),
+        ("tilted and far", &|p: DVec3| tilt * p + far),
+    ] {
+        for reversed in [false, true] {
+            let mut corners: Vec<DVec3> = NOTCHED
+                .iter()
+                .map(|&[x, y]| at(DVec3::new(x, y, 0.0)))
+                .collect();
+            let mut normal = at(DVec3::Z) - at(DVec3::ZERO);
+            if reversed {
+                corners.reverse();
+                normal = -normal;
+            }
+            let m = read_bytes(&obj_polygon(&corners), None, &limits()).expect("pentagon");
+            let (total, least) = areas_along(&m, normal);
+            let what = format!("{place}, reversed {reversed}: {:?}", m.faces);
+            assert_eq!(m.faces.len(), 3, "{what}");
+            assert!((total - 2.5).abs() < 1e-6, "{what}: area {total}");
+            assert!(least > 0.0, "{what}: a triangle wound against the polygon");
+        }
+    }
+    // The same pentagon as a PLY face listed before the vertices.
+    let mut ply = String::from(
+        "ply\nformat ascii 1.0\nelement face 1\nproperty list uchar int vertex_indices\n\
+         element vertex 5\nproperty float x\nproperty float y\nproperty float z\n\
+         end_header\n5 0 1 2 3 4\n",
+    );
+    for [x, y] in NOTCHED {
+        ply.push_str(&format!("{x} {y} 0\n"));
+    }
+    let m = read_bytes(ply.as_bytes(), None, &limits()).expect("ply pentagon");
+    let (total, least) = areas_along(&m, DVec3::Z);
+    assert!((total - 2.5).abs() < 1e-12 && least > 0.0, "{:?}", m.faces);
+    // Convex: the fan from the first corner, as every reader gave it before.
     let obj = b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv -1 0.5 0\nf 1 2 3 4 5\n";
     let m = read_bytes(obj, None, &limits()).expect("pentagon");
-    assert_eq!(m.faces.len(), 3);
+    assert_eq!(m.faces, [[0, 1, 2], [0, 2, 3], [0, 3, 4]]);
+    let obj = b"v 0 0 0\nv 1 0 0\nv 1 1 0.5\nv 0 1 0\nf 1 2 3 4\n";
+    assert_eq!(read_bytes(obj, None, &limits()).expect("quad"), quad());
+}
+
+/// Polygons that are not simple neither panic nor come out wound against themselves where
+/// they have a side: repeated and collinear corners, bent out of their plane, crossing
+/// themselves. With no net area (on a line, at a point, a figure eight) or with corners too
+/// far out to measure, they are fanned as listed and repair drops what has no area.
+#[test]
+fn degenerate_polygons_are_cut_without_a_panic() {
+    let concave = |z: [f64; 5]| -> Vec<DVec3> {
+        NOTCHED
+            .iter()
+            .zip(z)
+            .map(|(&[x, y], z)| DVec3::new(x, y, z))
+            .collect()
+    };
+    let mut repeated = concave([0.0; 5]);
+    repeated.insert(3, repeated[2]);
+    repeated.insert(0, repeated[0]);
+    let mut collinear = concave([0.0; 5]);
+    collinear.insert(1, DVec3::new(1.0, 0.0, 0.0));
+    // Bent: the notch lifted out of the plane.
+    let bent = concave([0.0, 0.1, -0.1, 0.4, 0.05]);
+    // Crossing itself: the notch pulled through the far side.
+    let mut crossing = concave([0.0; 5]);
+    crossing[3] = DVec3::new(1.0, -0.5, 0.0);
+    crossing.push(DVec3::new(-0.5, 1.0, 0.0));
+    for (what, corners) in [
+        ("repeated", repeated),
+        ("collinear", collinear),
+        ("bent", bent),
+        ("crossing", crossing),
+    ] {
+        let m = read_bytes(&obj_polygon(&corners), None, &limits()).expect(what);
+        let (total, least) = areas_along(&m, DVec3::Z);
+        assert!(total > 0.0 && least >= 0.0, "{what}: {:?}", m.faces);
+    }
+    let on_a_line: Vec<DVec3> = (0..6).map(|k| DVec3::X * f64::from(k % 4)).collect();
+    let at_a_point = vec![DVec3::ONE; 5];
+    let eight =
+        [[0.0, 0.0], [1.0, 1.0], [1.0, 0.0], [0.0, 1.0]].map(|[x, y]| DVec3::new(x, y, 0.0));
+    // Finite, but their differences are not.
+    let huge = NOTCHED.map(|[x, y]| DVec3::new((x - 1.0) * 1.5e308, y * 0.8e308, 0.0));
+    for (what, corners) in [
+        ("on a line", on_a_line),
+        ("at a point", at_a_point),
+        ("eight", eight.to_vec()),
+        ("huge", huge.to_vec()),
+    ] {
+        let m = read_bytes(&obj_polygon(&corners), None, &limits()).expect(what);
+        assert_eq!(m.faces.len(), corners.len() - 2, "{what}: fanned");
+    }
+}
+
+/// Ear clipping takes time growing with the square of the corners: a concave polygon past
+/// the limit is refused, a convex one of any size fanned.
+#[test]
+fn a_concave_polygon_past_the_corner_limit_is_refused() {
+    let few = MeshLimits {
+        max_polygon_corners: 5,
+        ..MeshLimits::default()
+    };
+    let flat = |[x, y]: [f64; 2]| DVec3::new(x, y, 0.0);
+    let pentagon = obj_polygon(&NOTCHED.map(flat));
+    assert_eq!(read_bytes(&pentagon, None, &few).expect("5").faces.len(), 3);
+    let mut notched = NOTCHED.map(flat).to_vec();
+    notched.insert(1, DVec3::new(1.0, -0.5, 0.0));
+    let err = read_bytes(&obj_polygon(&notched), None, &few).expect_err("6 corners");
+    assert!(
+        matches!(
+            err,
+            MeshError::Limit {
+                got: 6,
+                limit: 5,
+                ..
+            }
+        ),
+        "{err}"
+    );
+    assert!(err.to_string().contains("not convex"), "{err}");
+    let circle: Vec<DVec3> = (0..100)
+        .map(|k| {
+            let a = f64::from(k) * std::f64::consts::TAU / 100.0;
+            DVec3::new(a.cos(), a.sin(), 0.0)
+        })
+        .collect();
+    let m = read_bytes(&obj_polygon(&circle), None, &few).expect("convex");
+    assert_eq!(m.faces.len(), 98);
+}
+
+/// A PLY face past the vertices is named by its number in the file: the triangles of a quad
+/// before it counted it as face 2.
+#[test]
+fn a_ply_index_out_of_range_names_the_file_face() {
+    let ply = b"ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\n\
+        property float y\nproperty float z\nelement face 2\nproperty list uchar int \
+        vertex_indices\nend_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n3 0 2 7\n";
+    let err = read_bytes(ply, None, &limits()).expect_err("index 7");
+    assert!(
+        matches!(
+            err,
+            MeshError::Invalid(InvalidMesh::IndexOutOfRange {
+                count: 1,
+                face: 1,
+                index: 7,
+                vertices: 4
+            })
+        ),
+        "{err}"
+    );
 }
 
 #[test]
