@@ -36,7 +36,7 @@ pub(super) fn read(bytes: &[u8], limits: &MeshLimits) -> Result<TriMesh, MeshErr
     // tobj reads lines as UTF-8 and fails the whole file ("read error") on one byte that is
     // not, which older exporters write in comments and names (Latin-1 "Créé par"); none of
     // those bytes can be in a number the mesh needs, so they are replaced instead.
-    let text = without_polylines(super::lenient_text(bytes));
+    let text = for_tobj(super::lenient_text(bytes));
     let mut reader = text.as_bytes();
     let (models, _materials) = tobj::load_obj_buf(&mut reader, &options, |_| {
         // Material libraries are never opened: a mesh upload must not read other files.
@@ -112,22 +112,45 @@ fn first_non_finite_v(text: &str) -> Option<(usize, usize)> {
     None
 }
 
-/// The text without its polyline statements (`l a b c …`). tobj parses `l` like `f`, so a
-/// polyline through three or more vertices (a CAD export's edges, a curve) became polygons,
-/// triangles the file never had; polylines are no surface, so they go.
-fn without_polylines(text: Cow<'_, str>) -> Cow<'_, str> {
+/// Statements whose argument is a name (tobj takes the rest of the line), which may hold a `#`.
+const NAMED: [&str; 4] = ["o", "g", "usemtl", "mtllib"];
+
+/// The text as tobj should read it, line for line with the file's, so a message naming a line
+/// names the file's:
+/// - A comment is cut off: `#` starts one anywhere in a line (`f 1 2 4 # note`), but tobj
+///   takes it only at the start and read the rest as numbers, refusing the whole file. Names
+///   are left whole (a `usemtl` left without one is an error to tobj, and names are not used).
+/// - A polyline statement (`l a b c …`) is blanked: tobj parses `l` like `f`, so a polyline
+///   through three or more vertices (a CAD export's edges, a curve) became polygons, triangles
+///   the file never had; polylines are no surface. (Removed, they shifted the lines after
+///   them in messages.)
+fn for_tobj(text: Cow<'_, str>) -> Cow<'_, str> {
     // tobj splits statements on any Unicode whitespace; so must this, or `l` + vertical tab
     // or no-break space would still reach it as a polygon.
-    let polyline = |line: &str| line.split_whitespace().next() == Some("l");
-    if !text.lines().any(polyline) {
+    let polyline = |line: &str| keyword(line) == Some("l");
+    let commented =
+        |line: &str| line.contains('#') && !keyword(line).is_some_and(|k| NAMED.contains(&k));
+    if !text.lines().any(|l| polyline(l) || commented(l)) {
         return text;
     }
     let mut kept = String::with_capacity(text.len());
-    for line in text.lines().filter(|l| !polyline(l)) {
-        kept.push_str(line);
+    for line in text.lines() {
+        let statement = if polyline(line) {
+            ""
+        } else if commented(line) {
+            line.split('#').next().unwrap_or_default()
+        } else {
+            line
+        };
+        kept.push_str(statement);
         kept.push('\n');
     }
     kept.into()
+}
+
+/// A statement's first word.
+fn keyword(line: &str) -> Option<&str> {
+    line.split_whitespace().next()
 }
 
 /// Lines starting `v ` and `f `: upper bounds of vertices and lower bounds of triangles.

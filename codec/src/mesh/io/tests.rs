@@ -975,6 +975,25 @@ fn a_ply_index_out_of_range_names_the_file_face() {
     );
 }
 
+/// `#` starts a comment anywhere in an OBJ line: a vertex or face ending in one was refused
+/// with the whole file (tobj takes comments only at a line's start). The lines keep their
+/// numbers, so a message names the file's line, polylines (dropped) before it too.
+#[test]
+fn an_obj_comment_may_end_any_line() {
+    let plain = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+    let commented = "v 0 0 0 # origin\nv 1 0 0\nv 0 1 0\t#up\nv 0 0 1\nvn 0 0 1 # a normal\n\
+                     usemtl red#1\nf 1 3 2\nf 1 2 4 # note\nf 1 4 3#tight\nf 2 3 4 # \u{e9}t\u{e9}\n";
+    let want = read_bytes(plain, None, &limits()).expect("plain");
+    let got = read_bytes(commented.as_bytes(), None, &limits()).expect("commented");
+    assert_eq!(got, want);
+    let bad = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2 3\n# c\nf 1 2 x7 # bad\n";
+    let e = read_bytes(bad, None, &limits()).unwrap_err().to_string();
+    assert!(
+        e.ends_with("line 6 `f 1 2 x7`: `x7` is not a vertex index"),
+        "{e}"
+    );
+}
+
 #[test]
 fn obj_groups_share_their_vertices_again() {
     let obj = b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\ng a\nf 1 2 3\ng b\nf 1 3 4\n";
