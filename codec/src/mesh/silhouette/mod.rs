@@ -6,8 +6,8 @@
 //! drawn as the triangulation of its outline ([`simplify`]): a coarse level has big cells,
 //! big nearly-flat regions, few faces. For a view the object's level L comes from its
 //! distance; cells facing the viewer are drawn one level coarser (their detail does not show)
-//! and silhouette cells (normal ⟂ view) one level finer (it is all that shows), the paper's
-//! fig. 9 traversal.
+//! and silhouette cells (holding normals ⟂ view) one level finer (it is all that shows), the
+//! paper's fig. 9 traversal.
 //!
 //! Built once per mesh ([`ViewSphere::new`]: each face's finest cell); every query groups
 //! and flattens in O(faces). Choices and figures: `silhouette.md` beside this file.
@@ -23,10 +23,11 @@ use super::indexed::TriMesh;
 use crate::error::ParamError;
 use sphere::{cell_of, Cell, MAX_LEVEL};
 
-/// |cos| between a cell's centre and the view direction under which it is a silhouette cell
-/// (within ~17° of edge-on).
+/// A cell holding a direction whose |cos| to the view direction is below this is a
+/// silhouette cell (within ~17° of edge-on).
 pub const DEFAULT_SILHOUETTE_COS: f64 = 0.3;
-/// cos above which a cell faces the viewer (within ~37° of head-on).
+/// cos between a cell's centre and the direction to the viewer above which the cell faces
+/// the viewer (within ~37° of head-on).
 pub const DEFAULT_FACING_COS: f64 = 0.8;
 
 /// A viewer far enough that one direction stands for the whole object (the paper's setting).
@@ -88,21 +89,13 @@ impl ViewSphere {
         };
         let (mut facing, mut silhouette, mut other) = (0, 0, 0);
         let keys = self.keys(|cell| {
-            // Classify the cell at the chosen level, as the traversal does.
-            let c = cell.ancestor(level).centre();
-            let cos = -c.dot(dir);
-            // `>=` here and `<=` below would differ only for a centre exactly at a bound,
-            // which a cell's centre meets at most by rounding.
-            if cos > DEFAULT_FACING_COS {
-                facing += 1;
-                level.saturating_sub(1)
-            } else if cos.abs() < DEFAULT_SILHOUETTE_COS {
-                silhouette += 1;
-                (level + 1).min(MAX_LEVEL)
-            } else {
-                other += 1;
-                level
+            let (kind, drawn) = classify(cell, dir, level);
+            match kind {
+                Kind::Facing => facing += 1,
+                Kind::Silhouette => silhouette += 1,
+                Kind::Other => other += 1,
             }
+            drawn
         });
         Ok((
             self.draw(&keys),
@@ -161,6 +154,39 @@ impl ViewSphere {
     fn draw(&self, keys: &[u32]) -> TriMesh {
         let region = simplify::regions(&self.mesh, keys);
         simplify::flatten_regions(&self.mesh, &region)
+    }
+}
+
+/// How a view draws a face's cell.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    Facing,
+    Silhouette,
+    Other,
+}
+
+/// The kind of the cell `cell` (a face's finest) lies in for the view direction `dir` at
+/// `level`, and the level its face is drawn at: the fig. 9 traversal, which draws a
+/// silhouette cell one level finer and merges a facing one a level coarser.
+///
+/// A cell is a silhouette cell when some direction *in* it is within the silhouette band,
+/// tested on the cell one level finer, the one the face would be drawn in. Its centre alone
+/// misses the band whenever the cells are wide next to it: every octant's centre is 55° from
+/// each axis, so from an axis no level-0 cell was silhouette and the view changed nothing.
+/// Facing is judged by the centre at `level`; from level 1 down the two cannot overlap (a
+/// centre within 37° of the view, plus the cell's 35° radius, stays short of the band at
+/// 72.5°), and at level 0, where nothing is coarser, refining wins.
+fn classify(cell: Cell, dir: DVec3, level: u8) -> (Kind, u8) {
+    let finer = cell.ancestor((level + 1).min(MAX_LEVEL));
+    if finer.min_abs_cos(dir) < DEFAULT_SILHOUETTE_COS {
+        return (Kind::Silhouette, finer.level);
+    }
+    // `>=` here would differ only for a centre exactly at the bound, which a cell's centre
+    // meets at most by rounding.
+    if -cell.ancestor(level).centre().dot(dir) > DEFAULT_FACING_COS {
+        (Kind::Facing, level.saturating_sub(1))
+    } else {
+        (Kind::Other, level)
     }
 }
 

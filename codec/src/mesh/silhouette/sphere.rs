@@ -34,8 +34,8 @@ impl Cell {
         (u32::from(self.level) << 24) | (u32::from(self.octant) << 16) | u32::from(self.path)
     }
 
-    /// The unit direction at the cell's centre.
-    pub fn centre(self) -> DVec3 {
+    /// The cell's corners on the first octant's face of the octahedron (x + y + z = 1).
+    fn octahedron_corners(self) -> [DVec3; 3] {
         let mut corners = [DVec3::X, DVec3::Y, DVec3::Z];
         for k in (0..self.level).rev() {
             let child = (self.path >> (2 * k)) & 3;
@@ -48,12 +48,44 @@ impl Cell {
                 _ => [bc, ca, ab],
             };
         }
-        // Only the direction counts (normalised below), and the corners' sum stays under 3 in
-        // every component, so `* 3.0` or `% 3.0` would give the same centre.
-        let c = (corners[0] + corners[1] + corners[2]) / 3.0;
+        corners
+    }
+
+    /// Moves a first-octant direction into the cell's octant.
+    fn signed(self, c: DVec3) -> DVec3 {
         let sign = |bit: u8| if self.octant & bit != 0 { -1.0 } else { 1.0 };
         // The signs are ±1, so `/` for each `*` below would give the same vector.
-        DVec3::new(c.x * sign(1), c.y * sign(2), c.z * sign(4)).normalize_or_zero()
+        DVec3::new(c.x * sign(1), c.y * sign(2), c.z * sign(4))
+    }
+
+    /// The unit direction at the cell's centre.
+    pub fn centre(self) -> DVec3 {
+        let [a, b, c] = self.octahedron_corners();
+        // Only the direction counts (normalised below), and the corners' sum stays under 3 in
+        // every component, so `* 3.0` or `% 3.0` would give the same centre.
+        self.signed((a + b + c) / 3.0).normalize_or_zero()
+    }
+
+    /// The cell's three corners as unit directions. The cell is the cone they span: a
+    /// straight edge on the octahedron is a great-circle arc on the sphere.
+    pub fn corners(self) -> [DVec3; 3] {
+        self.octahedron_corners()
+            .map(|c| self.signed(c).normalize())
+    }
+
+    /// The least |cos| between `d` (a unit vector) and a direction in the cell: 0 when the
+    /// great circle ⟂ `d` crosses the cell, else the least at a corner (on a cone whose
+    /// corners all lie on one side of that circle, the cosine is smallest at a corner: a
+    /// direction is Σ wᵢ cᵢ / |Σ wᵢ cᵢ| with wᵢ ≥ 0 and |Σ wᵢ cᵢ| ≤ Σ wᵢ).
+    pub fn min_abs_cos(self, d: DVec3) -> f64 {
+        let cos = self.corners().map(|c| c.dot(d));
+        // A corner at exactly 0 gives 0 either way, so `>=` and `<=` would do the same.
+        let one_side = cos.iter().all(|&c| c > 0.0) || cos.iter().all(|&c| c < 0.0);
+        if one_side {
+            cos.iter().fold(f64::INFINITY, |m, c| m.min(c.abs()))
+        } else {
+            0.0
+        }
     }
 }
 
