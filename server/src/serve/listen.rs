@@ -4,7 +4,11 @@
 //! `axum::serve` runs hyper without a timer, which leaves hyper's header-read timeout off: a
 //! client that never finished its request headers held its connection (and a task) for as
 //! long as it liked. Here a connection whose request headers have not all arrived within
-//! [`HEADER_READ_TIMEOUT`] is closed.
+//! [`HEADER_READ_TIMEOUT`] is closed. Hyper's timer starts only once the connection is known
+//! to be HTTP/1, and the auto builder first reads for the HTTP/2 preface with no timer: a
+//! client that sent nothing (or part of the preface) was never closed, and 330 of them took a
+//! 320-descriptor process off the air. [`FirstRequest`] times the first request from the
+//! accept.
 //!
 //! A client that asks and then stops reading held its answer, a tile of up to a few MB, for
 //! as long as it kept the connection open: 400 such clients asking for distinct tiles held
@@ -20,8 +24,11 @@
 //! whose in-process tests build requests without one.
 
 use std::future::Future;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::io;
+use std::pin::Pin;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Arc;
+use std::task::{Context, Poll};
 use std::time::Duration;
 
 use axum::extract::Request;
@@ -33,11 +40,15 @@ use hyper_util::rt::{TokioExecutor, TokioIo, TokioTimer};
 use hyper_util::server::conn::auto::Builder;
 use hyper_util::server::graceful::GracefulShutdown;
 use hyper_util::service::TowerToHyperService;
+use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
 use tokio::net::TcpListener;
+use tokio::time::Sleep;
 use tokio_io_timeout::TimeoutStream;
+use tower::ServiceExt;
 
-/// How long a client may take to send a request's headers (hyper's own default, which it
-/// applies only with a timer). Bodies have their own limit (`408` after 20 s).
+/// How long a client may take to send a request's headers, the first request's counted from
+/// the accept (hyper's own default, which it applies only with a timer). Bodies have their
+/// own limit (`408` after 20 s).
 pub const HEADER_READ_TIMEOUT: Duration = Duration::from_secs(30);
 
 /// How long a write to a client may wait for the client to take bytes before the connection
@@ -165,9 +176,17 @@ pub async fn serve_with(
         // the answer it held.
         let mut stream = TimeoutStream::new(stream);
         stream.set_write_timeout(Some(limits.write_stall));
-        let service = TowerToHyperService::new(app.clone());
+        // A connection silent past the header limit is closed, until its first request.
+        let begun = Arc::new(AtomicBool::new(false));
+        let stream = FirstRequest::new(Box::pin(stream), limits.header_read, Arc::clone(&begun));
+        let service = TowerToHyperService::new(app.clone().map_request(
+            move |req: Request<hyper::body::Incoming>| {
+                begun.store(true, Ordering::Relaxed);
+                req
+            },
+        ));
         let conn = builder
-            .serve_connection_with_upgrades(TokioIo::new(Box::pin(stream)), service)
+            .serve_connection_with_upgrades(TokioIo::new(stream), service)
             .into_owned();
         let conn = graceful.watch(conn);
         tokio::spawn(async move {
@@ -198,6 +217,113 @@ pub async fn serve_with(
         }
     }
     Stopped { drained, answering }
+}
+
+/// What a client opening HTTP/2 sends first; hyper-util reads up to these bytes to tell
+/// HTTP/2 from HTTP/1.
+const H2_PREFACE: &[u8; 24] = b"PRI * HTTP/2.0\r\n\r\nSM\r\n\r\n";
+
+/// An accepted stream whose reads fail (`TimedOut`, and hyper closes the connection) when
+/// its first request has not begun by a deadline from the accept. After that request, or
+/// once the HTTP/2 preface has arrived, it only passes bytes through: hyper's timer covers
+/// the heads of later HTTP/1 requests, and HTTP/2 is for a proxy in front, which keeps
+/// connections open between requests.
+struct FirstRequest<S> {
+    io: S,
+    /// Disarmed (`None`) once a request has begun or the preface has arrived.
+    deadline: Option<Pin<Box<Sleep>>>,
+    /// Bytes read so far that match the HTTP/2 preface; `None` once one did not (HTTP/1).
+    preface: Option<usize>,
+    /// Set by the service when it is handed a request.
+    begun: Arc<AtomicBool>,
+}
+
+impl<S> FirstRequest<S> {
+    fn new(io: S, limit: Duration, begun: Arc<AtomicBool>) -> Self {
+        Self {
+            io,
+            deadline: Some(Box::pin(tokio::time::sleep(limit))),
+            preface: Some(0),
+            begun,
+        }
+    }
+
+    /// Notes bytes just read: once they complete the HTTP/2 preface the deadline is off; one
+    /// that departs from it makes the connection HTTP/1, timed until its first request.
+    fn saw(&mut self, bytes: &[u8]) {
+        let Some(n) = self.preface else { return };
+        let rest = &H2_PREFACE[n..];
+        let k = bytes.len().min(rest.len());
+        self.preface = if bytes[..k] != rest[..k] {
+            None
+        } else if k == rest.len() {
+            self.deadline = None;
+            None
+        } else {
+            Some(n + k)
+        };
+    }
+}
+
+impl<S: AsyncRead + Unpin> AsyncRead for FirstRequest<S> {
+    fn poll_read(
+        self: Pin<&mut Self>,
+        cx: &mut Context<'_>,
+        buf: &mut ReadBuf<'_>,
+    ) -> Poll<io::Result<()>> {
+        let this = self.get_mut();
+        if this.deadline.is_some() && this.begun.load(Ordering::Relaxed) {
+            this.deadline = None;
+        }
+        let before = buf.filled().len();
+        let read = Pin::new(&mut this.io).poll_read(cx, buf);
+        let Some(deadline) = this.deadline.as_mut() else {
+            return read;
+        };
+        match read {
+            Poll::Ready(Ok(())) => {
+                this.saw(&buf.filled()[before..]);
+                Poll::Ready(Ok(()))
+            }
+            Poll::Pending if deadline.as_mut().poll(cx).is_ready() => {
+                Poll::Ready(Err(io::Error::new(
+                    io::ErrorKind::TimedOut,
+                    "no request within the header limit",
+                )))
+            }
+            other => other,
+        }
+    }
+}
+
+impl<S: AsyncWrite + Unpin> AsyncWrite for FirstRequest<S> {
+    fn poll_write(
+        self: Pin<&mut Self>,
+        cx: &mut Context<'_>,
+        buf: &[u8],
+    ) -> Poll<io::Result<usize>> {
+        Pin::new(&mut self.get_mut().io).poll_write(cx, buf)
+    }
+
+    fn poll_write_vectored(
+        self: Pin<&mut Self>,
+        cx: &mut Context<'_>,
+        bufs: &[io::IoSlice<'_>],
+    ) -> Poll<io::Result<usize>> {
+        Pin::new(&mut self.get_mut().io).poll_write_vectored(cx, bufs)
+    }
+
+    fn is_write_vectored(&self) -> bool {
+        self.io.is_write_vectored()
+    }
+
+    fn poll_flush(self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
+        Pin::new(&mut self.get_mut().io).poll_flush(cx)
+    }
+
+    fn poll_shutdown(self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
+        Pin::new(&mut self.get_mut().io).poll_shutdown(cx)
+    }
 }
 
 /// Middleware: 400 for an HTTP/1.1 request without a `Host` header, or any request with more
@@ -246,6 +372,13 @@ mod tests {
             let app = Router::new()
                 .route("/", get(|| async { "hi" }))
                 .route("/big", get(|| async { vec![b'x'; BIG] }))
+                .route(
+                    "/pause",
+                    get(|| async {
+                        tokio::time::sleep(PAUSE).await;
+                        "paused"
+                    }),
+                )
                 .route(
                     "/slow",
                     get(|| async {
@@ -308,6 +441,53 @@ mod tests {
             String::from_utf8_lossy(&rest)
         );
 
+        s.stop();
+    }
+
+    /// How long `/pause` takes to answer.
+    const PAUSE: Duration = Duration::from_millis(1500);
+
+    /// A client that connects and sends nothing, or only the start of the HTTP/2 preface, is
+    /// cut off at the header limit (hyper's timer waits for the HTTP version to be known:
+    /// both were left open for good). The limit is on a request's arrival: one whose handler
+    /// outlasts it is answered, and so is a second request on the connection.
+    #[test]
+    fn a_connection_that_sends_no_request_is_cut_off() {
+        let s = Running::start(Limits {
+            header_read: Duration::from_millis(500),
+            ..Limits::default()
+        });
+        for sent in [&b""[..], b"PRI * HTTP/2"] {
+            let mut c = std::net::TcpStream::connect(s.addr).unwrap();
+            c.set_read_timeout(Some(Duration::from_secs(20))).unwrap();
+            c.write_all(sent).unwrap();
+            let started = Instant::now();
+            let mut rest = Vec::new();
+            c.read_to_end(&mut rest)
+                .unwrap_or_else(|e| panic!("{sent:?}: not closed: {e}"));
+            let waited = started.elapsed();
+            assert!(waited < Duration::from_secs(10), "{sent:?}: {waited:?}");
+            assert!(rest.is_empty(), "{}", String::from_utf8_lossy(&rest));
+        }
+
+        let mut c = ask(s.addr, "/pause");
+        let mut answer = Vec::new();
+        let mut chunk = [0; 4096];
+        while !answer.ends_with(b"paused") {
+            match c.read(&mut chunk).unwrap() {
+                0 => break,
+                n => answer.extend_from_slice(&chunk[..n]),
+            }
+        }
+        let answer = String::from_utf8_lossy(&answer);
+        assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
+        assert!(answer.ends_with("paused"), "{answer}");
+        c.write_all(b"GET / HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")
+            .unwrap();
+        let mut answer = String::new();
+        c.read_to_string(&mut answer).unwrap();
+        assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
+        assert!(answer.ends_with("hi"), "{answer}");
         s.stop();
     }
 
