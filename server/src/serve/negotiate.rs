@@ -51,7 +51,8 @@ impl Extensions {
 /// quantized-mesh decides (RFC 9110 §12.5.1): its own entries, else `application/*`, else
 /// `*/*`; `application/octet-stream` also does, for clients that ask for any binary body. So
 /// `application/vnd.quantized-mesh;q=0, */*` (anything but quantized-mesh) is refused with
-/// 406, as is an `Accept` naming none of them.
+/// 406, as is an `Accept` naming none of them. Every `Accept` line counts, as one list
+/// (RFC 9110 §5.3: a proxy may split a list over lines, or join lines into one).
 pub fn terrain_extensions(
     headers: &HeaderMap,
     query: Option<&str>,
@@ -60,14 +61,18 @@ pub fn terrain_extensions(
     if let Some(q) = query {
         ext.add_list(q);
     }
-    let Some(accept) = headers.get(ACCEPT) else {
+    if !headers.contains_key(ACCEPT) {
         return Ok(ext);
-    };
-    let accept = accept.to_str().map_err(|_| not_acceptable())?;
+    }
+    let lines = headers
+        .get_all(ACCEPT)
+        .iter()
+        .map(|v| v.to_str().map_err(|_| not_acceptable()))
+        .collect::<Result<Vec<_>, _>>()?;
     // Per range: listed at all, and listed with q > 0 (a weight that is no number is not a
     // refusal).
     let (mut exact, mut octet, mut application, mut any) = (None, None, None, None);
-    for (media, params) in list_items(accept) {
+    for (media, params) in lines.into_iter().flat_map(list_items) {
         let ok = weight(&params).is_none_or(|q| q > 0.0);
         match media.as_str() {
             QUANTIZED_MESH => {
@@ -271,6 +276,30 @@ mod tests {
                 .names(),
             "metadata"
         );
+    }
+
+    /// Two `Accept` lines are one list: a range, its extensions or its refusal on the second
+    /// line counts as on the first (only the first was read: 406 for an `image/png` line
+    /// before a quantized-mesh one, and no normals after a `*/*` line).
+    #[test]
+    fn accept_lines_are_one_list() {
+        let two = |first: &'static str, second: &'static str| {
+            let mut h = with(ACCEPT, first);
+            h.append(ACCEPT, HeaderValue::from_static(second));
+            terrain_extensions(&h, None)
+        };
+        assert_eq!(
+            two("image/png", QUANTIZED_MESH).unwrap(),
+            Extensions::default()
+        );
+        let e = two(
+            "*/*",
+            "application/vnd.quantized-mesh;extensions=octvertexnormals",
+        )
+        .unwrap();
+        assert!(e.octvertexnormals && !e.watermask && !e.metadata, "{e:?}");
+        assert!(two("*/*", "application/vnd.quantized-mesh;q=0").is_err());
+        assert!(two("image/png", "text/html").is_err());
     }
 
     /// The most specific range decides: refusing quantized-mesh by name is not undone by a
