@@ -2273,6 +2273,33 @@ async fn a_view_too_small_for_a_centroid_finds_its_middle_across_the_seam() {
     }
 }
 
+/// A tilted camera with a tiny fov sees the triangles under its target, as a straight-down
+/// one does (fov 1e-20° and 1e-300° were 404 empty_view from -71.5,44.3: the footprint's clip
+/// rounded it away; 1e-15° gave the triangles).
+#[tokio::test]
+async fn a_tilted_telescope_sees_the_triangles_under_its_target() {
+    let path = hill_file_with("view-telescope", "geodetic", &[ROOT], |m| {
+        m.bounds = [-72.0, 44.0, -71.0, 45.0];
+    });
+    let app = router_over(Dataset::open(&path).unwrap());
+    for fov in ["1e-15", "1e-20", "1e-300"] {
+        for eye in ["-71.5,44.3,3000", "-71.45,44.3,3000", "-71.5,44.5,3000"] {
+            let uri = format!("/v1/datasets/hill/view?eye={eye}&target=-71.5,44.5,300&fov={fov}");
+            let (status, _, body) = get(&app, &uri).await;
+            let camera = format!("eye={eye} fov={fov}");
+            assert_eq!(
+                status,
+                StatusCode::OK,
+                "{camera}: {}",
+                String::from_utf8_lossy(&body)
+            );
+            let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
+            assert!(v["triangles"].as_u64().unwrap() > 0, "{camera}: {v}");
+            assert!(v["a_v"].as_f64().unwrap() < 1e-20, "{camera}: {v}");
+        }
+    }
+}
+
 /// A view meshes the deepest zoom whose tiles over the footprint are few enough: on a
 /// world dataset holding zooms 0 and 1, a footprint about 40° wide (a few zoom-1 tiles)
 /// is meshed at zoom 1.

@@ -37,7 +37,8 @@ pub struct Camera {
 pub const DISK_SIDES: usize = 64;
 
 /// The frustum's footprint on the plane z = target.z, clipped to `far` around the eye's foot:
-/// a convex polygon, counter-clockwise seen from above.
+/// a convex polygon, counter-clockwise seen from above; the target alone when the footprint
+/// is too small for f64 to place (below).
 ///
 /// Each side plane of the frustum passes through the eye, so on the terrain plane it is a
 /// half-plane; the footprint is the disk cut by the four. (Stopping each corner ray at `far`
@@ -58,12 +59,13 @@ pub fn footprint(cam: &Camera, far: f64) -> Result<Vec<DVec2>, ViewError> {
     let th = (cam.fov_deg.to_radians() / 2.0).tan();
     let tw = th * cam.aspect;
     let foot = cam.eye.truncate();
-    let mut polygon: Vec<DVec2> = (0..DISK_SIDES)
+    let disk: Vec<DVec2> = (0..DISK_SIDES)
         .map(|i| {
             let a = std::f64::consts::TAU * i as f64 / DISK_SIDES as f64;
             foot + DVec2::new(a.cos(), a.sin()) * far
         })
         .collect();
+    let mut polygon = disk.clone();
     // The four side planes through the eye, by their normals pointing into the frustum: the
     // ray forward + right·x + up·y is inside when |x| ≤ tw and |y| ≤ th. Written from the
     // frame, not as the cross product of two corner rays: at a small fov those rays are
@@ -81,7 +83,24 @@ pub fn footprint(cam: &Camera, far: f64) -> Result<Vec<DVec2>, ViewError> {
         let keep = |p: DVec2| n.truncate().dot(p - foot) - n.z * height;
         polygon = clip(&polygon, keep);
     }
+    // The frustum's axis meets the plane at the target, so the footprint holds it wherever
+    // the disk does. The clip's vertices lie out on the disk, placed to ~1e-16 of `far`: a
+    // footprint thinner than that (fov 1e-20° on a tilted camera, 1e-18 m wide at 20 km)
+    // could come out empty, which read as a view of nothing. The target stands for it.
+    let target = cam.target.truncate();
+    if polygon.is_empty() && holds(&disk, target) {
+        polygon.push(target);
+    }
     Ok(polygon)
+}
+
+/// Whether convex, counter-clockwise `polygon` holds `p`, edges included.
+fn holds(polygon: &[DVec2], p: DVec2) -> bool {
+    let after = polygon.iter().skip(1).chain(polygon.first());
+    polygon
+        .iter()
+        .zip(after)
+        .all(|(&a, &b)| (b - a).perp_dot(p - a) >= 0.0)
 }
 
 /// The part of a convex longitude/latitude polygon (degrees) on the globe: within ±90° of
@@ -230,6 +249,40 @@ mod tests {
             );
         }
         assert!(area(1e-10) < 1e-6, "{}", area(1e-10));
+    }
+
+    /// A tilted telescope sees a speck at the target, however narrow: the clip rounded such a
+    /// footprint away (fov 1e-20° came out empty, so `/view` said it saw no terrain, while
+    /// 1e-15° gave a speck). A target past the disk is still not seen.
+    #[test]
+    fn a_footprint_too_thin_to_place_is_the_target() {
+        // The QA's camera over N44W072 (0.2° south of the target, 2,700 m above it), in the
+        // plane's metres, the disk the dataset's diagonal; and eyes beside it.
+        let south = (44.3 - 44.5) * 111_319.490_793_273_57;
+        let far = (2.0 * 8_838_620_271.917_036_f64).sqrt();
+        for fov_deg in [1e-20, 1e-300] {
+            for east in [0.0, 3_967.5, -1_234.5, 20_000.0] {
+                let cam = Camera {
+                    eye: DVec3::new(east, south, 3000.0),
+                    target: DVec3::new(0.0, 0.0, 300.0),
+                    fov_deg,
+                    aspect: 1.0,
+                };
+                let f = footprint(&cam, far).unwrap();
+                assert!(!f.is_empty(), "fov {fov_deg} eye east {east}");
+                assert!(
+                    f.iter().all(|p| p.length() < 1e-9),
+                    "fov {fov_deg} eye east {east}: {f:?}"
+                );
+            }
+        }
+        let beyond = Camera {
+            eye: DVec3::new(0.0, south, 3000.0),
+            target: DVec3::new(0.0, 0.0, 300.0),
+            fov_deg: 1e-20,
+            aspect: 1.0,
+        };
+        assert_eq!(footprint(&beyond, 10_000.0), Ok(vec![]));
     }
 
     #[test]
