@@ -252,9 +252,9 @@ impl<S> FirstRequest<S> {
     /// that departs from it makes the connection HTTP/1, timed until its first request.
     fn saw(&mut self, bytes: &[u8]) {
         let Some(n) = self.preface else { return };
-        let rest = &H2_PREFACE[n..];
+        let rest = H2_PREFACE.get(n..).unwrap_or_default();
         let k = bytes.len().min(rest.len());
-        self.preface = if bytes[..k] != rest[..k] {
+        self.preface = if bytes.get(..k) != rest.get(..k) {
             None
         } else if k == rest.len() {
             self.deadline = None;
@@ -282,7 +282,7 @@ impl<S: AsyncRead + Unpin> AsyncRead for FirstRequest<S> {
         };
         match read {
             Poll::Ready(Ok(())) => {
-                this.saw(&buf.filled()[before..]);
+                this.saw(buf.filled().get(before..).unwrap_or_default());
                 Poll::Ready(Ok(()))
             }
             Poll::Pending if deadline.as_mut().poll(cx).is_ready() => {
