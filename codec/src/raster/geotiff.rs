@@ -103,10 +103,16 @@ pub(super) fn read(path: &Path, opts: &ReadOptions) -> Result<Heightmap, RasterE
     Ok(Heightmap::new(heights, step, georef))
 }
 
-/// The decoder's limits from ours: the whole image in the widest sample type.
+/// The decoder's limits from ours. What it allocates is bounded by `decoding_buffer_size`: the
+/// whole image in the widest sample type (and with it the size of a tag's values). A strip or
+/// tile is streamed into that image, never buffered at its stored size, so its byte count
+/// needs no bound of its own (a count past the file's end is a truncated file); the crate's
+/// default of 128 MiB refused the single strip of any raster past it, such as a 6000²
+/// float32 or a 9000² int16, well inside `max_samples`.
 fn limits(max_samples: usize) -> Limits {
     let mut limits = Limits::default();
     limits.decoding_buffer_size = max_samples.saturating_mul(std::mem::size_of::<f64>());
+    limits.intermediate_buffer_size = usize::MAX;
     limits
 }
 
@@ -115,9 +121,11 @@ fn tiff_error(path: &Path, e: TiffError) -> RasterError {
     match e {
         TiffError::IoError(io) => RasterError::from_read(path, io),
         TiffError::UnsupportedError(u) => RasterError::unsupported(path, u.to_string()),
+        // The image is checked against max_samples before it is decoded, so what is left to
+        // trip the decoder's buffer limit is a tag.
         TiffError::LimitsExceeded => RasterError::limit(
             path,
-            "the decoder's buffer limit (a strip, tile or tag larger than max_samples allows)",
+            "a tag holds more values than the max_samples limit allows",
         ),
         e => RasterError::format(path, e.to_string()),
     }
@@ -423,40 +431,136 @@ mod tests {
         assert_eq!(int_nodata::<i32>(Some(f64::NAN)), None);
     }
 
+    /// One IFD entry: tag, type (2 ASCII, 3 SHORT or 4 LONG) and values.
+    type Entry = (u16, u16, Vec<u32>);
+
+    /// A little-endian TIFF written by hand, to say what an encoder would not: per image, its
+    /// IFD entries and its strips' or tiles' bytes, stored before the IFD, whose offset and
+    /// byte-count entries are added (tile ones when the entries give a TileWidth). An image
+    /// without chunks gives its own offsets.
+    fn tiff_of(images: &[(Vec<Entry>, Vec<Vec<u8>>)]) -> Vec<u8> {
+        let mut out = b"II*\0".to_vec();
+        // Where the next IFD's offset goes.
+        let mut link = out.len();
+        out.extend_from_slice(&[0; 4]);
+        for (entries, chunks) in images {
+            let mut entries = entries.clone();
+            if !chunks.is_empty() {
+                let mut offsets = Vec::new();
+                for chunk in chunks {
+                    offsets.push(out.len() as u32);
+                    out.extend_from_slice(chunk);
+                }
+                let counts = chunks.iter().map(|c| c.len() as u32).collect();
+                let tiled = entries.iter().any(|e| e.0 == 322);
+                let (at, count) = if tiled { (324, 325) } else { (273, 279) };
+                entries.extend([(at, 4, offsets), (count, 4, counts)]);
+            }
+            entries.sort_by_key(|e| e.0);
+            // An IFD starts on a word; values past 4 bytes follow it.
+            out.resize(out.len().next_multiple_of(2), 0);
+            let ifd = out.len() as u32;
+            out[link..link + 4].copy_from_slice(&ifd.to_le_bytes());
+            let spill_at = out.len() + 2 + 12 * entries.len() + 4;
+            let mut spill = Vec::new();
+            out.extend_from_slice(&(entries.len() as u16).to_le_bytes());
+            for (tag, kind, values) in &entries {
+                let mut bytes: Vec<u8> = values
+                    .iter()
+                    .flat_map(|&v| match kind {
+                        2 => vec![v as u8],
+                        3 => (v as u16).to_le_bytes().to_vec(),
+                        _ => v.to_le_bytes().to_vec(),
+                    })
+                    .collect();
+                out.extend_from_slice(&tag.to_le_bytes());
+                out.extend_from_slice(&kind.to_le_bytes());
+                out.extend_from_slice(&(values.len() as u32).to_le_bytes());
+                if bytes.len() > 4 {
+                    let at = (spill_at + spill.len()) as u32;
+                    bytes.resize(bytes.len().next_multiple_of(2), 0);
+                    spill.append(&mut bytes);
+                    bytes = at.to_le_bytes().to_vec();
+                }
+                bytes.resize(4, 0);
+                out.extend_from_slice(&bytes);
+            }
+            link = out.len();
+            out.extend_from_slice(&[0; 4]);
+            out.extend_from_slice(&spill);
+        }
+        out
+    }
+
+    /// The entries of a `rows × cols` image of one `bits`-bit sample a pixel in `format` (1
+    /// unsigned, 2 signed, 3 float), uncompressed, in strips of `rows_per_strip` rows.
+    fn gray(rows: u32, cols: u32, (bits, format): (u32, u32), rows_per_strip: u32) -> Vec<Entry> {
+        vec![
+            (256, 4, vec![cols]),           // ImageWidth
+            (257, 4, vec![rows]),           // ImageLength
+            (258, 3, vec![bits]),           // BitsPerSample
+            (259, 3, vec![1]),              // Compression: none
+            (262, 3, vec![1]),              // BlackIsZero
+            (277, 3, vec![1]),              // SamplesPerPixel
+            (278, 4, vec![rows_per_strip]), // RowsPerStrip
+            (339, 3, vec![format]),         // SampleFormat
+        ]
+    }
+
+    /// One strip of `rows × cols` samples at byte 4096 (after the header), of `strip_bytes`.
+    fn one_strip(rows: u32, cols: u32, sample: (u32, u32), strip_bytes: u32) -> Vec<u8> {
+        let mut entries = gray(rows, cols, sample, rows);
+        entries.extend([(273, 4, vec![4096]), (279, 4, vec![strip_bytes])]);
+        let mut bytes = tiff_of(&[(entries, Vec::new())]);
+        assert!(bytes.len() <= 4096);
+        bytes.resize(4096, 0);
+        bytes
+    }
+
     #[test]
     fn a_header_claiming_a_huge_raster_is_a_limit_not_an_allocation() {
-        // A little-endian TIFF whose one IFD claims 100000 × 100000 int16 samples in one strip.
-        let entries: [(u16, u16, u32); 9] = [
-            (256, 4, 100_000),       // ImageWidth, LONG
-            (257, 4, 100_000),       // ImageLength
-            (258, 3, 16),            // BitsPerSample
-            (259, 3, 1),             // Compression: none
-            (262, 3, 1),             // BlackIsZero
-            (273, 4, 8),             // StripOffsets
-            (277, 3, 1),             // SamplesPerPixel
-            (278, 4, 100_000),       // RowsPerStrip
-            (279, 4, 2_000_000_000), // StripByteCounts
-        ];
-        let mut bytes = b"II*\0".to_vec();
-        bytes.extend_from_slice(&8u32.to_le_bytes());
-        bytes.extend_from_slice(&(entries.len() as u16).to_le_bytes());
-        for (tag, kind, value) in entries {
-            bytes.extend_from_slice(&tag.to_le_bytes());
-            bytes.extend_from_slice(&kind.to_le_bytes());
-            bytes.extend_from_slice(&1u32.to_le_bytes());
-            if kind == 3 {
-                bytes.extend_from_slice(&(value as u16).to_le_bytes());
-                bytes.extend_from_slice(&[0, 0]);
-            } else {
-                bytes.extend_from_slice(&value.to_le_bytes());
-            }
-        }
-        bytes.extend_from_slice(&0u32.to_le_bytes());
+        // 100000 × 100000 int16 samples in one strip.
+        let bytes = one_strip(100_000, 100_000, (16, 2), 2_000_000_000);
         let path = scratch_dir("tiff_huge").join("huge.tif");
         std::fs::write(&path, bytes).unwrap();
         let err = read(&path, &ReadOptions::default()).unwrap_err();
         assert!(matches!(err, RasterError::Limit { .. }), "{err}");
         assert!(err.to_string().contains("huge.tif"), "{err}");
+    }
+
+    /// One strip past the `tiff` crate's default intermediate limit (128 MiB) is read: a
+    /// raster written whole (6000² float32, 9000² int16) was refused as past "the decoder's
+    /// buffer limit", though far inside `max_samples`. 4096 × 4097 float64 is the smallest
+    /// such strip in the fewest samples; the file is sparse, its samples all zero.
+    #[test]
+    fn a_single_strip_past_128_mib_is_read() {
+        let (rows, cols) = (4096u32, 4097u32);
+        let strip = u64::from(rows) * u64::from(cols) * 8;
+        assert!(strip > 128 << 20);
+        let path = scratch_dir("tiff_one_strip").join("one_strip.tif");
+        std::fs::write(&path, one_strip(rows, cols, (64, 3), strip as u32)).unwrap();
+        let file = std::fs::OpenOptions::new().write(true).open(&path).unwrap();
+        file.set_len(4096 + strip).unwrap();
+        let map = read(&path, &ReadOptions::default());
+        std::fs::remove_file(&path).unwrap();
+        let map = map.unwrap();
+        assert_eq!((map.heights.rows(), map.heights.cols()), (4096, 4097));
+        assert_eq!(map.min_max(), Some((0.0, 0.0)));
+    }
+
+    /// A strip byte count past the file's end is a truncated file (the strip is streamed, so
+    /// the count allocates nothing), not a limit: it read as "exceeds a limit" before.
+    #[test]
+    fn a_strip_count_past_the_end_of_the_file_is_truncated() {
+        let mut bytes = one_strip(2, 2, (16, 2), u32::MAX);
+        bytes.extend_from_slice(&[1, 0, 2, 0]);
+        let path = scratch_dir("tiff_short_strip").join("short.tif");
+        std::fs::write(&path, bytes).unwrap();
+        let err = read(&path, &ReadOptions::default()).unwrap_err();
+        assert!(
+            matches!(err, RasterError::Format { .. }) && err.to_string().contains("truncated"),
+            "{err}"
+        );
     }
 
     /// Writes a small GeoTIFF of colour type `C` with the extra tags `tags` writes.
