@@ -29,14 +29,15 @@ pub struct ChecksFailed(pub String);
 
 /// A file `info` could read but whose header or index does not hold (a truncated or
 /// garbled copy, metadata the server could not use): with `--json` it is still one object,
-/// with the keys a [`Report`] starts with, so a script reads `ok` and `error` whatever failed.
+/// led by the keys a [`Report`]'s object is, so a script reads `ok` and `error` first
+/// whatever failed (serde writes fields in declaration order).
 #[derive(Debug, Serialize, thiserror::Error)]
 #[error("{path}: {error}")]
 pub struct Unreadable {
-    pub name: String,
-    pub path: String,
     pub ok: bool,
     pub error: String,
+    pub name: String,
+    pub path: String,
 }
 
 /// Announced tiles listed by name (all are counted).
@@ -165,13 +166,13 @@ pub fn run(job: &Info) -> Result<Report> {
         // from a file the system would not give us.
         Err(e) if !system_refused(&e) => {
             return Err(Unreadable {
+                ok: false,
+                error: format!("{e:#}"),
                 name: path
                     .file_stem()
                     .map(|s| s.to_string_lossy().into_owned())
                     .unwrap_or_default(),
                 path: path.display().to_string(),
-                ok: false,
-                error: format!("{e:#}"),
             }
             .into())
         }
@@ -631,6 +632,9 @@ mod tests {
         bad[0] ^= 1;
         let e = run_on("badmagic", "t.ztd", bad, true).unwrap_err();
         let u = e.downcast_ref::<Unreadable>().expect("an Unreadable");
+        // Led by `ok` and `error`, as the docs say: it began with `name` and `path`.
+        let text = serde_json::to_string(u).unwrap();
+        assert!(text.starts_with(r#"{"ok":false,"error":"#), "{text}");
         let v: serde_json::Value = serde_json::to_value(u).unwrap();
         assert_eq!(v["ok"], false);
         assert_eq!(v["name"], "t");
@@ -638,7 +642,9 @@ mod tests {
         assert!(v["error"].as_str().unwrap().contains("bad magic"), "{v}");
         // A report says the same two things first.
         let good = report_on("good-json", sound_file(|_| {}), true);
-        let v: serde_json::Value = serde_json::from_str(&json(&good).unwrap()).unwrap();
+        let text = json(&good).unwrap();
+        assert!(text.starts_with(r#"{"ok":true,"error":null,"#), "{text}");
+        let v: serde_json::Value = serde_json::from_str(&text).unwrap();
         assert_eq!(
             (&v["ok"], &v["error"]),
             (&true.into(), &serde_json::Value::Null)
