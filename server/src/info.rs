@@ -717,6 +717,19 @@ mod tests {
             e.to_string().contains("metadata is invalid: max_zoom 200"),
             "{e:#}"
         );
+        // A max_zoom past the availability and every stored tile (tiles at zoom 0, max_zoom
+        // 1 on a grid that has a zoom 1), whose zoom serve would announce and 404: it passed.
+        let past = sound_file(|m| {
+            (m.source_size, m.bounds) = ([513, 513], [0.0, 512.0, 512.0, 0.0]);
+            m.max_zoom = 1;
+        });
+        let e = run_on("zoom-past", "t.ztd", past, true).unwrap_err();
+        assert!(e.is::<Unreadable>(), "{e:#}");
+        assert!(
+            e.to_string()
+                .contains("available lists 1 zooms, but min_zoom 0 to max_zoom 1 are 2"),
+            "{e:#}"
+        );
     }
 
     /// A file the system would not open (none there, no permission) is a system error (exit
@@ -914,6 +927,7 @@ mod tests {
     fn zoom_rows_count_record_bytes_and_their_bits_per_sample() {
         let mut m = local_257(3000);
         (m.max_zoom, m.source_size) = (1, [513, 513]);
+        m.available.push(m.available[0].clone());
         let mut w = Writer::new();
         w.add(TileId { z: 0, x: 0, y: 0 }, [0.0; 4], &[7u8; 1000]);
         w.add(TileId { z: 1, x: 0, y: 0 }, [0.0; 4], &[7u8; 800]);
@@ -1079,7 +1093,12 @@ mod tests {
         let mut m = local_257(16 * enc.bytes.len() as u64);
         (m.min_zoom, m.max_zoom, m.source_size) = (2, 2, [1025, 1025]);
         m.bounds = [0.0, 1024.0, 1024.0, 0.0];
-        m.available = vec![vec![]];
+        m.available = vec![vec![Availability {
+            start_x: 0,
+            start_y: 0,
+            end_x: 3,
+            end_y: 3,
+        }]];
         let mut w = Writer::new();
         // Stored in reverse, each with corners its stream does not decode to.
         let mut ids: Vec<TileId> = (0..16)
@@ -1094,7 +1113,7 @@ mod tests {
             w.add(id, [1e4; 4], &enc.bytes);
         }
         let r = verify_file("order", w.finish(&m).unwrap());
-        // Nothing is announced, so nothing is missing: the one problem is the failures.
+        // All 16 are stored, so nothing is missing: the one problem is the failures.
         assert_eq!(r.problems(), ["16 of 16 tiles failed"]);
         let listed: Vec<String> = r.failed.unwrap().into_iter().map(|f| f.tile).collect();
         let expected: Vec<String> = (0..16).map(|k| format!("2/{}/{}", k % 4, k / 4)).collect();

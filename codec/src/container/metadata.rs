@@ -107,6 +107,25 @@ impl Metadata {
                 tiling.max_zoom()
             ));
         }
+        // Every zoom the server announces (layer.json, tiles.json, the description) lists
+        // tiles, which `info --verify` checks are stored: a max_zoom past the lists (a hand
+        // edit, the CRC resealed) announced a zoom of nothing but 404s, and passed.
+        let zooms = usize::from(self.max_zoom - self.min_zoom) + 1;
+        if self.available.len() != zooms {
+            return Err(format!(
+                "available lists {} zooms, but min_zoom {} to max_zoom {} are {zooms}",
+                self.available.len(),
+                self.min_zoom,
+                self.max_zoom
+            ));
+        }
+        if let Some(k) = self.available.iter().position(Vec::is_empty) {
+            return Err(format!(
+                "available lists no tiles at zoom {}, which max_zoom {} announces",
+                usize::from(self.min_zoom) + k,
+                self.max_zoom
+            ));
+        }
         if self.source_size.contains(&0) {
             return Err(format!(
                 "source_size {:?}: a source has at least one row and column",

@@ -16,12 +16,16 @@ fn metadata() -> Metadata {
         source_height_range: None,
         fill: 0.0,
         view: ViewParams { a: 50.0, b: 0.0 },
-        available: vec![vec![Availability {
-            start_x: 0,
-            start_y: 0,
-            end_x: 1,
-            end_y: 0,
-        }]],
+        // Zooms 0 to 2, one range each (not checked against the tiles here).
+        available: vec![
+            vec![Availability {
+                start_x: 0,
+                start_y: 0,
+                end_x: 1,
+                end_y: 0,
+            }];
+            3
+        ],
         source: "N44W072.hgt".into(),
         source_crs: "EPSG:4326".into(),
         samples: 3 * 257 * 257,
@@ -242,10 +246,23 @@ fn with_metadata(m: &Metadata) -> Result<Container, ContainerError> {
 #[test]
 fn metadata_the_server_cannot_use_is_refused_naming_the_field() {
     type Edit = fn(&mut Metadata);
-    let cases: [(Edit, &str); 14] = [
+    let cases: [(Edit, &str); 17] = [
         (
             |m| m.tile_side = 8193,
             "tile_side 8193: this build meshes tiles",
+        ),
+        // A zoom announced and listing no tiles, which verify would have passed.
+        (
+            |m| m.max_zoom = 3,
+            "available lists 3 zooms, but min_zoom 0 to max_zoom 3 are 4",
+        ),
+        (
+            |m| m.available.push(Vec::new()),
+            "available lists 4 zooms, but min_zoom 0 to max_zoom 2 are 3",
+        ),
+        (
+            |m| m.available[2].clear(),
+            "available lists no tiles at zoom 2, which max_zoom 2 announces",
         ),
         (
             |m| m.max_zoom = 200,
@@ -313,6 +330,9 @@ fn metadata_ingest_writes_is_accepted() {
     for (k, edit) in cases.into_iter().enumerate() {
         let mut m = metadata();
         edit(&mut m);
+        // Ingest lists every zoom.
+        let zooms = usize::from(m.max_zoom - m.min_zoom) + 1;
+        m.available.resize(zooms, m.available[0].clone());
         assert!(with_metadata(&m).is_ok(), "case {k}: {m:?}");
     }
     // Past it there is nothing to code.

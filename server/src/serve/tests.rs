@@ -108,7 +108,8 @@ pub(super) fn hill_file_with(
         source_height_range: None,
         fill: 60.0,
         view: ViewParams { a: 2.5, b: 0.0 },
-        available: vec![stored(0, 0, 0, 0)],
+        // Set below unless `edit` sets it.
+        available: Vec::new(),
         source: "synthetic".into(),
         source_crs: "none".into(),
         samples: 257 * 257,
@@ -116,6 +117,21 @@ pub(super) fn hill_file_with(
         created: "2026-01-01T00:00:00Z".into(),
     };
     edit(&mut m);
+    // Every zoom from min_zoom lists tiles (a header is refused otherwise): the box of the
+    // tiles stored there, or the first tile where a zoom holds none.
+    if m.available.is_empty() {
+        m.available = (m.min_zoom..=m.max_zoom)
+            .map(|z| {
+                let at: Vec<&TileId> = tiles.iter().filter(|t| t.z == z).collect();
+                let x = at.iter().map(|t| t.x);
+                let y = at.iter().map(|t| t.y);
+                match (x.clone().min(), x.max(), y.clone().min(), y.max()) {
+                    (Some(x0), Some(x1), Some(y0), Some(y1)) => stored(x0, y0, x1, y1),
+                    _ => stored(0, 0, 0, 0),
+                }
+            })
+            .collect();
+    }
     let path = dir.join(format!("{tag}.ztd"));
     std::fs::write(&path, w.finish(&m).unwrap()).unwrap();
     path
