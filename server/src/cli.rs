@@ -807,8 +807,10 @@ fn terrain_eval(a: TerrainArgs) -> anyhow::Result<terrain::TerrainEval> {
         let ts = eval::parse_list("--threshold", t, true).map_err(crate::usage::usage)?;
         terrain::Sweep::Threshold(ts)
     } else if let Some(b) = &a.bpp {
-        // 0 is refused later with the smallest rate that decodes anything.
-        terrain::Sweep::Bpp(eval::parse_list("--bpp", b, true).map_err(crate::usage::usage)?)
+        // 0 buys no byte of any stream (each has a header): a usage error, not a failed run.
+        // A rate above 0 but below this window's header is refused once the stream is coded,
+        // with the smallest usable rate.
+        terrain::Sweep::Bpp(eval::parse_list("--bpp", b, false).map_err(crate::usage::usage)?)
     } else if let Some(e) = &a.max_error {
         let es = eval::parse_list("--max-error", e, false)
             .map_err(|e| crate::usage::usage(format!("{e} (use --lossless for exact)")))?;

@@ -308,6 +308,11 @@ fn eval_terrain_refuses_values_no_run_could_use() {
         let msg = refusal(terrain_eval(terrain_args(&argv)));
         assert!(msg.contains(want), "{args}: {msg}");
     }
+    // No stream fits in 0 bits (each has a header): a usage error naming the flag. It was
+    // taken here and refused only once the window was coded, with exit 1.
+    let e = terrain_eval(terrain_args(&["--bpp", "0.5,0"])).unwrap_err();
+    assert!(crate::usage::is_usage(&e), "{e:#}");
+    assert_eq!(e.to_string(), "--bpp: '0' must be finite and > 0");
 }
 
 #[test]
