@@ -4,7 +4,7 @@
 //! |---|---|---|---|
 //! | `.hgt` | `hgt`: SRTM 1″/3″ tile | int16, −32768 = void | tile name (`N44W072`) |
 //! | `.tif` `.tiff` | `geotiff`: `tiff` crate | 1 band, (u)int8–32, float32/64 | GeoTIFF tags |
-//! | `.png` | `png`: `image` crate | gray 8/16-bit, terrain-RGB, Terrarium | none |
+//! | `.png` | `png`: `image` crate | gray 1–16-bit, terrain-RGB, Terrarium | none |
 //! | `.asc` | `ascii_grid`: ESRI ASCII grid | decimal text | header |
 //! | `.npy` `.npz` | `numpy`: `npyz` crate | 2-D (u)int8–32, float32/64 | `.npz` bounds keys |
 //!

@@ -1,11 +1,12 @@
-//! PNG heightmaps, decoded by the `image` crate: gray values are heights (8- or 16-bit), or
-//! RGB carries 24-bit codes in Mapbox terrain-RGB or Terrarium form ([`Encoding`]). A
-//! transparent pixel (alpha 0) is no-data, as web-map tiles mark areas outside the source.
+//! PNG heightmaps, decoded by the `image` crate: gray values are heights (1, 2, 4, 8 or 16-bit,
+//! as stored), or RGB carries 24-bit codes in Mapbox terrain-RGB or Terrarium form
+//! ([`Encoding`]). A transparent pixel (alpha 0) is no-data, as web-map tiles mark areas
+//! outside the source.
 //!
 //! A PNG does not say which encoding it uses, so colour PNGs need one from the caller; PNGs
 //! carry no georeference.
 
-use std::io::BufReader;
+use std::io::{BufReader, Read, Seek};
 use std::path::Path;
 
 use image::codecs::png::PngDecoder;
@@ -18,7 +19,9 @@ use crate::grid::Grid;
 /// Reads a PNG heightmap.
 pub(super) fn read(path: &Path, opts: &ReadOptions) -> Result<Heightmap, RasterError> {
     let image_err = |e| image_error(path, e);
-    let mut decoder = PngDecoder::new(BufReader::new(open(path)?)).map_err(image_err)?;
+    let mut file = BufReader::new(open(path)?);
+    let widened = widened_gray(&mut file).map_err(|e| RasterError::from_read(path, e))?;
+    let mut decoder = PngDecoder::new(file).map_err(image_err)?;
 
     // Size first: refuse before the decoder allocates the image.
     let (width, height) = decoder.dimensions();
@@ -35,12 +38,16 @@ pub(super) fn read(path: &Path, opts: &ReadOptions) -> Result<Heightmap, RasterE
     // Decode, then read heights the way the pixel layout and the encoding say.
     let image = DynamicImage::from_decoder(decoder).map_err(image_err)?;
     let (heights, step) = match (image, opts.encoding) {
-        (DynamicImage::ImageLuma8(img), None | Some(Encoding::Gray)) => {
-            (img.pixels().map(|p| f64::from(p[0])).collect(), 1.0)
-        }
-        (DynamicImage::ImageLumaA8(img), None | Some(Encoding::Gray)) => {
-            (img.pixels().map(|p| gray(p[0], p[1] == 0)).collect(), 1.0)
-        }
+        (DynamicImage::ImageLuma8(img), None | Some(Encoding::Gray)) => (
+            img.pixels().map(|p| f64::from(p[0] / widened)).collect(),
+            1.0,
+        ),
+        (DynamicImage::ImageLumaA8(img), None | Some(Encoding::Gray)) => (
+            img.pixels()
+                .map(|p| gray(p[0] / widened, p[1] == 0))
+                .collect(),
+            1.0,
+        ),
         (DynamicImage::ImageLuma16(img), None | Some(Encoding::Gray)) => {
             (img.pixels().map(|p| f64::from(p[0])).collect(), 1.0)
         }
@@ -94,7 +101,7 @@ pub(super) fn read(path: &Path, opts: &ReadOptions) -> Result<Heightmap, RasterE
             return Err(RasterError::unsupported(
                 path,
                 format!(
-                    "{:?} PNG; zerotile reads 8/16-bit gray and 8-bit RGB(A) heightmaps",
+                    "{:?} PNG; zerotile reads 1 to 16-bit gray and 8-bit RGB(A) heightmaps",
                     other.color()
                 ),
             ))
@@ -103,6 +110,21 @@ pub(super) fn read(path: &Path, opts: &ReadOptions) -> Result<Heightmap, RasterE
     let heights = Grid::new(height as usize, width as usize, heights)
         .map_err(|e| RasterError::format(path, e.to_string()))?;
     Ok(Heightmap::new(heights, Some(step), None))
+}
+
+/// What the decoder multiplied a gray sample of under 8 bits by: it widens them to 8 bits over
+/// the full range (a 4-bit 7 becomes 119), and heights are the samples as stored, as GDAL
+/// reads them. 1 for any other PNG. Read from the IHDR, which the `image` crate does not
+/// pass on; the reader is left at the start.
+fn widened_gray(file: &mut (impl Read + Seek)) -> std::io::Result<u8> {
+    let mut head = Vec::with_capacity(26);
+    file.by_ref().take(26).read_to_end(&mut head)?;
+    file.rewind()?;
+    // The signature (8 bytes), then IHDR: length, type, width, height, bit depth, colour type.
+    Ok(match head.get(12..26) {
+        Some([b'I', b'H', b'D', b'R', .., depth @ (1 | 2 | 4), 0]) => 255 / ((1 << depth) - 1),
+        _ => 1,
+    })
 }
 
 fn gray(value: impl Into<f64>, transparent: bool) -> f64 {
@@ -281,6 +303,74 @@ mod tests {
             .unwrap();
         let map = read(&path, &opts(Some(Encoding::TerrainRgb))).unwrap();
         assert_eq!(map.min_max(), Some((0.0, 0.0)));
+    }
+
+    /// A gray PNG of `depth` (1, 2 or 4) bits holding `rows` (each sample below 2^depth), with
+    /// `trns` its transparent gray value, written by hand: the `image` crate writes no gray
+    /// below 8 bits.
+    fn low_bit_gray_png(depth: u8, rows: &[&[u8]], trns: Option<u16>) -> Vec<u8> {
+        use std::io::Write;
+        fn chunk(out: &mut Vec<u8>, kind: &[u8; 4], data: &[u8]) {
+            out.extend_from_slice(&(data.len() as u32).to_be_bytes());
+            let start = out.len();
+            out.extend_from_slice(kind);
+            out.extend_from_slice(data);
+            let crc = crc32fast::hash(&out[start..]);
+            out.extend_from_slice(&crc.to_be_bytes());
+        }
+        let width = rows[0].len();
+        let mut raw = Vec::new();
+        for row in rows {
+            // Filter type 0, then the samples packed from the high bit, the last byte padded.
+            raw.push(0);
+            let per_byte = usize::from(8 / depth);
+            for byte in row.chunks(per_byte) {
+                let packed = byte
+                    .iter()
+                    .enumerate()
+                    .fold(0u8, |acc, (k, &v)| acc | v << (8 - depth * (k as u8 + 1)));
+                raw.push(packed);
+            }
+        }
+        let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::default());
+        z.write_all(&raw).unwrap();
+        let mut ihdr = Vec::new();
+        ihdr.extend_from_slice(&(width as u32).to_be_bytes());
+        ihdr.extend_from_slice(&(rows.len() as u32).to_be_bytes());
+        ihdr.extend_from_slice(&[depth, 0, 0, 0, 0]); // gray, deflate, filter 0, no interlace
+        let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+        chunk(&mut png, b"IHDR", &ihdr);
+        if let Some(t) = trns {
+            chunk(&mut png, b"tRNS", &t.to_be_bytes());
+        }
+        chunk(&mut png, b"IDAT", &z.finish().unwrap());
+        chunk(&mut png, b"IEND", &[]);
+        png
+    }
+
+    /// Gray below 8 bits reads the samples as stored, as GDAL does: the decoder widened them
+    /// to 8 bits, so a 4-bit 7 was a height of 119 m.
+    #[test]
+    fn gray_below_8_bits_reads_the_samples_as_stored() {
+        let dir = scratch_dir("png_low_bit");
+        for depth in [1u8, 2, 4] {
+            let top = (1u8 << depth) - 1;
+            // 5 columns: no whole number of bytes at any of these depths.
+            let rows: [&[u8]; 2] = [&[0, top, 1, top / 2, 0], &[top, 0, top, 1, 1]];
+            let path = dir.join(format!("gray{depth}.png"));
+            std::fs::write(&path, low_bit_gray_png(depth, &rows, None)).unwrap();
+            let map = read(&path, &opts(None)).unwrap();
+            let want: Vec<f64> = rows.concat().iter().map(|&v| f64::from(v)).collect();
+            assert_eq!(map.heights.data(), &want[..], "{depth}-bit");
+            assert_eq!(map.step, Some(1.0));
+        }
+        // With tRNS: its gray value is no-data, the others read as stored.
+        let path = dir.join("gray4_trns.png");
+        std::fs::write(&path, low_bit_gray_png(4, &[&[3, 7, 15]], Some(7))).unwrap();
+        let map = read(&path, &opts(None)).unwrap();
+        let d = map.heights.data();
+        assert_eq!((d[0], d[2], map.nodata_count), (3.0, 15.0, 1));
+        assert!(d[1].is_nan(), "{d:?}");
     }
 
     #[test]
