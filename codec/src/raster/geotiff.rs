@@ -8,7 +8,11 @@
 //!   its centre. [`Georef`] is centre-based, so area rasters move by half a pixel;
 //! - the CRS from ProjectedCSTypeGeoKey (3072), else GeographicTypeGeoKey (2048);
 //! - no-data from GDAL's GDAL_NODATA tag (42113, ASCII), compared in the sample type (a
-//!   float32 raster's `-3.4e+38` is the f32 nearest to it); NaN is always no-data.
+//!   float32 raster's `-3.4e+38` is the f32 nearest to it); NaN is always no-data;
+//! - band 1's scale and offset from GDAL's GDAL_METADATA tag (42112): heights are
+//!   `sample · scale + offset`, no-data matched on the samples as stored ([`gdal_metadata`]).
+//!
+//! [`gdal_metadata`]: super::gdal_metadata
 
 use std::io::{BufReader, Read, Seek};
 use std::path::Path;
@@ -18,6 +22,7 @@ use tiff::tags::Tag;
 use tiff::{ColorType, TiffError};
 
 use super::error::check_shape;
+use super::gdal_metadata::{self, Scaling};
 use super::{int_heights, open, Crs, Georef, Heightmap, RasterError, ReadOptions};
 use crate::grid::Grid;
 
@@ -28,6 +33,8 @@ const GEOGRAPHIC_TYPE_GEO_KEY: u16 = 2048;
 const PROJECTED_CS_TYPE_GEO_KEY: u16 = 3072;
 /// "User-defined": the CRS is spelled out in other keys, which we do not interpret.
 const USER_DEFINED: u16 = 32767;
+/// GDAL's own tag of band metadata as XML (the `tiff` crate names only GDAL_NODATA).
+const GDAL_METADATA: u16 = 42112;
 
 /// Reads a single-band GeoTIFF.
 pub(super) fn read(path: &Path, opts: &ReadOptions) -> Result<Heightmap, RasterError> {
@@ -59,10 +66,11 @@ pub(super) fn read(path: &Path, opts: &ReadOptions) -> Result<Heightmap, RasterE
 
     // The GeoTIFF and GDAL tags.
     let nodata = gdal_nodata(&mut decoder, path)?;
+    let scaling = gdal_scaling(&mut decoder, path)?;
     let georef = georef(&mut decoder).map_err(tiff_err)?;
 
     // Decode, and turn samples into heights with no-data as NaN.
-    let (samples, step) = match decoder.read_image().map_err(tiff_err)? {
+    let (mut samples, step) = match decoder.read_image().map_err(tiff_err)? {
         DecodingResult::U8(v) => (int_heights(&v, int_nodata(nodata)), Some(1.0)),
         DecodingResult::I8(v) => (int_heights(&v, int_nodata(nodata)), Some(1.0)),
         DecodingResult::U16(v) => (int_heights(&v, int_nodata(nodata)), Some(1.0)),
@@ -97,6 +105,14 @@ pub(super) fn read(path: &Path, opts: &ReadOptions) -> Result<Heightmap, RasterE
                 "64-bit integer samples; zerotile reads 8/16/32-bit integers and 32/64-bit floats",
             ))
         }
+    };
+    // GDAL's scale and offset: the samples were codes (and no-data matched as such).
+    let step = match scaling {
+        Some(s) => {
+            samples.iter_mut().for_each(|h| *h = s.apply(*h));
+            step.and_then(|_| s.int_step())
+        }
+        None => step,
     };
     let heights = Grid::new(height as usize, width as usize, samples)
         .map_err(|e| RasterError::format(path, e.to_string()))?;
@@ -160,6 +176,21 @@ fn gdal_nodata<R: Read + Seek>(
     text.parse::<f64>()
         .map(Some)
         .map_err(|_| RasterError::format(path, format!("GDAL_NODATA tag {text:?} is not a number")))
+}
+
+/// GDAL_METADATA's scale and offset of band 1, `None` when it sets neither.
+fn gdal_scaling<R: Read + Seek>(
+    decoder: &mut Decoder<R>,
+    path: &Path,
+) -> Result<Option<Scaling>, RasterError> {
+    let Some(value) = decoder
+        .find_tag(Tag::Unknown(GDAL_METADATA))
+        .map_err(|e| tiff_error(path, e))?
+    else {
+        return Ok(None);
+    };
+    let text = value.into_string().map_err(|e| tiff_error(path, e))?;
+    gdal_metadata::band1_scaling(&text).map_err(|e| RasterError::format(path, e))
 }
 
 /// An integer no-data value in the sample type, when the declared one is representable; a
@@ -710,5 +741,47 @@ mod tests {
         ]);
         assert_eq!(g.transform, [101.25, 2.0, 0.5, 199.125, 0.25, -2.0]);
         assert_eq!(g.to_gdal(), [100.0, 2.0, 0.5, 200.0, 0.25, -2.0]);
+    }
+
+    /// GDAL's scale and offset make the samples codes: a height is code · scale + offset, and
+    /// no-data is matched on the codes. The codes were read as heights (100..2128 m where GDAL
+    /// reads 250..1264 m).
+    #[test]
+    fn gdal_scale_and_offset_turn_samples_into_heights() {
+        let dir = scratch_dir("tiff_scaled");
+        let xml =
+            "<GDALMetadata>\n  <Item name=\"OFFSET\" sample=\"0\" role=\"offset\">200</Item>\n  \
+                   <Item name=\"SCALE\" sample=\"0\" role=\"scale\">0.5</Item>\n</GDALMetadata>";
+        let path = dir.join("int16.tif");
+        write_tiff(&path, (4, 1), &[100, 2128, -9999, 101], |dir| {
+            dir.write_tag(Tag::Unknown(GDAL_METADATA), xml).unwrap();
+            dir.write_tag(Tag::GdalNodata, "-9999").unwrap();
+        });
+        let map = read(&path, &ReadOptions::default()).unwrap();
+        let h = map.heights.data();
+        assert_eq!((h[0], h[1], h[3]), (250.0, 1264.0, 250.5));
+        assert!(h[2].is_nan(), "{h:?}");
+        // Half-metre codes from 200 m: heights are whole half metres.
+        assert_eq!(map.step, Some(0.5));
+
+        let path = dir.join("float32.tif");
+        write_tiff_as::<colortype::Gray32Float>(&path, (2, 1), &[1.25, 3.0], |dir| {
+            dir.write_tag(Tag::Unknown(GDAL_METADATA), xml).unwrap();
+        });
+        let map = read(&path, &ReadOptions::default()).unwrap();
+        assert_eq!(
+            (map.heights.data(), map.step),
+            (&[200.625, 201.5][..], None)
+        );
+
+        // A scale that is no number is the file's fault, said with the item.
+        let path = dir.join("bad.tif");
+        write_tiff(&path, (1, 1), &[1], |dir| {
+            let bad = "<GDALMetadata><Item name=\"SCALE\" sample=\"0\" role=\"scale\">x</Item></GDALMetadata>";
+            dir.write_tag(Tag::Unknown(GDAL_METADATA), bad).unwrap();
+        });
+        let err = read(&path, &ReadOptions::default()).unwrap_err();
+        assert!(matches!(err, RasterError::Format { .. }), "{err}");
+        assert!(err.to_string().contains("role=\"scale\">x</Item>"), "{err}");
     }
 }

@@ -25,6 +25,7 @@
 mod ascii_grid;
 mod encoding;
 mod error;
+mod gdal_metadata;
 mod georef;
 mod geotiff;
 mod heightmap;
