@@ -10,9 +10,12 @@
 //! - no-data from GDAL's GDAL_NODATA tag (42113, ASCII), compared in the sample type (a
 //!   float32 raster's `-3.4e+38` is the f32 nearest to it); NaN is always no-data;
 //! - band 1's scale and offset from GDAL's GDAL_METADATA tag (42112): heights are
-//!   `sample · scale + offset`, no-data matched on the samples as stored ([`gdal_metadata`]).
+//!   `sample · scale + offset`, no-data matched on the samples as stored ([`gdal_metadata`]);
+//! - GDAL's internal no-data mask, an image after the heights, whose 0 pixels are no-data
+//!   too ([`tiff_mask`]).
 //!
 //! [`gdal_metadata`]: super::gdal_metadata
+//! [`tiff_mask`]: super::tiff_mask
 
 use std::io::{BufReader, Read, Seek};
 use std::path::Path;
@@ -23,7 +26,7 @@ use tiff::{ColorType, TiffError};
 
 use super::error::check_shape;
 use super::gdal_metadata::{self, Scaling};
-use super::{int_heights, open, Crs, Georef, Heightmap, RasterError, ReadOptions};
+use super::{int_heights, open, tiff_mask, Crs, Georef, Heightmap, RasterError, ReadOptions};
 use crate::grid::Grid;
 
 /// GeoKey ids and values (GeoTIFF 1.1 §7).
@@ -114,6 +117,8 @@ pub(super) fn read(path: &Path, opts: &ReadOptions) -> Result<Heightmap, RasterE
         }
         None => step,
     };
+    // GDAL's internal mask: more no-data, read once the decoded samples are freed.
+    tiff_mask::apply(&mut decoder, path, &mut samples, (width, height))?;
     let heights = Grid::new(height as usize, width as usize, samples)
         .map_err(|e| RasterError::format(path, e.to_string()))?;
     Ok(Heightmap::new(heights, step, georef))
@@ -133,7 +138,7 @@ fn limits(max_samples: usize) -> Limits {
 }
 
 /// Sorts the `tiff` crate's errors by who is at fault.
-fn tiff_error(path: &Path, e: TiffError) -> RasterError {
+pub(super) fn tiff_error(path: &Path, e: TiffError) -> RasterError {
     match e {
         TiffError::IoError(io) => RasterError::from_read(path, io),
         TiffError::UnsupportedError(u) => RasterError::unsupported(path, u.to_string()),
@@ -783,5 +788,175 @@ mod tests {
         let err = read(&path, &ReadOptions::default()).unwrap_err();
         assert!(matches!(err, RasterError::Format { .. }), "{err}");
         assert!(err.to_string().contains("role=\"scale\">x</Item>"), "{err}");
+    }
+
+    /// A mask image's entries, `rows × cols`, 1 bit a pixel, with `compression`; its strips
+    /// or tiles are the caller's to add. NewSubfileType 4: the full-resolution mask.
+    fn mask_entries(rows: u32, cols: u32, compression: u32) -> Vec<Entry> {
+        vec![
+            (254, 4, vec![4]),           // NewSubfileType: transparency mask
+            (256, 4, vec![cols]),        // ImageWidth
+            (257, 4, vec![rows]),        // ImageLength
+            (258, 3, vec![1]),           // BitsPerSample
+            (259, 3, vec![compression]), // Compression
+            (262, 3, vec![4]),           // PhotometricInterpretation: transparency mask
+            (277, 3, vec![1]),           // SamplesPerPixel
+        ]
+    }
+
+    /// The `rows × cols` block of `mask` (1 valid, 0 no-data) from (`row`, `col`), a bit a
+    /// pixel from the high bit, each row padded to a byte; pixels outside `mask` are 0.
+    fn packed(
+        mask: &[Vec<u8>],
+        (row, col): (usize, usize),
+        (rows, cols): (usize, usize),
+    ) -> Vec<u8> {
+        let mut out = Vec::new();
+        for r in row..row + rows {
+            let mut bits = vec![0u8; cols.div_ceil(8)];
+            for c in 0..cols {
+                let valid = mask.get(r).and_then(|m| m.get(col + c)) == Some(&1);
+                bits[c / 8] |= u8::from(valid) << (7 - c % 8);
+            }
+            out.extend(bits);
+        }
+        out
+    }
+
+    fn deflated(bytes: &[u8]) -> Vec<u8> {
+        use std::io::Write;
+        let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::default());
+        z.write_all(bytes).unwrap();
+        z.finish().unwrap()
+    }
+
+    /// PackBits with runs of 2 or more and one-byte literals, after a no-op header (128).
+    fn packbits(bytes: &[u8]) -> Vec<u8> {
+        let mut out = vec![128];
+        let mut i = 0;
+        while i < bytes.len() {
+            let run = bytes[i..]
+                .iter()
+                .take(128)
+                .take_while(|&&b| b == bytes[i])
+                .count();
+            if run >= 2 {
+                out.extend([(257 - run) as u8, bytes[i]]);
+            } else {
+                out.extend([0, bytes[i]]);
+            }
+            i += run;
+        }
+        out
+    }
+
+    fn int16_bytes(samples: &[i16]) -> Vec<u8> {
+        samples.iter().flat_map(|v| v.to_le_bytes()).collect()
+    }
+
+    /// The heights' positions that read as no-data.
+    fn nodata_at(map: &Heightmap) -> Vec<(usize, usize)> {
+        let cols = map.heights.cols();
+        let data = map.heights.data();
+        (0..data.len())
+            .filter(|&k| data[k].is_nan())
+            .map(|k| (k / cols, k % cols))
+            .collect()
+    }
+
+    /// GDAL's internal mask (a 1-bit image after the heights, NewSubfileType 4, DEFLATE, as
+    /// GDAL writes it) marks no-data beside GDAL_NODATA: its 0 pixels read as heights before
+    /// (0 m pits). An overview and the overview's own mask before it are passed over.
+    #[test]
+    fn gdals_internal_mask_is_no_data() {
+        let (rows, cols) = (3u32, 10u32);
+        let mut samples: Vec<i16> = (1..=30).collect();
+        samples[2 * 10 + 4] = -9999;
+        let mut mask = vec![vec![1u8; 10]; 3];
+        for (r, c) in [(0, 0), (1, 9), (2, 3)] {
+            mask[r][c] = 0;
+        }
+        let mut heights = gray(rows, cols, (16, 2), rows);
+        heights.push((42113, 2, b"-9999\0".iter().map(|&b| u32::from(b)).collect()));
+        let mut overview = gray(2, 5, (16, 2), 2);
+        overview.push((254, 4, vec![1]));
+        let mut overview_mask = mask_entries(2, 5, 8);
+        overview_mask[0].2 = vec![5];
+        overview_mask.push((278, 4, vec![2]));
+        // Two strips of 2 rows, the last with 1.
+        let mut full_mask = mask_entries(rows, cols, 8);
+        full_mask.push((278, 4, vec![2]));
+        let strips = vec![
+            deflated(&packed(&mask, (0, 0), (2, 10))),
+            deflated(&packed(&mask, (2, 0), (1, 10))),
+        ];
+        let bytes = tiff_of(&[
+            (heights, vec![int16_bytes(&samples)]),
+            (overview, vec![vec![0; 20]]),
+            (overview_mask, vec![deflated(&[0; 2])]),
+            (full_mask, strips),
+        ]);
+        let path = scratch_dir("tiff_mask").join("mask.tif");
+        std::fs::write(&path, bytes).unwrap();
+        let map = read(&path, &ReadOptions::default()).unwrap();
+        assert_eq!(nodata_at(&map), [(0, 0), (1, 9), (2, 3), (2, 4)]);
+        assert_eq!(map.nodata_count, 4);
+        assert_eq!(map.min_max(), Some((2.0, 30.0)));
+    }
+
+    /// A tiled mask (a COG's) whose tiles run past the image, PackBits-coded: only the
+    /// pixels inside the image count, the padding (0 here) does not.
+    #[test]
+    fn a_tiled_mask_is_read_inside_the_image_only() {
+        let (rows, cols) = (18u32, 20u32);
+        let mut mask = vec![vec![1u8; 20]; 18];
+        let holes = [(0, 0), (3, 17), (15, 15), (16, 16), (17, 19)];
+        for (r, c) in holes {
+            mask[r][c] = 0;
+        }
+        let mut entries = mask_entries(rows, cols, 32773);
+        entries.extend([(322, 4, vec![16]), (323, 4, vec![16])]);
+        let tiles = [(0, 0), (0, 16), (16, 0), (16, 16)]
+            .map(|at| packbits(&packed(&mask, at, (16, 16))))
+            .to_vec();
+        let heights = gray(rows, cols, (16, 2), rows);
+        let bytes = tiff_of(&[(heights, vec![int16_bytes(&[7; 360])]), (entries, tiles)]);
+        let path = scratch_dir("tiff_tiled_mask").join("tiled.tif");
+        std::fs::write(&path, bytes).unwrap();
+        let map = read(&path, &ReadOptions::default()).unwrap();
+        assert_eq!(nodata_at(&map), holes);
+    }
+
+    /// An 8-bit mask reads 0 as no-data and anything else as data; a mask coded in a way not
+    /// read here (LZW) is refused, not passed over, which would read its holes as heights.
+    #[test]
+    fn an_8_bit_mask_is_read_and_an_lzw_one_refused() {
+        let heights = || gray(2, 3, (16, 2), 2);
+        let mut entries = mask_entries(2, 3, 1);
+        entries[3].2 = vec![8];
+        entries.push((278, 4, vec![2]));
+        let bytes = tiff_of(&[
+            (heights(), vec![int16_bytes(&[1, 2, 3, 4, 5, 6])]),
+            (entries.clone(), vec![vec![255, 0, 7, 0, 255, 1]]),
+        ]);
+        let dir = scratch_dir("tiff_mask_8");
+        let path = dir.join("mask8.tif");
+        std::fs::write(&path, bytes).unwrap();
+        let map = read(&path, &ReadOptions::default()).unwrap();
+        assert_eq!(nodata_at(&map), [(0, 1), (1, 0)]);
+
+        entries[4].2 = vec![5];
+        let bytes = tiff_of(&[
+            (heights(), vec![int16_bytes(&[1, 2, 3, 4, 5, 6])]),
+            (entries, vec![vec![0; 6]]),
+        ]);
+        let path = dir.join("lzw.tif");
+        std::fs::write(&path, bytes).unwrap();
+        let err = read(&path, &ReadOptions::default()).unwrap_err();
+        assert!(matches!(err, RasterError::Unsupported { .. }), "{err}");
+        assert!(
+            err.to_string().contains("no-data mask") && err.to_string().contains("compression 5"),
+            "{err}"
+        );
     }
 }

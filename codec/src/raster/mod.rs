@@ -32,6 +32,7 @@ mod heightmap;
 mod hgt;
 mod numpy;
 mod png;
+mod tiff_mask;
 
 use std::fs::File;
 use std::path::Path;
