@@ -1,6 +1,7 @@
 //! Mesh validation and repair: count what is wrong with a mesh from outside, refuse what no
 //! repair can fix, and turn the rest into a clean 2-manifold (possibly with boundary) that the
-//! simplifiers can rely on.
+//! simplifiers can rely on. A face without area is no valid face: it has no normal to shade or
+//! simplify by, so repair drops it, as it drops a face that repeats a vertex.
 //!
 //! The checks follow Botsch et al., *Polygon Mesh Processing* (2010, §2.1, manifoldness);
 //! non-manifold edges and pinched vertices are handled as in Guéziec, Taubin, Lazarus and Horn,
@@ -8,6 +9,7 @@
 //! every fan of faces around a vertex gets its own copy of the vertex, which splits a pinched
 //! vertex in two and cuts an edge shared by more than two faces open along its sheets.
 
+use glam::DVec3;
 use serde::Serialize;
 
 use super::error::MeshError;
@@ -25,7 +27,8 @@ pub struct ValidationReport {
     pub out_of_range_indices: usize,
     /// Faces that repeat a vertex (`[a, a, b]`): removed by [`repair`].
     pub degenerate_faces: usize,
-    /// Faces with three distinct vertices but zero area (collinear): reported, kept.
+    /// Faces with three distinct vertices but zero area (on one line, or too close together
+    /// for f64 to tell a side): removed by [`repair`].
     pub zero_area_faces: usize,
     /// Faces over the same three vertices as an earlier face, either winding: removed.
     pub duplicate_faces: usize,
@@ -51,6 +54,7 @@ impl ValidationReport {
         self.nan_coordinates == 0
             && self.out_of_range_indices == 0
             && self.degenerate_faces == 0
+            && self.zero_area_faces == 0
             && self.duplicate_faces == 0
             && self.non_manifold_edges == 0
             && self.non_manifold_vertices == 0
@@ -85,10 +89,7 @@ pub fn inspect(mesh: &TriMesh) -> ValidationReport {
     r.zero_area_faces = in_range
         .iter()
         .filter(|t| t[0] != t[1] && t[1] != t[2] && t[2] != t[0])
-        .filter(|t| {
-            let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
-            (b - a).cross(c - a) == glam::DVec3::ZERO
-        })
+        .filter(|t| without_area(&mesh.positions, t))
         .count();
     // Edge- and vertex-level defects on the cleaned faces.
     let clean = TriMesh::new(mesh.positions.clone(), kept);
@@ -105,22 +106,34 @@ pub fn inspect(mesh: &TriMesh) -> ValidationReport {
 }
 
 /// Inspects `mesh`, refuses it if it has NaN coordinates or out-of-range indices, and returns
-/// a repaired copy: degenerate and duplicate faces removed, non-manifold edges cut open,
-/// pinched vertices split (one vertex per fan), unreferenced vertices dropped. The report
-/// describes the input.
+/// a repaired copy: degenerate, zero-area and duplicate faces removed, non-manifold edges cut
+/// open, pinched vertices split (one vertex per fan), unreferenced vertices dropped. The
+/// report describes the input.
 pub fn repair(mesh: &TriMesh) -> Result<(TriMesh, ValidationReport), MeshError> {
     // Refuse what cannot be repaired, with the first offender named.
     mesh.check()?;
     let report = inspect(mesh);
     // Drop faces that add no surface or repeat one.
-    let (faces, _, _) = clean_faces(&mesh.faces);
+    let (mut faces, _, _) = clean_faces(&mesh.faces);
+    let with_zero_area = faces.len();
+    faces.retain(|t| !without_area(&mesh.positions, t));
+    let flattened = with_zero_area > faces.len();
     let mut out = TriMesh::new(mesh.positions.clone(), faces);
-    // Give every fan its own vertex: splits pinched vertices and cuts non-manifold edges.
-    if report.non_manifold_edges > 0 || report.non_manifold_vertices > 0 {
+    // Give every fan its own vertex: splits pinched vertices and cuts non-manifold edges. A
+    // face without area may have joined two fans that now meet at a point only.
+    if report.non_manifold_edges > 0 || report.non_manifold_vertices > 0 || flattened {
         out = split_fans(&out);
     }
     out.drop_unreferenced();
     Ok((out, report))
+}
+
+/// Whether a face's corners enclose no area in f64 (on one line or at one point): its cross
+/// product, taken from its first corner as [`TriMesh::face_normals`] takes it, is zero, so it
+/// has no normal.
+fn without_area(positions: &[DVec3], t: &[u32; 3]) -> bool {
+    let [a, b, c] = t.map(|i| positions[i as usize]);
+    (b - a).cross(c - a) == DVec3::ZERO
 }
 
 /// Removes faces with a repeated corner and faces whose vertex set appeared before; returns
@@ -314,6 +327,40 @@ mod tests {
         let (fixed, r) = repair(&m).expect("repairable");
         assert_eq!((r.degenerate_faces, r.duplicate_faces), (1, 2));
         assert_eq!(fixed.faces, vec![[0, 1, 2], [1, 3, 2]]);
+    }
+
+    /// A face whose corners lie on one line was kept, served in every LOD, though it is no
+    /// valid face. It goes; two fans it joined at a vertex are split as a pinch is.
+    #[test]
+    fn repair_drops_faces_without_area() {
+        // A tetrahedron, and a face along its edge 0-1 through the edge's midpoint (vertex 4).
+        let tetrahedron = TriMesh::new(
+            vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z, DVec3::X / 2.0],
+            vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3], [0, 4, 1]],
+        );
+        let (fixed, r) = repair(&tetrahedron).expect("repairable");
+        assert_eq!(r.zero_area_faces, 1);
+        assert!(!r.is_clean());
+        assert_eq!(fixed.faces, tetrahedron.faces[..4]);
+        assert_eq!(fixed.vertex_count(), 4);
+        assert!(inspect(&fixed).is_clean());
+        // Vertex 0's faces are one fan only through the flat face 0 1 2 along the x axis:
+        // without it, two triangles meet at vertex 0 alone.
+        let bow = TriMesh::new(
+            vec![
+                DVec3::ZERO,
+                DVec3::X,
+                -DVec3::X,
+                DVec3::new(1.0, -1.0, 0.0),
+                DVec3::new(-1.0, -1.0, 0.0),
+            ],
+            vec![[0, 1, 2], [0, 3, 1], [0, 2, 4]],
+        );
+        assert_eq!(inspect(&bow).non_manifold_vertices, 0);
+        let (fixed, _) = repair(&bow).expect("repairable");
+        assert_eq!(fixed.face_count(), 2);
+        assert_eq!(fixed.vertex_count(), 6, "vertex 0 split");
+        assert_eq!(inspect(&fixed).non_manifold_vertices, 0);
     }
 
     #[test]

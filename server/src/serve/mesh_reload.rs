@@ -169,14 +169,16 @@ impl MeshCatalog {
                     continue;
                 }
                 match load(&path) {
-                    Ok(mesh) => {
-                        let entry = MeshEntry::new(stem.clone(), mesh, path);
+                    Ok(repaired) => {
+                        let entry = MeshEntry::new(stem.clone(), repaired, path);
                         // The same mesh (a file touched, or copied again) keeps its LOD
                         // structures.
+                        let same = |e: &MeshEntry| {
+                            (e.content, &e.source, e.faces_dropped)
+                                == (entry.content, &entry.source, entry.faces_dropped)
+                        };
                         let entry = match old {
-                            Some(e) if e.content == entry.content && e.source == entry.source => {
-                                Arc::clone(e)
-                            }
+                            Some(e) if same(e) => Arc::clone(e),
                             Some(_) => {
                                 changes.replaced.push(file.clone());
                                 Arc::new(entry)

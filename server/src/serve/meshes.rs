@@ -59,6 +59,9 @@ pub struct MeshEntry {
     /// the old mesh).
     pub content: u64,
     pub source: PathBuf,
+    /// The file's triangles that repair dropped (no area, a repeated vertex, or the corners
+    /// of an earlier face): a mesh that lost some is no longer the file's.
+    pub faces_dropped: usize,
     silhouette: BuiltOnce<ViewSphere>,
     octree: BuiltOnce<OctreeLod>,
     curvature: BuiltOnce<Vec<Level>>,
@@ -83,11 +86,12 @@ impl Structure {
 }
 
 impl MeshEntry {
-    pub(super) fn new(name: String, mesh: TriMesh, source: PathBuf) -> Self {
+    pub(super) fn new(name: String, read: Repaired, source: PathBuf) -> Self {
         Self {
             name,
-            content: content_hash(&mesh),
-            mesh,
+            content: content_hash(&read.mesh),
+            mesh: read.mesh,
+            faces_dropped: read.faces_dropped,
             source,
             silhouette: BuiltOnce::default(),
             octree: BuiltOnce::default(),
@@ -295,7 +299,7 @@ impl MeshCatalog {
     ) -> Result<(Arc<MeshEntry>, bool), UploadError> {
         self.takes_uploads()?;
         let read = io::read_bytes(bytes, format, &limits()).map_err(anyhow::Error::from);
-        let mesh = read
+        let served = read
             .and_then(|m| repaired(&m))
             .map_err(UploadError::Invalid)?;
         let format = format
@@ -314,7 +318,7 @@ impl MeshCatalog {
             .filter(|e| e.name != name)
             .map(|e| charge(e.mesh.face_count()))
             .sum();
-        let faces = mesh.face_count();
+        let faces = served.mesh.face_count();
         if held.saturating_add(charge(faces)) > self.quota {
             return Err(UploadError::Quota {
                 held,
@@ -329,7 +333,7 @@ impl MeshCatalog {
         }
         // The rescan then knows the file for the one it has just been read as.
         self.uploaded(&mut seen, name, &path);
-        let entry = Arc::new(MeshEntry::new(name.to_string(), mesh, path));
+        let entry = Arc::new(MeshEntry::new(name.to_string(), served, path));
         let mut map = self.served_mut();
         let replaced = map.insert(name.to_string(), entry.clone()).is_some();
         Ok((entry, replaced))
@@ -372,21 +376,27 @@ fn content_hash(mesh: &TriMesh) -> u64 {
     h.finish()
 }
 
+/// A file's mesh as served, with the count of its triangles repair dropped.
+#[derive(Debug)]
+pub(super) struct Repaired {
+    pub mesh: TriMesh,
+    pub faces_dropped: usize,
+}
+
 /// The served mesh read from `path`. Errors do not name the path: the rescan's log line and
 /// `/v1/meshes`' skipped entry name the file, and the listing is public, so the server's
 /// folder stays out of it.
-pub(super) fn load(path: &Path) -> Result<TriMesh> {
+pub(super) fn load(path: &Path) -> Result<Repaired> {
     // Opened without blocking: the file a rescan listed may be a FIFO by now.
     let (file, _) = crate::regular_file::open(path)?;
     let mesh = io::read_file(file, path, &limits())?;
     repaired(&mesh)
 }
 
-/// The repaired mesh, or why it cannot be served. Repair keeps faces whose three distinct
-/// vertices sit on one line or point, so a mesh can come out with faces yet no surface: it
-/// has no extent to simplify or view (QEM's error, a fraction of the diagonal, has nothing
-/// to measure against), so it is refused like an empty one.
-fn repaired(mesh: &TriMesh) -> Result<TriMesh> {
+/// The repaired mesh, or why it cannot be served: repair drops the faces without area, and a
+/// mesh left with none has no surface to simplify or view (QEM's error, a fraction of the
+/// diagonal, has nothing to measure against).
+fn repaired(mesh: &TriMesh) -> Result<Repaired> {
     // GLB and binary PLY store f32: a finite f64 past its range would make every such
     // answer fail (GLB) or carry infinities (PLY).
     let limit = f64::from(f32::MAX);
@@ -404,15 +414,22 @@ fn repaired(mesh: &TriMesh) -> Result<TriMesh> {
     }
     let (clean, _) = repair(mesh)?;
     has_surface(&clean)?;
-    Ok(clean)
+    Ok(Repaired {
+        faces_dropped: mesh.face_count() - clean.face_count(),
+        mesh: clean,
+    })
 }
 
 /// Refuses a repaired mesh without faces, too large to measure, or whose faces all have zero
 /// area. `eval mesh` asks the same, so it never reports distances for a mesh the server would
 /// not take.
 pub(crate) fn has_surface(clean: &TriMesh) -> Result<()> {
+    const NO_AREA: &str = "the mesh has no valid faces: every face has zero area (its corners \
+                           coincide or lie on one line)";
+    // The file had faces (a reader refuses one without), so repair dropped them all, and
+    // repair drops only faces without area and repeats of a face it keeps.
     if clean.faces.is_empty() {
-        anyhow::bail!("the mesh has no valid faces");
+        anyhow::bail!(NO_AREA);
     }
     // Distances are fractions of the diagonal: past f64 (two small triangles ±1.7e308 apart)
     // it is infinite or NaN, and a simplification that dropped one of them measured 0 %.
@@ -434,11 +451,9 @@ pub(crate) fn has_surface(clean: &TriMesh) -> Result<()> {
             diagonal
         );
     }
+    // Corners ~1e-160 apart: a cross product that is not zero, whose length underflows.
     if !areas.iter().any(|&a| a > 0.0) {
-        anyhow::bail!(
-            "the mesh has no valid faces: every face has zero area (its corners coincide or \
-             lie on one line)"
-        );
+        anyhow::bail!(NO_AREA);
     }
     Ok(())
 }

@@ -1225,6 +1225,35 @@ async fn mesh_lods_are_revalidated_since_an_upload_replaces_them() {
     let _ = std::fs::remove_dir_all(&data);
 }
 
+/// A face without area is no valid face, yet the QA pass's tetrahedron with a face along one
+/// of its edges (`f 1 5 2`) was served with it in every LOD. Repair drops it, and a mesh's
+/// summary counts what it dropped: for a file of the folder and for an upload alike.
+#[tokio::test]
+async fn faces_without_area_are_dropped_and_counted() {
+    const WITH_A_FLAT_FACE: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nv 0.5 0 0\n\
+                                    f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\nf 1 5 2\n";
+    let data = one_triangle_data("flat-face");
+    std::fs::write(data.join("meshes/t.obj"), WITH_A_FLAT_FACE).unwrap();
+    let app = router_with_meshes("mesh-flat-face", &data);
+    let json = |body: &[u8]| serde_json::from_slice::<serde_json::Value>(body).unwrap();
+    let counts = |m: &serde_json::Value| (m["faces"].clone(), m["faces_dropped"].clone());
+    let (s, _, body) = get(&app, "/v1/meshes").await;
+    assert_eq!(s, StatusCode::OK);
+    let listed = json(&body)["meshes"].clone();
+    assert_eq!(listed[0]["name"], "a");
+    assert_eq!(counts(&listed[0]), (1.into(), 0.into()));
+    assert_eq!(listed[1]["name"], "t");
+    assert_eq!(counts(&listed[1]), (4.into(), 1.into()));
+    let (s, body) = post_obj(&app, "/v1/meshes/u", WITH_A_FLAT_FACE).await;
+    assert_eq!(s, StatusCode::CREATED);
+    assert_eq!(counts(&json(&body)), (4.into(), 1.into()));
+    let (_, _, body) = get(&app, "/v1/meshes/u/original").await;
+    let original = json(&body);
+    assert_eq!(original["indices"].as_array().unwrap().len(), 12);
+    assert_eq!(original["positions"].as_array().unwrap().len(), 12);
+    let _ = std::fs::remove_dir_all(&data);
+}
+
 /// `curl --data-binary @mesh.obj URL`, the first upload a curl user tries, labels the body
 /// a form: still a 415 (a form is not a mesh), but one that says which header to add. No
 /// `Accept-Encoding`: a 415 that is not about the content coding must not carry one.

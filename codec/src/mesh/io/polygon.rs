@@ -14,12 +14,13 @@
 //! - non-planar: cut as they lie in the plane of the normal, each corner keeping its position;
 //! - repeated corners: a convex polygon's fan repeats the vertex in a triangle, which
 //!   [`crate::mesh::repair`] drops; earcut leaves the repeat out;
-//! - collinear corners: in a convex polygon, fan triangles of zero area; earcut leaves the
-//!   corner out;
+//! - collinear corners: in a convex polygon, fan triangles of zero area, which repair drops;
+//!   earcut leaves the corner out;
 //! - self-intersecting: what earcut can cut of it, wound as the polygon's net area;
 //! - no net area (every corner on one line or point, a figure eight whose loops cancel) or
-//!   coordinates too large to measure: no side to wind by, so fanned as listed
-//!   ([`crate::mesh::io::read_bytes`] refuses coordinates that are not finite).
+//!   coordinates too large to measure: no side to wind by, so fanned as listed; repair drops
+//!   the triangles without area ([`crate::mesh::io::read_bytes`] refuses coordinates that are
+//!   not finite).
 
 use earcut::Earcut;
 use glam::DVec3;

@@ -94,6 +94,7 @@ fn summary(e: &MeshEntry) -> Value {
         "name": e.name,
         "vertices": e.mesh.vertex_count(),
         "faces": e.mesh.face_count(),
+        "faces_dropped": e.faces_dropped,
         "bbox": [b.min.to_array(), b.max.to_array()],
         "diagonal": b.diagonal(),
         "url": format!("/v1/meshes/{}", e.name),
