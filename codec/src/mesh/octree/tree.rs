@@ -1,5 +1,5 @@
-//! The modified adaptive octree of the paper's §II.1 (Fig. 2): breadth-first from the mesh's
-//! bounding cube, a box is split only while it holds more than `leaf_vertices` vertices, and
+//! The modified adaptive octree of the paper's §II.1 (Fig. 2): breadth-first from a bounding
+//! cube of the mesh, a box is split only while it holds more than `leaf_vertices` vertices, and
 //! of its eight octants only those holding a vertex become children. Empty octants are counted
 //! (the plain adaptive octree, AOSP, creates them) but never stored.
 
@@ -77,10 +77,41 @@ pub struct Octree {
     pub plain_boxes_per_depth: Vec<usize>,
 }
 
+/// The root cube (centre, half side) round the bounding box `min`..`max`: its side is the
+/// box's longest, and on each axis the data sits centred in the smallest of the cube's slabs
+/// (side / 2^k, k ≤ `max_depth`) that holds it.
+///
+/// Centred on the box, the cube's mid-plane cut every axis at depth 1 through the data's middle:
+/// across a thin sheet (a bumpy height field 100 wide, 0.4 thick) every triangle then spanned
+/// that plane, so no vertex was interior below the root and every level was the input. Centred
+/// in its slab, the data is first cut where the boxes are about as thin as it, through its
+/// middle as before. An axis longer than half the side (every axis of fandisk, the bunny,
+/// the sphere and the vase) is placed as before.
+pub fn root_cube(min: DVec3, max: DVec3, max_depth: u32) -> (DVec3, f64) {
+    let side = (max - min).max_element();
+    let mut centre = (min + max) * 0.5;
+    for axis in 0..3 {
+        let extent = max[axis] - min[axis];
+        // Halve while the data fits in half the slab with room to spare: then no plane of
+        // the slab's depth or above lies in it.
+        let mut slab = side;
+        for _ in 0..max_depth {
+            if slab / 2.0 <= extent {
+                break;
+            }
+            slab /= 2.0;
+        }
+        // The slab is the cube's first on this axis, its middle the data's. (For the whole
+        // side this adds 0, so a cube centred on the box is exactly that.)
+        centre[axis] += (side - slab) / 2.0;
+    }
+    (centre, side * 0.5)
+}
+
 impl Octree {
     /// Builds the tree; `positions` must be finite (the caller checked the mesh).
     pub fn build(positions: &[DVec3], max_depth: u32, leaf_vertices: usize) -> Self {
-        // The root is the bounding cube, so every depth's boxes are cubes of one size.
+        // The root is a bounding cube, so every depth's boxes are cubes of one size.
         let (min, max) = positions
             .iter()
             .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &p| {
@@ -89,7 +120,7 @@ impl Octree {
         let (centre, half) = if positions.is_empty() {
             (DVec3::ZERO, 0.0)
         } else {
-            ((min + max) * 0.5, ((max - min).max_element() * 0.5))
+            root_cube(min, max, max_depth)
         };
         let n = positions.len();
         let mut nodes = vec![Node::root(centre, half, n as u32)];
