@@ -17,6 +17,7 @@ use zerotile_codec::container::TileId;
 use zerotile_codec::formats::terrain_rgb::{self, PngCompression};
 use zerotile_codec::geo::{Scheme, MAX_ZOOM};
 
+use crate::serve::codings::Coding;
 use crate::serve::dataset::Dataset;
 use crate::serve::negotiate::Extensions;
 use crate::serve::pipeline::Cancel;
@@ -221,13 +222,15 @@ pub fn run(job: &Export) -> Result<Exported> {
                 watermask: true,
                 metadata: false,
             },
-            gzip: false,
+            coding: Coding::Identity,
         },
         TileFormat::Png => Variant::Png {
             terrarium: PNG_TERRARIUM,
             size: PNG_SIZE,
         },
-        _ => Variant::Mesh { gzip: false },
+        _ => Variant::Mesh {
+            coding: Coding::Identity,
+        },
     };
 
     let path = crate::ingest::existing_dataset_path(&job.dataset, &job.data)?;

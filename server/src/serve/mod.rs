@@ -56,7 +56,6 @@ use anyhow::{Context, Result};
 use axum::http::{header, Method, StatusCode};
 use axum::routing::get;
 use axum::Router;
-use tower_http::compression::predicate::{DefaultPredicate, NotForContentType, Predicate};
 use tower_http::cors::{AllowOrigin, Any, CorsLayer};
 use tower_http::timeout::TimeoutLayer;
 use tower_http::trace::TraceLayer;
@@ -104,10 +103,6 @@ pub fn app(state: AppState) -> Router {
         .fallback(error::not_found)
         .method_not_allowed_fallback(error::method_not_allowed);
 
-    // Tiles that are already compact (PNG, EZW prefixes) or already gzipped are left alone.
-    let compress = DefaultPredicate::new()
-        .and(NotForContentType::const_new(routes::tiles::EZW_MEDIA))
-        .and(NotForContentType::const_new("model/gltf-binary"));
     let origins: Vec<header::HeaderValue> = state
         .config
         .cors_origins
@@ -149,7 +144,7 @@ pub fn app(state: AppState) -> Router {
     routes
         .layer(axum::middleware::from_fn(plain_names::plain_names))
         .layer(axum::middleware::from_fn(codings::refuse_unacceptable))
-        .layer(codings::layer().compress_when(compress))
+        .layer(codings::app_layer())
         .layer(TimeoutLayer::with_status_code(
             StatusCode::SERVICE_UNAVAILABLE,
             REQUEST_TIMEOUT,

@@ -10,6 +10,7 @@ use axum::http::{HeaderMap, HeaderValue, StatusCode};
 use axum::response::Response;
 use serde::Serialize;
 
+use crate::serve::codings::{self, Coding};
 use crate::serve::error::{ApiError, ApiResult};
 use crate::serve::negotiate;
 
@@ -23,9 +24,12 @@ pub const REVALIDATE: &str = "public, no-cache";
 /// request differently, so a client's copy from the old server must not revalidate.
 pub const RENDERER: &str = concat!("zerotile ", env!("CARGO_PKG_VERSION"));
 
-/// A weak tag (the compression layer re-encodes the body per client) from a hash.
-pub fn weak_tag(prefix: char, key: u64) -> String {
-    format!("W/\"{prefix}{key:016x}\"")
+/// A weak tag from a hash, naming the coding the body goes out in: each coding has its own
+/// tag, as RFC 9110 §8.8.3 asks of strong ones, so a cache holding several never takes one
+/// coding's 304 for another's copy. Weak, since the compression layer makes those bytes and
+/// a change of its library may make others.
+pub fn weak_tag(prefix: char, key: u64, coding: Coding) -> String {
+    format!("W/\"{prefix}{key:016x}{}\"", coding.tag_suffix())
 }
 
 /// The validator headers a tagged answer carries, on its 200 and its 304 alike.
@@ -60,7 +64,8 @@ pub fn not_modified(
     Ok(Some(res))
 }
 
-/// `value` as JSON with a tag of its bytes, or a 304 when the client holds those bytes.
+/// `value` as JSON with a tag of its bytes in the coding the layer sends them in, or a 304
+/// when the client holds them.
 pub fn json(
     headers: &HeaderMap,
     value: &impl Serialize,
@@ -69,7 +74,7 @@ pub fn json(
     let bytes = serde_json::to_vec(value).map_err(ApiError::internal)?;
     let mut h = DefaultHasher::new();
     bytes.hash(&mut h);
-    let etag = weak_tag('j', h.finish());
+    let etag = weak_tag('j', h.finish(), codings::of_layer(headers));
     if let Some(res) = not_modified(headers, &etag, cache_control)? {
         return Ok(res);
     }

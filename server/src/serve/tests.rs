@@ -833,16 +833,17 @@ async fn cors_allows_any_origin_unless_configured() {
     assert!(h.get("access-control-allow-origin").is_none());
 }
 
-/// A mesh for a gzip client is compressed once, when rendered, so the response cache holds
-/// the compressed body and a hit costs no compression (the compression layer would
-/// otherwise gzip it again on every request, with the same bytes on the wire).
+/// A mesh for a gzip or br client is compressed once, when rendered, so the response cache
+/// holds the compressed body and a hit costs no compression (the compression layer would
+/// otherwise compress it again on every request, with the same bytes on the wire).
 #[test]
 fn gzip_variants_are_rendered_compressed_for_the_cache() {
+    use super::codings::Coding;
     use super::routes::tiles::{render_tile, TileFormat, Variant};
     let d = hill_dataset("gzip-render", "local", &[ROOT]);
     let state = AppState::new(Catalog::default(), Config::default()).unwrap();
-    let render = |gzip| {
-        let v = Variant::Mesh { gzip };
+    let render = |coding| {
+        let v = Variant::Mesh { coding };
         render_tile(
             &state,
             &d,
@@ -856,10 +857,83 @@ fn gzip_variants_are_rendered_compressed_for_the_cache() {
         .unwrap()
         .bytes
     };
-    let (zipped, plain) = (render(true), render(false));
+    let (zipped, plain) = (render(Coding::Gzip), render(Coding::Identity));
     assert_eq!(zipped[..2], [0x1f, 0x8b], "a gzip member");
     assert_eq!(plain[0], b'{');
     assert!(zipped.len() < plain.len());
+    let br = render(Coding::Br);
+    assert!(br.len() < plain.len());
+    assert_eq!(unbrotli(&br), plain);
+}
+
+fn unbrotli(b: &[u8]) -> Vec<u8> {
+    use std::io::Read;
+    let mut out = Vec::new();
+    brotli::Decompressor::new(b, 4096)
+        .read_to_end(&mut out)
+        .unwrap();
+    out
+}
+
+/// Every content coding of an answer has its own ETag, so a cache holding several copies
+/// never takes a 304 for one coding as one for another's copy. A br tile was compressed by
+/// the layer under the uncompressed body's tag (gzip had its own): an identity request
+/// revalidating with the br copy's tag got a 304. The answers the layer compresses
+/// (descriptions, views, mesh LODs, assets) shared one weak tag for every coding.
+#[tokio::test]
+async fn each_content_coding_has_its_own_etag() {
+    /// GET `uri` accepting `coding`, with `If-None-Match: tag` if given.
+    async fn coded(
+        app: &Router,
+        uri: &str,
+        coding: &str,
+        tag: Option<&str>,
+    ) -> (StatusCode, axum::http::HeaderMap, Vec<u8>) {
+        let mut h = vec![("accept-encoding", coding)];
+        h.extend(tag.map(|t| ("if-none-match", t)));
+        send(app, Method::GET, uri, &h).await
+    }
+    let data = one_triangle_data("codings-etag");
+    let local = router_with_meshes("codings-etag", &data);
+    let geo = router_of("codings-etag-geo", "geodetic");
+    for (app, uri) in [
+        (&local, "/v1/datasets/hill/tiles/0/0/0.json?threshold=4"),
+        (&local, "/v1/datasets/hill/tiles/0/0/0.bin?threshold=4"),
+        (&local, "/v1/datasets/hill/tiles/0/0/0.obj?threshold=4"),
+        (&geo, "/v1/datasets/hill/tiles/0/0/0.terrain?threshold=4"),
+        (&local, "/v1/datasets"),
+        (&local, "/v1/datasets/hill"),
+        (&local, "/v1/meshes/a"),
+        (&local, "/v1/meshes/a/original"),
+        (
+            &geo,
+            "/v1/datasets/hill/view?eye=0,0,3850000&target=0,0,0&fov=60",
+        ),
+        (&local, "/assets/viewer.js"),
+    ] {
+        let (s, plain_h, plain) = coded(app, uri, "identity", None).await;
+        assert_eq!(s, StatusCode::OK, "{uri}");
+        assert!(plain_h.get(header::CONTENT_ENCODING).is_none(), "{uri}");
+        let (_, gzip_h, _) = coded(app, uri, "gzip", None).await;
+        assert_eq!(gzip_h[header::CONTENT_ENCODING], "gzip", "{uri}");
+        let (_, br_h, br) = coded(app, uri, "br", None).await;
+        assert_eq!(br_h[header::CONTENT_ENCODING], "br", "{uri}");
+        assert_eq!(unbrotli(&br), plain, "{uri}");
+        let tags =
+            [&plain_h, &gzip_h, &br_h].map(|h| h[header::ETAG].to_str().unwrap().to_string());
+        assert!(
+            tags[0] != tags[1] && tags[1] != tags[2] && tags[0] != tags[2],
+            "{uri}: {tags:?}"
+        );
+        // The br copy's tag is no validator of the identity body; it is of the br one.
+        let (s, _, body) = coded(app, uri, "identity", Some(&tags[2])).await;
+        assert_eq!(s, StatusCode::OK, "{uri}");
+        assert_eq!(body, plain, "{uri}");
+        let (s, h, _) = coded(app, uri, "br", Some(&tags[2])).await;
+        assert_eq!(s, StatusCode::NOT_MODIFIED, "{uri}");
+        assert_eq!(h[header::ETAG], tags[2].as_str(), "{uri}");
+    }
+    let _ = std::fs::remove_dir_all(&data);
 }
 
 #[test]

@@ -32,6 +32,7 @@ use zerotile_codec::mesh::silhouette::View;
 use zerotile_codec::mesh::{qem, QemOptions, TriMesh};
 
 use crate::serve::built_once::BuildError;
+use crate::serve::codings;
 use crate::serve::error::{echo, ApiError, ApiResult};
 use crate::serve::meshes::{MeshAnswer, MeshEntry, Structure, UploadError, MAX_UPLOAD_BYTES};
 use crate::serve::revalidate::{self, REVALIDATE};
@@ -480,7 +481,7 @@ pub async fn lod(
     )
         .hash(&mut h);
     let key = h.finish();
-    let etag = revalidate::weak_tag('m', key);
+    let etag = revalidate::weak_tag('m', key, codings::of_answer(&headers, content_type));
     // Revalidated on every use (an upload replaces the mesh at this URL); the tag comes from
     // the ask, before any mesh work.
     if let Some(res) = revalidate::not_modified(&headers, &etag, REVALIDATE)? {

@@ -14,6 +14,7 @@ use axum::http::header::{CACHE_CONTROL, CONTENT_TYPE};
 use axum::http::HeaderMap;
 use axum::response::{IntoResponse, Response};
 
+use crate::serve::codings;
 use crate::serve::error::{echo, ApiError, ApiResult};
 use crate::serve::revalidate;
 
@@ -84,17 +85,16 @@ pub async fn openapi() -> Response {
         .into_response()
 }
 
-/// Each asset's ETag, a hash of its bytes, in [`ASSETS`] order.
-fn etags() -> &'static [String] {
-    static TAGS: OnceLock<Vec<String>> = OnceLock::new();
-    TAGS.get_or_init(|| {
+/// Each asset's hash of its bytes, in [`ASSETS`] order, for its ETags.
+fn hashes() -> &'static [u64] {
+    static HASHES: OnceLock<Vec<u64>> = OnceLock::new();
+    HASHES.get_or_init(|| {
         ASSETS
             .iter()
             .map(|a| {
                 let mut h = DefaultHasher::new();
                 a.bytes.hash(&mut h);
-                // Weak: the compression layer sends these bytes gzipped or br under it.
-                format!("W/\"{:016x}\"", h.finish())
+                h.finish()
             })
             .collect()
     })
@@ -109,9 +109,9 @@ pub async fn asset(
     headers: HeaderMap,
 ) -> ApiResult<Response> {
     let Path(file) = path?;
-    let (a, etag) = ASSETS
+    let (a, &hash) = ASSETS
         .iter()
-        .zip(etags())
+        .zip(hashes())
         .find(|(a, _)| a.name == file)
         .ok_or_else(|| {
             ApiError::not_found(
@@ -119,6 +119,7 @@ pub async fn asset(
                 format!("no asset {} (GET / for the viewer)", echo(&file)),
             )
         })?;
+    let etag = &revalidate::weak_tag('a', hash, codings::of_answer(&headers, a.media));
     if let Some(res) = revalidate::not_modified(&headers, etag, "no-cache")? {
         return Ok(res);
     }

@@ -29,6 +29,7 @@ use zerotile_codec::mesh::Format as MeshFormat;
 use zerotile_codec::raster::Encoding;
 
 use super::meta::dataset;
+use crate::serve::codings::{self, Coding};
 use crate::serve::dataset::Dataset;
 use crate::serve::error::{echo, ApiError, ApiResult};
 use crate::serve::negotiate::{self, Extensions, RangeAsk, QUANTIZED_MESH};
@@ -113,26 +114,38 @@ pub(crate) fn png_encoding(terrarium: bool) -> Encoding {
 pub(crate) enum Variant {
     Terrain {
         ext: Extensions,
-        gzip: bool,
+        coding: Coding,
     },
     Png {
         terrarium: bool,
         size: u32,
     },
-    /// Meshes: gzipped here (and cached so) when the client accepts it.
+    /// Meshes: compressed here (and cached so) in the coding of [`tile_coding`].
     Mesh {
-        gzip: bool,
+        coding: Coding,
     },
     /// PNG, GLB and EZW bodies: compact already, sent as they are.
     Plain,
 }
 
 impl Variant {
-    fn gzip(self) -> bool {
-        matches!(
-            self,
-            Self::Terrain { gzip: true, .. } | Self::Mesh { gzip: true }
-        )
+    fn coding(self) -> Coding {
+        match self {
+            Self::Terrain { coding, .. } | Self::Mesh { coding } => coding,
+            Self::Png { .. } | Self::Plain => Coding::Identity,
+        }
+    }
+}
+
+/// The coding a mesh or quantized-mesh tile is compressed in once, when rendered (and
+/// cached so): gzip when the client takes it, whatever weight it gives it, else what the
+/// compression layer would send (br, or none). The layer sent br itself before, on every
+/// request, under the uncompressed body's tag.
+fn tile_coding(headers: &HeaderMap) -> Coding {
+    if negotiate::accepts_gzip(headers) {
+        Coding::Gzip
+    } else {
+        codings::of_layer(headers)
     }
 }
 
@@ -232,8 +245,8 @@ pub async fn tile(
     if let Some(n) = rendered.triangles {
         res_headers.insert("x-triangles", header(&n.to_string())?);
     }
-    if variant.gzip() {
-        res_headers.insert(CONTENT_ENCODING, HeaderValue::from_static("gzip"));
+    if let Some(coding) = variant.coding().content_encoding() {
+        res_headers.insert(CONTENT_ENCODING, HeaderValue::from_static(coding));
     }
     let (status, body) = if format == TileFormat::Ezw {
         match ranged(&headers, &etag, &rendered.bytes, &mut res_headers)? {
@@ -390,21 +403,22 @@ fn variant(
     Ok(match format {
         TileFormat::Terrain => Variant::Terrain {
             ext: negotiate::terrain_extensions(headers, q.get("extensions").map(String::as_str))?,
-            gzip: negotiate::accepts_gzip(headers),
+            coding: tile_coding(headers),
         },
         TileFormat::Png => Variant::Png {
             terrarium: png_terrarium(q)?,
             size: png_size(q)?,
         },
         TileFormat::Json | TileFormat::Bin | TileFormat::Obj => Variant::Mesh {
-            gzip: negotiate::accepts_gzip(headers),
+            coding: tile_coding(headers),
         },
         TileFormat::Glb | TileFormat::Ezw => Variant::Plain,
     })
 }
 
 /// Weak ETag over everything that decides the bytes: the dataset build, the tile, the
-/// threshold, the format and its options. Weak, because the compression layer may re-encode.
+/// threshold, the format and its options, the content coding among them. Weak, since a
+/// change of the compression libraries may change compressed bytes.
 fn etag_hash(d: &Dataset, id: TileId, t: f64, format: TileFormat, variant: Variant) -> u64 {
     let mut h = DefaultHasher::new();
     d.version.hash(&mut h);
@@ -508,12 +522,27 @@ pub(crate) fn render_tile(
     };
     // Compressed once here, the cached body is sent as it is (the compression layer skips
     // bodies with a Content-Encoding).
-    let bytes = if variant.gzip() {
-        gzip_bytes(&bytes)?
-    } else {
-        bytes
+    let bytes = match variant.coding() {
+        Coding::Identity => bytes,
+        Coding::Gzip => gzip_bytes(&bytes)?,
+        Coding::Br => brotli_bytes(&bytes)?,
     };
     Ok(Encoded::new(bytes, triangles))
+}
+
+/// Brotli's quality for tiles: the compression layer's (and nginx's) for bodies made on
+/// the fly, as a cold tile waits for it; 11, the library's default, takes tens of times
+/// longer.
+const BROTLI_QUALITY: i32 = 4;
+
+fn brotli_bytes(raw: &[u8]) -> std::io::Result<Vec<u8>> {
+    let params = brotli::enc::BrotliEncoderParams {
+        quality: BROTLI_QUALITY,
+        ..Default::default()
+    };
+    let mut out = Vec::with_capacity(raw.len() / 2);
+    brotli::BrotliCompress(&mut &raw[..], &mut out, &params)?;
+    Ok(out)
 }
 
 fn gzip_bytes(raw: &[u8]) -> std::io::Result<Vec<u8>> {

@@ -23,6 +23,7 @@ use zerotile_codec::geo::{lonlat_to_mercator, Bounds, Scheme};
 use zerotile_codec::mesh::{io, Format, TriMesh};
 
 use super::meta::dataset;
+use crate::serve::codings;
 use crate::serve::dataset::Dataset;
 use crate::serve::error::{echo, ApiError, ApiResult};
 use crate::serve::revalidate::{self, REVALIDATE};
@@ -59,9 +60,15 @@ pub async fn view(
         }
     };
     let (zoom, tiles) = tiles_in_view(&d, &plane)?;
+    let media = match format {
+        Format::Json => "application/json",
+        Format::Glb => "model/gltf-binary",
+        _ => "model/obj",
+    };
     // The plane and T decide the mesh, so a camera that has not moved revalidates without
     // meshing its tiles again.
-    let etag = revalidate::weak_tag('v', view_key(&d, &plane, t, format));
+    let coding = codings::of_answer(&headers, media);
+    let etag = revalidate::weak_tag('v', view_key(&d, &plane, t, format), coding);
     if let Some(res) = revalidate::not_modified(&headers, &etag, REVALIDATE)? {
         return Ok(res);
     }
@@ -91,7 +98,7 @@ pub async fn view(
 
     // The body: JSON with the figures, or a mesh file with them in headers.
     let triangles = mesh.faces.len();
-    let (bytes, media) = match format {
+    let bytes = match format {
         Format::Json => {
             let body = ViewBody {
                 a_t: plane.a_t,
@@ -106,19 +113,9 @@ pub async fn view(
                 triangles,
                 zoom,
             };
-            (
-                serde_json::to_vec(&body).map_err(ApiError::internal)?,
-                "application/json",
-            )
+            serde_json::to_vec(&body).map_err(ApiError::internal)?
         }
-        Format::Glb => (
-            io::write_bytes(&mesh, format).map_err(ApiError::internal)?,
-            "model/gltf-binary",
-        ),
-        _ => (
-            io::write_bytes(&mesh, format).map_err(ApiError::internal)?,
-            "model/obj",
-        ),
+        _ => io::write_bytes(&mesh, format).map_err(ApiError::internal)?,
     };
     let mut res = Response::new(Body::from(bytes));
     let h = res.headers_mut();
