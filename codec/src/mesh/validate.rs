@@ -128,12 +128,29 @@ pub fn repair(mesh: &TriMesh) -> Result<(TriMesh, ValidationReport), MeshError> 
     Ok((out, report))
 }
 
-/// Whether a face's corners enclose no area in f64 (on one line or at one point): its cross
-/// product, taken from its first corner as [`TriMesh::face_normals`] takes it, is zero, so it
-/// has no normal.
+/// Whether a face's corners enclose no area (on one line or at one point) to within the f64
+/// rounding of its coordinates. Exactly zero was too strict: corners on one line written in
+/// decimal are rarely on one line once read (0,0 / 0.1,0.7 / 0.3,2.1 gives a cross product of
+/// 2.8e-17), and such a face was kept with a normal pointing anywhere. A coordinate read is
+/// off by up to half an ulp, so on an axis whose largest magnitude among the corners is `m`
+/// each difference is off by up to ε·m; the cross product of corners truly on one line is
+/// then at most about that error's length times |b−a| + |c−a|, and the bound allows 16
+/// times it. An axis the three corners share exactly adds no error (they were written
+/// alike): a unit triangle at x = 1.7e308 is a face.
 fn without_area(positions: &[DVec3], t: &[u32; 3]) -> bool {
+    const ROUNDING: f64 = 16.0 * f64::EPSILON;
     let [a, b, c] = t.map(|i| positions[i as usize]);
-    (b - a).cross(c - a) == DVec3::ZERO
+    let (ab, ac) = (b - a, c - a);
+    let m = a.abs().max(b.abs()).max(c.abs());
+    let off = DVec3::select(
+        ab.cmpeq(DVec3::ZERO) & ac.cmpeq(DVec3::ZERO),
+        DVec3::ZERO,
+        m,
+    );
+    // The largest axis' error, doubled, bounds the error's length without overflowing; an
+    // area past the f64 range is no zero area (`has_surface` says what it is).
+    let n = ab.cross(ac).length();
+    n.is_finite() && n <= ROUNDING * 2.0 * off.max_element() * (ab.length() + ac.length())
 }
 
 /// Removes faces with a repeated corner and faces whose vertex set appeared before; returns
@@ -361,6 +378,47 @@ mod tests {
         assert_eq!(fixed.face_count(), 2);
         assert_eq!(fixed.vertex_count(), 6, "vertex 0 split");
         assert_eq!(inspect(&fixed).non_manifold_vertices, 0);
+    }
+
+    /// Corners on one line as decimals are read a rounding off it (the first face's cross
+    /// product is 2.8e-17, the midpoint's 1e-17): still no area. A face 1e-12 of its size
+    /// thin at the origin, or 1e-6 a million units out, is a face.
+    #[test]
+    fn corners_on_one_line_to_within_rounding_have_no_area() {
+        let on_line = |p: [[f64; 2]; 3], shift: f64| {
+            let positions = p.map(|[x, y]| DVec3::new(x + shift, y + shift, shift));
+            without_area(&positions, &[0, 1, 2])
+        };
+        assert!(on_line([[0.0, 0.0], [0.1, 0.7], [0.3, 2.1]], 0.0));
+        assert!(on_line([[0.1, 0.7], [0.2, 0.8], [0.3, 0.9]], 0.0));
+        assert!(on_line([[0.1, 0.7], [0.2, 0.8], [0.3, 0.9]], 1e6 + 0.1));
+        let c = DVec3::new(0.1, 0.7, 0.0);
+        assert_ne!(
+            (c * 3.0).cross(c),
+            DVec3::ZERO,
+            "the case exact zero missed"
+        );
+        // A million out, coordinates are 1.2e-10 apart: 1e-6 there is some ten thousand.
+        for (shift, thin) in [(0.0, 1e-12), (1e6, 1e-6)] {
+            assert!(!on_line([[0.0, 0.0], [1.0, thin], [2.0, 0.0]], shift));
+            assert!(!on_line([[0.0, 0.0], [1.0, 1e-3], [0.5, 0.0]], shift));
+        }
+        // An axis the corners share adds no rounding: a unit triangle at x = 1.7e308 is a
+        // face, as is one whose area is past the f64 range.
+        let far = [DVec3::ZERO, DVec3::Y, DVec3::Z].map(|p| p + DVec3::X * 1.7e308);
+        assert!(!without_area(&far, &[0, 1, 2]));
+        let huge = [DVec3::ZERO, DVec3::X * 1e200, DVec3::Y * 1e200];
+        assert!(!without_area(&huge, &[0, 1, 2]));
+        let m = TriMesh::new(
+            vec![
+                DVec3::ZERO,
+                DVec3::new(0.1, 0.7, 0.0),
+                DVec3::new(0.3, 2.1, 0.0),
+            ],
+            vec![[0, 1, 2]],
+        );
+        assert_eq!(inspect(&m).zero_area_faces, 1);
+        assert_eq!(repair(&m).expect("repairable").0.face_count(), 0);
     }
 
     #[test]
