@@ -188,13 +188,24 @@ fn gdal_scaling<R: Read + Seek>(
     decoder: &mut Decoder<R>,
     path: &Path,
 ) -> Result<Option<Scaling>, RasterError> {
+    // The `tiff` crate refuses a text tag that is not UTF-8 as an "invalid tag", naming
+    // neither; said here, since the scale it may hold cannot be passed over.
+    let not_text = |e| {
+        match e {
+        TiffError::FormatError(tiff::TiffFormatError::InvalidTag) => RasterError::format(
+            path,
+            "its GDAL_METADATA tag (42112) is not UTF-8 text, so the scale and offset it may              set cannot be read (GDAL writes it in UTF-8; `gdalinfo` shows what it holds)",
+        ),
+        e => tiff_error(path, e),
+    }
+    };
     let Some(value) = decoder
         .find_tag(Tag::Unknown(GDAL_METADATA))
-        .map_err(|e| tiff_error(path, e))?
+        .map_err(not_text)?
     else {
         return Ok(None);
     };
-    let text = value.into_string().map_err(|e| tiff_error(path, e))?;
+    let text = value.into_string().map_err(not_text)?;
     gdal_metadata::band1_scaling(&text).map_err(|e| RasterError::format(path, e))
 }
 
@@ -788,6 +799,24 @@ mod tests {
         let err = read(&path, &ReadOptions::default()).unwrap_err();
         assert!(matches!(err, RasterError::Format { .. }), "{err}");
         assert!(err.to_string().contains("role=\"scale\">x</Item>"), "{err}");
+
+        // Latin-1 text (ö as one byte) is refused naming the tag, not as "invalid tag".
+        let latin1 = b"<GDALMetadata><Item name=\"DESCRIPTION\" sample=\"0\">H\xf6he</Item></GDALMetadata>\0";
+        let mut entries = gray(1, 1, (16, 2), 1);
+        entries.push((
+            GDAL_METADATA,
+            2,
+            latin1.iter().map(|&b| u32::from(b)).collect(),
+        ));
+        let path = dir.join("latin1.tif");
+        std::fs::write(&path, tiff_of(&[(entries, vec![int16_bytes(&[1])])])).unwrap();
+        let err = read(&path, &ReadOptions::default()).unwrap_err();
+        assert!(matches!(err, RasterError::Format { .. }), "{err}");
+        assert!(
+            err.to_string()
+                .contains("GDAL_METADATA tag (42112) is not UTF-8"),
+            "{err}"
+        );
     }
 
     /// A mask image's entries, `rows × cols`, 1 bit a pixel, with `compression`; its strips
@@ -902,6 +931,38 @@ mod tests {
         assert_eq!(nodata_at(&map), [(0, 0), (1, 9), (2, 3), (2, 4)]);
         assert_eq!(map.nodata_count, 4);
         assert_eq!(map.min_max(), Some((2.0, 30.0)));
+    }
+
+    /// A page after the heights that the decoder cannot open (no photometric tag, or RGB
+    /// 5-6-5) ends the search for a mask: the file read before masks were looked for, and
+    /// still does, with the heights as they are.
+    #[test]
+    fn a_page_after_the_heights_the_decoder_refuses_is_no_mask() {
+        let samples = int16_bytes(&[1, 2, 3, 4, 5, 6]);
+        let mut no_photometric = gray(2, 3, (8, 1), 2);
+        no_photometric.retain(|e| e.0 != 262);
+        let rgb565 = vec![
+            (256, 4, vec![3]),
+            (257, 4, vec![2]),
+            (258, 3, vec![5, 6, 5]),
+            (259, 3, vec![1]),
+            (262, 3, vec![2]),
+            (277, 3, vec![3]),
+            (278, 4, vec![2]),
+        ];
+        let dir = scratch_dir("tiff_odd_page");
+        for (name, page) in [("no_photometric", no_photometric), ("rgb565", rgb565)] {
+            let bytes = tiff_of(&[
+                (gray(2, 3, (16, 2), 2), vec![samples.clone()]),
+                (page, vec![vec![0; 12]]),
+            ]);
+            let path = dir.join(format!("{name}.tif"));
+            std::fs::write(&path, bytes).unwrap();
+            let map =
+                read(&path, &ReadOptions::default()).unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert_eq!(map.min_max(), Some((1.0, 6.0)), "{name}");
+            assert_eq!(map.nodata_count, 0, "{name}");
+        }
     }
 
     /// A tiled mask (a COG's) whose tiles run past the image, PackBits-coded: only the

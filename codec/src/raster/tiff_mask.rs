@@ -33,9 +33,9 @@ const PACKBITS: u16 = 32773;
 /// are the first image's, `width` × `height` row-major. Leaves `decoder` on another image.
 ///
 /// # Errors
-/// A malformed image after the heights, a mask whose size is not the heights', or one coded
-/// in a way read here (its compression, bits or predictor) is an error: skipped, its pixels
-/// would be heights again.
+/// A mask that is malformed, whose size is not the heights', or coded in a way not read here
+/// (its compression, bits or predictor) is an error: skipped, its pixels would be heights
+/// again. A page the decoder cannot open ends the search instead ([`find_mask`]).
 pub(super) fn apply<R: Read + Seek>(
     decoder: &mut Decoder<R>,
     path: &Path,
@@ -77,12 +77,20 @@ pub(super) fn apply<R: Read + Seek>(
 }
 
 /// Moves `decoder` to the heights' full-resolution mask, if the file holds one.
+///
+/// The search stops, the heights read without a mask, at a page the decoder cannot open
+/// (no photometric tag, a 5-6-5 RGB preview: the `tiff` crate refuses such a page as a
+/// whole, NewSubfileType and all), as it stops after [`MAX_IMAGES`]: such pages follow the
+/// heights in files that loaded before masks were read, and GDAL writes its mask before
+/// anything of the kind, right after the heights.
 fn find_mask<R: Read + Seek>(decoder: &mut Decoder<R>) -> Result<bool, tiff::TiffError> {
     for _ in 0..MAX_IMAGES {
         if !decoder.more_images() {
             break;
         }
-        decoder.next_image()?;
+        if decoder.next_image().is_err() {
+            return Ok(false);
+        }
         let kind = decoder
             .find_tag_unsigned::<u32>(Tag::NewSubfileType)?
             .unwrap_or(0);
