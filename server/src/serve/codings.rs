@@ -83,7 +83,9 @@ impl Coding {
 /// headers: none for the media it leaves alone, else [`of_layer`]. (A body under the layer's
 /// 32 bytes goes out as it is under the coding's tag: a tag too many, never one shared.)
 pub fn of_answer(headers: &HeaderMap, media: &str) -> Coding {
-    let plain = media.starts_with("image/") || SENT_AS_THEY_ARE.contains(&media);
+    // The layer's default leaves images alone but SVG, which is text.
+    let image = media.starts_with("image/") && media != "image/svg+xml";
+    let plain = image || SENT_AS_THEY_ARE.contains(&media);
     if plain {
         Coding::Identity
     } else {
@@ -298,6 +300,16 @@ mod tests {
             let picked = layer_picks(lines).await.unwrap_or(Coding::Identity);
             assert_eq!(of_layer(&h), picked, "{lines:?}");
         }
+    }
+
+    /// The layer compresses SVG, the one image type it does not leave alone.
+    #[test]
+    fn svg_is_compressed_and_other_images_are_not() {
+        let mut h = HeaderMap::new();
+        h.insert(ACCEPT_ENCODING, "br".parse().unwrap());
+        assert_eq!(of_answer(&h, "image/svg+xml"), Coding::Br);
+        assert_eq!(of_answer(&h, "image/png"), Coding::Identity);
+        assert_eq!(of_answer(&h, "application/json"), Coding::Br);
     }
 
     #[tokio::test]

@@ -32,7 +32,10 @@ pub fn weak_tag(prefix: char, key: u64, coding: Coding) -> String {
     format!("W/\"{prefix}{key:016x}{}\"", coding.tag_suffix())
 }
 
-/// The validator headers a tagged answer carries, on its 200 and its 304 alike.
+/// The validator headers a tagged answer carries, on its 200 and its 304 alike. `Vary:
+/// accept-encoding` among them: the tag names the coding, picked from `Accept-Encoding`, and
+/// the compression layer adds `Vary` only to the bodies it compresses, so an answer under its
+/// 32 bytes (an empty LOD, an empty mesh list) went out with a `-br` tag and no `Vary`.
 pub fn validators(h: &mut HeaderMap, etag: &str, cache_control: &str) -> ApiResult<()> {
     h.insert(
         ETAG,
@@ -42,6 +45,7 @@ pub fn validators(h: &mut HeaderMap, etag: &str, cache_control: &str) -> ApiResu
         CACHE_CONTROL,
         HeaderValue::from_str(cache_control).map_err(ApiError::internal)?,
     );
+    h.insert(VARY, HeaderValue::from_static("accept-encoding"));
     Ok(())
 }
 
@@ -56,11 +60,8 @@ pub fn not_modified(
     }
     let mut res = Response::new(Body::empty());
     *res.status_mut() = StatusCode::NOT_MODIFIED;
+    // With the 200's Vary, as a 304 repeats it (RFC 9110 §15.4.5).
     validators(res.headers_mut(), etag, cache_control)?;
-    // A 304 repeats its 200's Vary (RFC 9110 §15.4.5). The compression layer adds it to the
-    // 200 but leaves an empty body alone, so say it here.
-    res.headers_mut()
-        .insert(VARY, HeaderValue::from_static("accept-encoding"));
     Ok(Some(res))
 }
 

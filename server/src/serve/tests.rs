@@ -932,7 +932,22 @@ async fn each_content_coding_has_its_own_etag() {
         let (s, h, _) = coded(app, uri, "br", Some(&tags[2])).await;
         assert_eq!(s, StatusCode::NOT_MODIFIED, "{uri}");
         assert_eq!(h[header::ETAG], tags[2].as_str(), "{uri}");
+        for h in [&plain_h, &gzip_h, &br_h, &h] {
+            let vary = h[header::VARY].to_str().unwrap().to_ascii_lowercase();
+            assert!(vary.contains("accept-encoding"), "{uri}: {vary}");
+        }
     }
+    // A body under the layer's 32 bytes goes out uncompressed, but under the tag of the
+    // coding asked for, so it varies on Accept-Encoding too (it had no Vary).
+    let (s, h, body) = coded(&geo, "/v1/meshes", "br", None).await;
+    assert_eq!(s, StatusCode::OK);
+    assert!(body.len() < 32, "{}", String::from_utf8_lossy(&body));
+    assert!(h.get(header::CONTENT_ENCODING).is_none());
+    assert!(
+        h[header::ETAG].to_str().unwrap().ends_with("-br\""),
+        "{h:?}"
+    );
+    assert_eq!(h[header::VARY], "accept-encoding");
     let _ = std::fs::remove_dir_all(&data);
 }
 
