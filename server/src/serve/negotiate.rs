@@ -1,7 +1,7 @@
 //! Content negotiation: quantized-mesh extensions from `Accept`, gzip from
 //! `Accept-Encoding`, conditional requests and byte ranges. Header parsing only.
 
-use axum::http::header::{ACCEPT, ACCEPT_ENCODING, IF_NONE_MATCH, IF_RANGE, RANGE};
+use axum::http::header::{ACCEPT, ACCEPT_ENCODING, IF_MATCH, IF_NONE_MATCH, IF_RANGE, RANGE};
 use axum::http::HeaderMap;
 
 use super::error::ApiError;
@@ -158,6 +158,27 @@ fn weight(params: &[(String, String)]) -> Option<f64> {
 /// positive entry counts.
 fn mark(slot: &mut Option<bool>, ok: bool) {
     *slot = Some(slot.unwrap_or(false) || ok);
+}
+
+/// Whether `If-Match` lets a request go on (RFC 9110 §13.1.1) against the resource's current
+/// representation, tagged `current` (`None`: there is none): without `If-Match`; with `*`
+/// when there is one; with a tag equal to `current` by the strong comparison, which a weak
+/// tag on either side never passes (so only `*` passes where every tag is weak).
+pub fn if_match(headers: &HeaderMap, current: Option<&str>) -> bool {
+    if !headers.contains_key(IF_MATCH) {
+        return true;
+    }
+    let Some(current) = current else {
+        return false;
+    };
+    let strong = |t: &str| !t.starts_with("W/");
+    headers
+        .get_all(IF_MATCH)
+        .iter()
+        .filter_map(|v| v.to_str().ok())
+        .flat_map(|v| v.split(','))
+        .map(str::trim)
+        .any(|t| t == "*" || (strong(t) && strong(current) && t == current))
 }
 
 /// Whether `If-None-Match` lists `etag` (weak comparison, as RFC 9110 asks for GET) or `*`.
@@ -397,6 +418,36 @@ mod tests {
             assert_eq!(r(v, 0), RangeAsk::Unsatisfiable, "{v}");
         }
         assert_eq!(r("bytes=-0", 100), RangeAsk::Unsatisfiable);
+    }
+
+    /// If-Match compares strongly: a stream prefix's own tag passes, its weak form or a weak
+    /// current tag never does; `*` passes while there is a representation; any listed tag
+    /// will do.
+    #[test]
+    fn if_match_compares_strongly() {
+        let strong = Some("\"abc\"");
+        let weak = Some("W/\"abc\"");
+        assert!(if_match(&HeaderMap::new(), strong));
+        assert!(if_match(&HeaderMap::new(), None));
+        for (listed, current, passes) in [
+            ("\"abc\"", strong, true),
+            ("\"x\", \"abc\"", strong, true),
+            ("*", strong, true),
+            ("*", weak, true),
+            ("*", None, false),
+            ("\"abd\"", strong, false),
+            ("W/\"abc\"", strong, false),
+            ("\"abc\"", weak, false),
+            ("W/\"abc\"", weak, false),
+            ("\"abc\"", None, false),
+        ] {
+            let h = with(IF_MATCH, listed);
+            assert_eq!(if_match(&h, current), passes, "{listed} on {current:?}");
+        }
+        // Two lines are one list.
+        let mut h = with(IF_MATCH, "\"x\"");
+        h.append(IF_MATCH, HeaderValue::from_static("\"abc\""));
+        assert!(if_match(&h, strong));
     }
 
     #[test]

@@ -1,6 +1,7 @@
 //! Entity tags for the answers that are not tiles: the JSON descriptions (tagged by a hash
 //! of their bytes) and views (tagged by what decides their mesh, before any work), so a
-//! client polling them gets a body-less 304 instead of the same body again.
+//! client polling them gets a body-less 304 instead of the same body again; and the
+//! preconditions on them, `If-Match` before `If-None-Match` (RFC 9110 §13.2.2).
 
 use std::hash::{DefaultHasher, Hash, Hasher};
 
@@ -49,12 +50,35 @@ pub fn validators(h: &mut HeaderMap, etag: &str, cache_control: &str) -> ApiResu
     Ok(())
 }
 
-/// The 304 for `etag` when the request's `If-None-Match` lists it.
-pub fn not_modified(
+/// The 412 for an `If-Match` that `etag`, the current representation's tag (`None`: there
+/// is none), does not pass.
+pub fn if_match(headers: &HeaderMap, etag: Option<&str>) -> ApiResult<()> {
+    if negotiate::if_match(headers, etag) {
+        return Ok(());
+    }
+    let why = match etag {
+        None => "there is no current representation to match".to_string(),
+        Some(t) if t.starts_with("W/") => format!(
+            "its tag {t} is weak, and If-Match compares strongly (RFC 9110 §13.1.1): only * \
+             passes"
+        ),
+        Some(t) => format!("its tag is {t}"),
+    };
+    Err(ApiError::new(
+        StatusCode::PRECONDITION_FAILED,
+        "precondition_failed",
+        format!("If-Match names no current representation of this resource: {why}"),
+    ))
+}
+
+/// The request's preconditions on a representation tagged `etag`: the 412 error for a failed
+/// `If-Match`, else the 304 when `If-None-Match` lists the tag.
+pub fn preconditions(
     headers: &HeaderMap,
     etag: &str,
     cache_control: &str,
 ) -> ApiResult<Option<Response>> {
+    if_match(headers, Some(etag))?;
     if !negotiate::not_modified(headers, etag) {
         return Ok(None);
     }
@@ -65,18 +89,24 @@ pub fn not_modified(
     Ok(Some(res))
 }
 
-/// `value` as JSON with a tag of its bytes in the coding the layer sends them in, or a 304
-/// when the client holds them.
+/// `value` as JSON, and its tag: a hash of its bytes, in the coding the layer sends them in.
+pub fn tagged(headers: &HeaderMap, value: &impl Serialize) -> ApiResult<(Vec<u8>, String)> {
+    let bytes = serde_json::to_vec(value).map_err(ApiError::internal)?;
+    let mut h = DefaultHasher::new();
+    bytes.hash(&mut h);
+    let etag = weak_tag('j', h.finish(), codings::of_layer(headers));
+    Ok((bytes, etag))
+}
+
+/// `value` as JSON with its [`tagged`] tag, or a 304 when the client holds those bytes (a 412
+/// for an `If-Match` they do not pass).
 pub fn json(
     headers: &HeaderMap,
     value: &impl Serialize,
     cache_control: &str,
 ) -> ApiResult<Response> {
-    let bytes = serde_json::to_vec(value).map_err(ApiError::internal)?;
-    let mut h = DefaultHasher::new();
-    bytes.hash(&mut h);
-    let etag = weak_tag('j', h.finish(), codings::of_layer(headers));
-    if let Some(res) = not_modified(headers, &etag, cache_control)? {
+    let (bytes, etag) = tagged(headers, value)?;
+    if let Some(res) = preconditions(headers, &etag, cache_control)? {
         return Ok(res);
     }
     let mut res = Response::new(Body::from(bytes));

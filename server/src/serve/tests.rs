@@ -1996,6 +1996,108 @@ async fn meshes_are_gzipped_for_clients_that_accept_it() {
     }
 }
 
+/// `If-Match` is a precondition (RFC 9110 §13.1.1; it was ignored: `"stale"` got a 200, or a
+/// 206 with Range): a stream prefix's own strong tag or `*` lets the request (and its range)
+/// through; another tag, or a weak one, is a 412 JSON error, before any tile is decoded. The
+/// routes whose tags are all weak pass only `*`; an upload with `*` is one over a mesh that
+/// exists, and with a tag never passes.
+#[tokio::test]
+async fn if_match_is_a_precondition() {
+    let data = one_triangle_data("if-match");
+    let state = state_over(
+        hill_dataset("if-match", "local", &[ROOT]),
+        Config::default(),
+    )
+    .with_meshes(crate::serve::meshes::MeshCatalog::open(&data, 1 << 20));
+    let app = app(state.clone());
+    let failed = |s: StatusCode, h: &axum::http::HeaderMap, body: &[u8], what: &str| {
+        assert_eq!(s, StatusCode::PRECONDITION_FAILED, "{what}");
+        assert_eq!(h[header::CONTENT_TYPE], "application/json", "{what}");
+        assert_eq!(error_code(body), "precondition_failed", "{what}");
+    };
+
+    // Refused before the render: nothing decoded.
+    let json = "/v1/datasets/hill/tiles/0/0/0.json?threshold=4";
+    let (s, h, body) = send(&app, Method::GET, json, &[("if-match", "\"stale\"")]).await;
+    failed(s, &h, &body, json);
+    assert_eq!(state.metrics.tiles_decoded.load(Relaxed), 0);
+
+    let ezw = "/v1/datasets/hill/tiles/0/0/0.ezw?threshold=4";
+    let (_, h, whole) = get(&app, ezw).await;
+    let tag = h[header::ETAG].to_str().unwrap().to_string();
+    let listed = format!("\"stale\", {tag}");
+    let weak = format!("W/{tag}");
+    for (if_match, range, status) in [
+        (tag.as_str(), None, StatusCode::OK),
+        (tag.as_str(), Some("bytes=2-9"), StatusCode::PARTIAL_CONTENT),
+        ("*", None, StatusCode::OK),
+        (listed.as_str(), None, StatusCode::OK),
+        ("\"stale\"", None, StatusCode::PRECONDITION_FAILED),
+        (
+            "\"stale\"",
+            Some("bytes=2-9"),
+            StatusCode::PRECONDITION_FAILED,
+        ),
+        (weak.as_str(), None, StatusCode::PRECONDITION_FAILED),
+    ] {
+        let mut headers = vec![("if-match", if_match)];
+        headers.extend(range.map(|r| ("range", r)));
+        let (s, h, body) = send(&app, Method::GET, ezw, &headers).await;
+        let what = format!("If-Match: {if_match}, Range: {range:?}");
+        match s {
+            StatusCode::PRECONDITION_FAILED if status == s => failed(s, &h, &body, &what),
+            StatusCode::OK => assert_eq!((s, body), (status, whole.clone()), "{what}"),
+            _ => assert_eq!((s, body), (status, whole[2..=9].to_vec()), "{what}"),
+        }
+    }
+
+    for uri in [
+        json,
+        "/v1/datasets",
+        "/v1/datasets/hill",
+        "/v1/meshes/a",
+        "/v1/meshes/a/original",
+        "/v1/datasets/hill/view?eye=128,128,1000&target=128,129,0&fov=60",
+        "/assets/viewer.js",
+    ] {
+        let (s, h, _) = get(&app, uri).await;
+        assert_eq!(s, StatusCode::OK, "{uri}");
+        let tag = h[header::ETAG].to_str().unwrap().to_string();
+        assert!(tag.starts_with("W/"), "{uri}: {tag}");
+        let (s, h, body) = send(&app, Method::GET, uri, &[("if-match", &tag)]).await;
+        failed(s, &h, &body, uri);
+        let (s, _, _) = send(&app, Method::GET, uri, &[("if-match", "*")]).await;
+        assert_eq!(s, StatusCode::OK, "{uri}");
+    }
+
+    // The upload: `*` replaces a mesh that exists and creates none; a tag is weak.
+    let obj = "v 0 0 0\nv 2 0 0\nv 0 2 0\nf 1 2 3\n";
+    let post = |uri: &str, if_match: &str| {
+        let req = Request::builder()
+            .method(Method::POST)
+            .uri(uri)
+            .header(header::CONTENT_TYPE, "model/obj")
+            .header(header::IF_MATCH, if_match)
+            .body(Body::from(obj))
+            .unwrap();
+        let app = app.clone();
+        async move {
+            let (parts, body) = app.oneshot(req).await.unwrap().into_parts();
+            let body = to_bytes(body, 1 << 20).await.unwrap();
+            (parts.status, parts.headers, body)
+        }
+    };
+    let (s, h, body) = post("/v1/meshes/b", "*").await;
+    failed(s, &h, &body, "POST a new mesh, If-Match: *");
+    assert_eq!(get(&app, "/v1/meshes/b").await.0, StatusCode::NOT_FOUND);
+    let (_, h, _) = get(&app, "/v1/meshes/a").await;
+    let (s, h, body) = post("/v1/meshes/a", h[header::ETAG].to_str().unwrap()).await;
+    failed(s, &h, &body, "POST over a mesh, If-Match its tag");
+    let (s, _, _) = post("/v1/meshes/a", "*").await;
+    assert_eq!(s, StatusCode::OK);
+    let _ = std::fs::remove_dir_all(&data);
+}
+
 /// A world scheme's missing root tile is a flat quantized-mesh tile (Cesium asks for every
 /// root); in any other format, off the tiling, or below the roots, a missing tile is a 404.
 /// A root that exists is meshed, not flattened.

@@ -73,8 +73,13 @@ pub async fn describe(
         "the mesh description",
         format_args!("; the mesh itself is /v1/meshes/{name}/original?format=obj|ply|glb|json"),
     )?;
-    let mut v = summary(&e);
-    let base = format!("/v1/meshes/{name}");
+    revalidate::json(&headers, &description(&e), REVALIDATE)
+}
+
+/// `GET /v1/meshes/{name}`'s JSON: the summary, the methods and the formats.
+fn description(e: &MeshEntry) -> Value {
+    let mut v = summary(e);
+    let base = format!("/v1/meshes/{}", e.name);
     let methods = json!({
         "original": format!("{base}/original"),
         "curvature": { "url": format!("{base}/curvature"), "params": "error=E | level=1..3 (ε 0.15, 0.20, 0.25; default 1)" },
@@ -86,7 +91,7 @@ pub async fn describe(
         o.insert("methods".into(), methods);
         o.insert("formats".into(), json!(["obj", "ply", "glb", "json"]));
     }
-    revalidate::json(&headers, &v, REVALIDATE)
+    v
 }
 
 fn summary(e: &MeshEntry) -> Value {
@@ -484,7 +489,7 @@ pub async fn lod(
     let etag = revalidate::weak_tag('m', key, codings::of_answer(&headers, content_type));
     // Revalidated on every use (an upload replaces the mesh at this URL); the tag comes from
     // the ask, before any mesh work.
-    if let Some(res) = revalidate::not_modified(&headers, &etag, REVALIDATE)? {
+    if let Some(res) = revalidate::preconditions(&headers, &etag, REVALIDATE)? {
         return Ok(res);
     }
 
@@ -644,6 +649,16 @@ pub async fn upload(
             .takes_uploads()
             .map(|()| t)
             .map_err(upload_error)
+    });
+    // If-Match before the body is read too, against the mesh's description (RFC 9110
+    // §13.1.1): `*` uploads only over a mesh that exists; a tag never passes, the
+    // description's being weak.
+    let target = target.and_then(|t| {
+        let current = match state.meshes.get(&t.0) {
+            Some(e) => Some(revalidate::tagged(&headers, &description(&e))?.1),
+            None => None,
+        };
+        revalidate::if_match(&headers, current.as_deref()).map(|()| t)
     });
     // Admitted before the body is read, so the uploads in hand bound the bodies held too.
     let admitted = target.and_then(|t| state.admit_upload().map(|ticket| (t, ticket)));

@@ -120,7 +120,7 @@ pub async fn asset(
             )
         })?;
     let etag = &revalidate::weak_tag('a', hash, codings::of_answer(&headers, a.media));
-    if let Some(res) = revalidate::not_modified(&headers, etag, "no-cache")? {
+    if let Some(res) = revalidate::preconditions(&headers, etag, "no-cache")? {
         return Ok(res);
     }
     let mut res = ([(CONTENT_TYPE, a.media)], a.bytes).into_response();

@@ -187,7 +187,7 @@ pub async fn tile(
     let t = threshold::from_query(&d, id.z, &query)?;
     let variant = variant(format, &query, &headers)?;
 
-    // Conditional request.
+    // Conditional requests.
     let etag_key = etag_hash(&d, id, t.t, format, variant);
     // A stream prefix is never re-encoded, so its tag is strong: `If-Range` can name it.
     let etag = if format == TileFormat::Ezw {
@@ -196,6 +196,8 @@ pub async fn tile(
         format!("W/\"{etag_key:016x}\"")
     };
     let base = cache_headers(&state, &etag, t.t, format, variant)?;
+    // If-Match before If-None-Match and Range (RFC 9110 §13.2.2), before any render.
+    revalidate::if_match(&headers, Some(&etag))?;
     if negotiate::not_modified(&headers, &etag) {
         let mut res = Response::new(Body::empty());
         *res.status_mut() = StatusCode::NOT_MODIFIED;

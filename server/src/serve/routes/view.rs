@@ -69,7 +69,7 @@ pub async fn view(
     // meshing its tiles again.
     let coding = codings::of_answer(&headers, media);
     let etag = revalidate::weak_tag('v', view_key(&d, &plane, t, format), coding);
-    if let Some(res) = revalidate::not_modified(&headers, &etag, REVALIDATE)? {
+    if let Some(res) = revalidate::preconditions(&headers, &etag, REVALIDATE)? {
         return Ok(res);
     }
 
