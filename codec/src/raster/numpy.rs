@@ -344,8 +344,13 @@ fn bounds_georef<R: Read + std::io::Seek>(
     };
     let x0 = if x_edges { xmin + 0.5 * dx } else { xmin };
     let y0 = if y_edges { north - 0.5 * dy } else { north };
-    let degrees = xmin.abs() <= 180.0
-        && (xmin + cols as f64 * dx).abs() <= 180.0
+    // Degrees when the outer edges are: longitudes in ±180° or, as global grids often run,
+    // 0..360 (past 180° they go round the world, as a GeoTIFF's do). The edges, not `xmin`
+    // plus the columns: bounds at the centres put the east edge half a cell short of that,
+    // and a grid of centres ending at 179.9° was refused as not degrees.
+    let west = x0 - 0.5 * dx;
+    let east = west + cols as f64 * dx;
+    let degrees = ((west >= -180.0 && east <= 180.0) || (west >= 0.0 && east <= 360.0))
         && south >= -90.0
         && north <= 90.0;
     let crs = if degrees {
@@ -780,8 +785,46 @@ mod tests {
         assert_eq!(npz("npz_dxneg", -10.0, 10.0, 140.0, None), None);
         assert_eq!(npz("npz_dyneg", 10.0, -10.0, 140.0, None), None);
         assert_eq!(npz("npz_xmax", 10.0, 10.0, 140.0, Some(165.0)), None);
-        // West edge 170° but east edge 200°: not longitudes.
+        // West edge 170°, east edge 200°: a 0..360 grid's longitudes, as README says.
         let g = npz("npz_east", 10.0, 10.0, 170.0, None).unwrap();
-        assert_eq!((g.crs, g.position(0.0, 0.0)), (Crs::Unknown, (175.0, 25.0)));
+        assert_eq!(
+            (g.crs, g.position(0.0, 0.0)),
+            (Crs::Geographic, (175.0, 25.0))
+        );
+        // Centres from 160° to 180°, cells of 10: edges 155..185, past 180 and in 0..360.
+        let g = npz("npz_centres_east", 10.0, 10.0, 160.0, Some(180.0)).unwrap();
+        assert_eq!(
+            (g.crs, g.position(0.0, 2.0)),
+            (Crs::Geographic, (180.0, 25.0))
+        );
+        // Past 360°, or across -180° from the west: not longitudes.
+        let g = npz("npz_past_360", 10.0, 10.0, 340.0, None).unwrap();
+        assert_eq!(g.crs, Crs::Unknown);
+        let g = npz("npz_past_west", 10.0, 10.0, -190.0, None).unwrap();
+        assert_eq!(g.crs, Crs::Unknown);
+    }
+
+    /// Bounds at the cell centres ending at 179.9° (cells of 0.1): the east edge is 179.95°,
+    /// degrees. `xmin` plus the columns put it at 180.05°, and the file was refused.
+    #[test]
+    fn npz_centres_up_to_the_antimeridian_are_degrees() {
+        let scalar = |v: f64| npy_bytes("<f8", false, "()", &v.to_le_bytes());
+        let path = write_npz(
+            "npz_centres_179",
+            &[
+                ("elevation", npy_bytes("|u1", false, "(2, 3)", &[0; 6])),
+                ("dx", scalar(0.1)),
+                ("dy", scalar(0.1)),
+                ("xmin", scalar(-179.9)),
+                ("xmax", scalar(-179.7)),
+                ("ymin", scalar(10.0)),
+                ("ymax", scalar(10.1)),
+            ],
+        );
+        let g = read_npz(&path, &ReadOptions::default())
+            .unwrap()
+            .georef
+            .unwrap();
+        assert_eq!(g.crs, Crs::Geographic);
     }
 }
