@@ -149,5 +149,6 @@ pub fn tri_mesh(d: &Dataset, id: TileId, mesh: &TerrainMesh) -> Result<TriMesh> 
 /// OBJ, GLB or JSON bytes of the mesh.
 pub fn mesh_file(d: &Dataset, id: TileId, mesh: &TerrainMesh, format: Format) -> Result<Vec<u8>> {
     let m = tri_mesh(d, id, mesh)?;
-    io::write_bytes(&m, format).with_context(|| format!("writing tile {id} as {}", format.name()))
+    io::write_z_up_bytes(&m, format)
+        .with_context(|| format!("writing tile {id} as {}", format.name()))
 }

@@ -41,7 +41,27 @@ fn encode_error(what: impl Into<String>) -> MeshError {
     }
 }
 
-pub(super) fn write(mesh: &TriMesh, out: &mut impl Write) -> Result<(), MeshError> {
+/// Which way a mesh's "up" runs. glTF's is +Y (§3.4); terrain's is +Z.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Up {
+    /// Written as it is (object meshes carry their own convention, mostly Y-up already).
+    Y,
+    /// Stored as it is and turned by the node a quarter turn about x, +Z onto +Y (north
+    /// onto −Z): viewers show the terrain lying flat, and a reader of the accessors alone,
+    /// or CesiumJS (which turns Y-up models back to Z-up), gets the coordinates the other
+    /// formats carry.
+    Z,
+}
+
+/// The node's rotation for [`Up::Z`]: −90° about x, (x, y, z) → (x, z, −y).
+const Z_UP_TO_Y_UP: [f64; 4] = [
+    -std::f64::consts::FRAC_1_SQRT_2,
+    0.0,
+    0.0,
+    std::f64::consts::FRAC_1_SQRT_2,
+];
+
+pub(super) fn write(mesh: &TriMesh, up: Up, out: &mut impl Write) -> Result<(), MeshError> {
     // Indices in range and finite coordinates, or the accessors would point past their data.
     mesh.check()?;
     if mesh.faces.is_empty() {
@@ -88,11 +108,21 @@ pub(super) fn write(mesh: &TriMesh, out: &mut impl Write) -> Result<(), MeshErro
             (lo.min(p), hi.max(p))
         });
     let (v, vbytes) = (positions.len(), 12 * positions.len());
-    let node = if origin == DVec3::ZERO {
-        json!({"mesh": 0})
-    } else {
-        json!({"mesh": 0, "translation": origin.to_array()})
+    let mut node = json!({"mesh": 0});
+    // The node turns then moves (glTF's T·R·S): the translation is the origin turned.
+    let (turned, rotation) = match up {
+        Up::Y => (origin, None),
+        Up::Z => (
+            DVec3::new(origin.x, origin.z, -origin.y),
+            Some(Z_UP_TO_Y_UP),
+        ),
     };
+    if let Some(r) = rotation {
+        node["rotation"] = json!(r);
+    }
+    if origin != DVec3::ZERO {
+        node["translation"] = json!(turned.to_array());
+    }
     let doc = json!({
         "asset": {"version": "2.0", "generator": "zerotile"},
         "scene": 0,

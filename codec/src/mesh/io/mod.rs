@@ -290,12 +290,23 @@ pub fn write_bytes(mesh: &TriMesh, format: Format) -> Result<Vec<u8>, MeshError>
     Ok(out)
 }
 
+/// Encodes `mesh` in `format`, a mesh whose z is up (a terrain tile or view): as GLB, the
+/// node turns it so that it lies flat under glTF's +Y up; other formats as [`write_bytes`].
+pub fn write_z_up_bytes(mesh: &TriMesh, format: Format) -> Result<Vec<u8>, MeshError> {
+    let mut out = Vec::new();
+    match format {
+        Format::Glb => glb::write(mesh, glb::Up::Z, &mut out)?,
+        _ => write_to(mesh, format, &mut out)?,
+    }
+    Ok(out)
+}
+
 /// Encodes `mesh` in `format` into any writer.
 pub fn write_to(mesh: &TriMesh, format: Format, out: &mut impl Write) -> Result<(), MeshError> {
     match format {
         Format::Obj => obj::write(mesh, out),
         Format::Ply => ply::write(mesh, out),
-        Format::Glb => glb::write(mesh, out),
+        Format::Glb => glb::write(mesh, glb::Up::Y, out),
         Format::Json => json::write(mesh, out),
         Format::Stl => Err(MeshError::Unsupported(
             "writing STL is not supported; use OBJ, PLY, GLB or JSON".into(),

@@ -1078,3 +1078,62 @@ fn binary_stl_reads_as_stl_io_reads_it() {
     // The cow's corners are shared: welding joined them.
     assert!(got.positions.len() * 2 < got.faces.len() * 3);
 }
+
+/// A terrain mesh (z up) as GLB lies flat under glTF's +Y up: the node turns its stored
+/// vertices a quarter turn about x, after which each sits at (x, z, −y) of its position
+/// (QA: three.js showed a 977 m tall tile 19.6 km deep). The stored vertices stay those of
+/// `write_bytes`, and an object mesh gets no rotation.
+#[test]
+fn glb_of_a_z_up_mesh_is_turned_onto_y_up() {
+    let positions = vec![
+        DVec3::new(-7_959_202.3, 5_578_136.9, 312.25),
+        DVec3::new(-7_959_197.5, 5_578_136.9, 330.0),
+        DVec3::new(-7_959_202.3, 5_578_141.7, 290.5),
+    ];
+    let tile = TriMesh::new(positions.clone(), vec![[0, 1, 2]]);
+    let bytes = write_z_up_bytes(&tile, Format::Glb).expect("glb");
+    let (doc, bin) = glb_chunks(&bytes);
+    let node = &doc["nodes"][0];
+    let num = |v: &serde_json::Value| v.as_f64().expect("number");
+    let q: Vec<f64> = node["rotation"]
+        .as_array()
+        .expect("a rotation")
+        .iter()
+        .map(num)
+        .collect();
+    let t: Vec<f64> = node["translation"]
+        .as_array()
+        .expect("a translation")
+        .iter()
+        .map(num)
+        .collect();
+    assert!(
+        (q.iter().map(|c| c * c).sum::<f64>() - 1.0).abs() < 1e-12,
+        "unit: {q:?}"
+    );
+    let turn = glam::DQuat::from_xyzw(q[0], q[1], q[2], q[3]);
+    for (k, p) in positions.iter().enumerate() {
+        let stored: Vec<f64> = bin[12 * k..12 * k + 12]
+            .chunks_exact(4)
+            .map(|b| f64::from(f32::from_le_bytes(b.try_into().expect("4 bytes"))))
+            .collect();
+        let world =
+            turn * DVec3::new(stored[0], stored[1], stored[2]) + DVec3::new(t[0], t[1], t[2]);
+        let want = DVec3::new(p.x, p.z, -p.y);
+        assert!(
+            (world - want).abs().max_element() < 1e-3,
+            "{k}: {world} for {want}"
+        );
+    }
+    // Up is +Y: the tile's normal, +z before, is +Y after the turn.
+    let n = turn * DVec3::Z;
+    assert!((n - DVec3::Y).length() < 1e-12, "{n}");
+    // Stored as write_bytes stores them; OBJ is the same either way; objects are not turned.
+    let plain = write_bytes(&tile, Format::Glb).expect("glb");
+    assert_eq!(glb_chunks(&plain).1, bin);
+    assert!(glb_chunks(&plain).0["nodes"][0].get("rotation").is_none());
+    assert_eq!(
+        write_z_up_bytes(&tile, Format::Obj).expect("obj"),
+        write_bytes(&tile, Format::Obj).expect("obj")
+    );
+}

@@ -115,7 +115,7 @@ pub async fn view(
             };
             serde_json::to_vec(&body).map_err(ApiError::internal)?
         }
-        _ => io::write_bytes(&mesh, format).map_err(ApiError::internal)?,
+        _ => io::write_z_up_bytes(&mesh, format).map_err(ApiError::internal)?,
     };
     let mut res = Response::new(Body::from(bytes));
     let h = res.headers_mut();
