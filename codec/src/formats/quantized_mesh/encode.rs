@@ -63,7 +63,10 @@ pub fn encode_with_normals(
         .map_err(|e| parameter("metadata", "serialisable JSON", e.to_string()))?;
 
     // Renumber vertices by first use: the index code can only introduce vertex `highest`.
-    let (order, triangles) = first_use_order(mesh);
+    let (mut order, triangles) = first_use_order(mesh);
+    if order.len() == MAX_VERTICES_16_BIT {
+        order.push(cesium_pad(mesh, &order));
+    }
 
     // Quantise against the tile bounds and the mesh's own (f32) height range.
     let (min_h, max_h) = f32_height_range(mesh);
@@ -308,6 +311,22 @@ fn first_use_order(mesh: &TerrainMesh) -> (Vec<u32>, Vec<[u32; 3]>) {
         .collect();
     order.extend((0..n as u32).filter(|&old| new_of[old as usize] == UNSEEN));
     (order, triangles)
+}
+
+/// The vertex repeated, unused, after a tile's 65,536: CesiumJS cannot read a tile of exactly
+/// that many (CesiumGS/cesium#5983, still in 24.0). Its terrain provider reads the spec's
+/// 16-bit indices, then asks IndexDatatype for an array, which is 32-bit from 65,536 vertices
+/// on, as a 16-bit index 65,535 would be WebGL's primitive restart: "RangeError: Invalid
+/// typed array length" (a QA pass, on a N44W072 zoom-10 tile at a small threshold). With
+/// one more vertex the tile has 32-bit indices, which every reader takes. An interior vertex,
+/// so that no edge list holds a position twice.
+fn cesium_pad(mesh: &TerrainMesh, order: &[u32]) -> u32 {
+    let (last_col, last_row) = ((mesh.cols - 1) as f64, (mesh.rows - 1) as f64);
+    let interior = |&old: &u32| {
+        let [x, y, _] = mesh.positions[old as usize];
+        x > 0.0 && x < last_col && y > 0.0 && y < last_row
+    };
+    order.iter().copied().find(interior).unwrap_or(order[0])
 }
 
 /// West, south, east, north lists of new indices: west/east sorted by v, south/north by u.

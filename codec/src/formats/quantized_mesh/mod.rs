@@ -63,7 +63,8 @@ pub const QUANTIZED_MAX: u16 = 32_767;
 /// Header size, bytes.
 pub const HEADER_BYTES: usize = 88;
 
-/// Above this many vertices, indices are 32-bit.
+/// Above this many vertices, indices are 32-bit. The encoder never writes exactly this
+/// many, which CesiumJS cannot read (`encode::cesium_pad`).
 pub const MAX_VERTICES_16_BIT: usize = 65_536;
 
 /// Side of a water mask grid, samples.

@@ -295,14 +295,14 @@ fn flat_tile_quantises_every_height_to_zero() {
 #[test]
 fn vertex_count_decides_index_width_and_padding() {
     let tile = TileGeo::geodetic(0.0, 0.0, 1.0, 1.0);
-    // 256² = 65 536 vertices: still 16-bit, and the index data starts right after them.
-    let narrow = encode(&grid_mesh(256, 256, bumpy), &tile, &QmOptions::default()).unwrap();
-    let n = 65_536usize;
+    // 255 × 257 = 65 535 vertices: 16-bit, and the index data starts right after them.
+    let narrow = encode(&grid_mesh(255, 257, bumpy), &tile, &QmOptions::default()).unwrap();
+    let n = 65_535usize;
     let t = u32::from_le_bytes(narrow[92 + 6 * n..96 + 6 * n].try_into().unwrap());
-    assert_eq!(t as usize, 2 * 255 * 255);
+    assert_eq!(t as usize, 2 * 254 * 256);
     assert_eq!(
         narrow.len(),
-        92 + 6 * n + 4 + 6 * t as usize + 4 * 4 + 2 * 4 * 256
+        92 + 6 * n + 4 + 6 * t as usize + 4 * 4 + 2 * 2 * (255 + 257)
     );
     // 257² = 66 049 vertices: 32-bit, after 2 bytes of padding (92 + 6n ≡ 2 mod 4).
     let wide_mesh = grid_mesh(257, 257, bumpy);
@@ -319,6 +319,46 @@ fn vertex_count_decides_index_width_and_padding() {
     for bytes in [&narrow, &wide] {
         let m = decode(bytes).unwrap();
         assert!(m.triangles.iter().all(|&t| uv_area2(&m, t) > 0));
+    }
+}
+
+/// 256² = 65 536 vertices, which CesiumJS reads with 16-bit indices into a 32-bit array
+/// (a RangeError): the tile gets one more vertex, unused, a copy of an interior one, and
+/// 32-bit indices. The triangles, edges and heights are the mesh's.
+#[test]
+fn a_tile_of_exactly_65536_vertices_gets_one_more() {
+    let tile = TileGeo::geodetic(0.0, 0.0, 1.0, 1.0);
+    let mesh = grid_mesh(256, 256, bumpy);
+    assert_eq!(mesh.positions.len(), 65_536);
+    for opts in [
+        QmOptions::default(),
+        QmOptions {
+            octvertexnormals: true,
+            ..QmOptions::default()
+        },
+    ] {
+        let bytes = encode(&mesh, &tile, &opts).unwrap();
+        let n = 65_537usize;
+        assert_eq!(
+            u32::from_le_bytes(bytes[88..92].try_into().unwrap()) as usize,
+            n
+        );
+        // 92 + 6n ≡ 2 mod 4: two bytes of padding before the 32-bit index data.
+        let t = u32::from_le_bytes(bytes[94 + 6 * n..98 + 6 * n].try_into().unwrap());
+        assert_eq!(t as usize, mesh.triangles.len());
+        let m = decode(&bytes).unwrap();
+        assert_eq!(m.u.len(), n);
+        let (pad, copy) = (
+            n - 1,
+            (0..n - 1).find(|&i| m.u[i] == m.u[n - 1] && m.v[i] == m.v[n - 1]),
+        );
+        let copy = copy.expect("the extra vertex repeats one");
+        assert_eq!(m.height[pad], m.height[copy]);
+        assert!(m.triangles.iter().flatten().all(|&i| (i as usize) < pad));
+        for edge in [&m.west, &m.south, &m.east, &m.north] {
+            assert_eq!(edge.len(), 256);
+            assert!(!edge.contains(&(pad as u32)));
+        }
     }
 }
 
