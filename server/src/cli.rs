@@ -79,7 +79,7 @@ pub struct ExportArgs {
     #[arg(long, value_name = "URL")]
     pub base_url: Option<String>,
     /// DEFLATE effort of png tiles: fast | balanced | best (the same pixels; balanced takes
-    /// ~4× fast's time for ~25 % fewer bytes, best tries four row filters, ~3.5× balanced's
+    /// ~4× fast's time for ~30 % fewer bytes, best tries four row filters, ~3.5× balanced's
     /// time for up to ~1 % fewer). Default: balanced.
     #[arg(long, value_name = "EFFORT")]
     pub png_compression: Option<PngCompression>,
@@ -213,7 +213,7 @@ pub struct ServeArgs {
     pub render_threads: Option<usize>,
     /// DEFLATE effort of terrain-RGB PNG tiles: fast | balanced | best. The same pixels;
     /// rendered on request, fast keeps a cold 512² tile's compression to a few ms where
-    /// balanced takes ~4× as long for ~25 % fewer bytes. Default: fast.
+    /// balanced takes ~4× as long for ~30 % fewer bytes. Default: fast.
     #[arg(long, value_name = "EFFORT")]
     pub png_compression: Option<PngCompression>,
     /// The URL clients reach the server at, e.g. `https://tiles.example.org/terrain`: the
@@ -304,8 +304,9 @@ pub struct TerrainArgs {
     /// Timed runs per measurement, 1–100 (medians are reported).
     #[arg(long, default_value_t = 3, value_parser = eval::parse_repeat())]
     pub repeat: usize,
-    /// Bintree, threshold mode: read the stream to T × this share (default: the server's,
-    /// 0.125), mesh with the rest. For measuring other shares; must be in (0, 1).
+    /// Bintree, threshold mode: read the stream to T × this share, rounded down to a power
+    /// of two as the server does (default: the server's, 0.125), mesh with the rest. For
+    /// measuring other shares; must be in (0, 1).
     #[arg(long = "decode-share", value_name = "S")]
     pub decode_share: Option<f64>,
 }

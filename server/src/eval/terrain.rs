@@ -46,6 +46,18 @@ pub struct TerrainEval {
     pub out: Option<PathBuf>,
 }
 
+/// The pass threshold a decode budget of `d` metres reads to: `d` rounded down to a power of
+/// two, as the server rounds it (`serve::threshold::Depth`, so that nearby T share a cached
+/// decode). Unrounded, T = 3 was read to the 0.5 m pass here and to the 0.25 m one by the
+/// server, so eval's sizes and meshes did not model the tiles for T off a power of two.
+pub fn decode_depth(d: f64) -> f64 {
+    if d > 0.0 {
+        d.log2().floor().exp2()
+    } else {
+        d
+    }
+}
+
 /// The two terrain meshers (see `zerotile_codec::bintree` for why there are two).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Mesher {
@@ -83,8 +95,9 @@ pub struct Point {
     pub param: Option<f64>,
     /// The threshold of the last pass decoded; infinite (`null` in the JSON, `inf` in the
     /// table) when the decode read no pass: none reached the threshold it was read to, or the
-    /// stream holds none (a `--step` near or past the window's height range codes every
-    /// coefficient as zero).
+    /// stream holds none (a `--step` so coarse that no coefficient reaches the finest pass,
+    /// step/16: the coarsest coefficients grow with the mean height and the levels, so
+    /// N44W072's 257 window has a pass at `--step 1e6`, none at `1e8`).
     pub threshold: f64,
     pub bytes: usize,
     pub bps: f64,
@@ -382,10 +395,11 @@ fn measure(
     } else {
         Mesher::Zerotree
     });
-    // The bintree spends T on decode and mesh together (see DECODE_SHARE).
+    // The bintree spends T on decode and mesh together (see DECODE_SHARE), decoding as deep
+    // as the server does for that T.
     let limit = match (mesher, limit) {
         (Mesher::Bintree, DecodeLimit::Threshold(t)) => {
-            DecodeLimit::Threshold(t * eval.decode_share.unwrap_or(DECODE_SHARE))
+            DecodeLimit::Threshold(decode_depth(t * eval.decode_share.unwrap_or(DECODE_SHARE)))
         }
         (_, l) => l,
     };

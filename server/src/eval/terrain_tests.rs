@@ -93,6 +93,22 @@ fn a_threshold_point_keeps_the_mesh_within_t_and_decodes_to_its_share() {
     assert!(triangles.windows(2).all(|w| w[0] > w[1]), "{triangles:?}");
 }
 
+/// A threshold off a power of two times 8 is read as deep as the server reads it (the
+/// decode budget rounded down to a power of two): T = 3 read to the 0.5 m pass here and to
+/// the 0.25 m one by the server (a QA pass, from the tiles' `.ezw` prefix sizes).
+#[test]
+fn a_threshold_point_decodes_as_deep_as_the_server() {
+    use crate::serve::threshold::Depth;
+    let ts = [3.0, 5.0, 12.0, 16.0];
+    let points = run(&n44(129, Sweep::Threshold(ts.to_vec()))).unwrap();
+    for (p, t) in points.iter().zip(ts) {
+        let Depth::Level(k) = Depth::for_threshold(t) else {
+            panic!("T = {t} decodes every pass");
+        };
+        assert_eq!(p.threshold, f64::from(k).exp2(), "T = {t}: {p:?}");
+    }
+}
+
 /// A `--bpp B` point decodes the prefix B bits per sample buy, never more.
 #[test]
 fn a_rate_point_decodes_at_most_its_rate() {
