@@ -34,7 +34,7 @@ pub struct Config {
     /// request uses every core, and however many renders hand it work it runs this many.
     pub render_threads: usize,
     /// DEFLATE effort of terrain-RGB PNGs: rendered on request, `Fast` (a few ms for a 512²
-    /// tile, where `Balanced` takes ~4× as long for ~25 % fewer bytes).
+    /// tile, where `Balanced` takes ~4× as long for ~30 % fewer bytes).
     pub png_compression: PngCompression,
     /// `Cache-Control: max-age` of tiles, seconds.
     pub tile_max_age: u32,
