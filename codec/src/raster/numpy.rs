@@ -344,15 +344,14 @@ fn bounds_georef<R: Read + std::io::Seek>(
     };
     let x0 = if x_edges { xmin + 0.5 * dx } else { xmin };
     let y0 = if y_edges { north - 0.5 * dy } else { north };
-    // Degrees when the outer edges are: longitudes in ±180° or, as global grids often run,
-    // 0..360 (past 180° they go round the world, as a GeoTIFF's do). The edges, not `xmin`
-    // plus the columns: bounds at the centres put the east edge half a cell short of that,
-    // and a grid of centres ending at 179.9° was refused as not degrees.
-    let west = x0 - 0.5 * dx;
-    let east = west + cols as f64 * dx;
-    let degrees = ((west >= -180.0 && east <= 180.0) || (west >= 0.0 && east <= 360.0))
-        && south >= -90.0
-        && north <= 90.0;
+    // Degrees when the cell centres are longitudes in ±180° or, as global grids often run,
+    // 0..360 (past 180° they go round the world, as a GeoTIFF's do). Centres, not `xmin`
+    // plus the columns, which is half a cell past the east edge when the bounds are
+    // centres: a grid of centres ending at 179.9° was refused as not degrees. Not the edges
+    // either: a global grid's centres may start at -180° or 0°, its edge half a cell out.
+    let (first, last) = (x0, x0 + (cols.max(1) - 1) as f64 * dx);
+    let within = |lo: f64, hi: f64| first >= lo - DEGREE_SLACK && last <= hi + DEGREE_SLACK;
+    let degrees = (within(-180.0, 180.0) || within(0.0, 360.0)) && south >= -90.0 && north <= 90.0;
     let crs = if degrees {
         Crs::Geographic
     } else {
@@ -360,6 +359,10 @@ fn bounds_georef<R: Read + std::io::Seek>(
     };
     Ok(Some(Georef::north_up(crs, x0, y0, dx, dy)))
 }
+
+/// Degrees a centre may pass a longitude range by: bounds stored as f32 (0.1 is 0.1000000015)
+/// put the 1,800th centre 3e-6° out.
+const DEGREE_SLACK: f64 = 1e-4;
 
 /// `Some(true)` when `extent` spans `n` cells of size `d`, `Some(false)` when it spans `n − 1`
 /// (bounds at the outer centres), `None` when neither.
@@ -791,12 +794,21 @@ mod tests {
             (g.crs, g.position(0.0, 0.0)),
             (Crs::Geographic, (175.0, 25.0))
         );
-        // Centres from 160° to 180°, cells of 10: edges 155..185, past 180 and in 0..360.
+        // Centres from 160° to 180°, cells of 10, and from -180° to -160°: a global grid's
+        // first or last centres, the edge half a cell past ±180.
         let g = npz("npz_centres_east", 10.0, 10.0, 160.0, Some(180.0)).unwrap();
         assert_eq!(
             (g.crs, g.position(0.0, 2.0)),
             (Crs::Geographic, (180.0, 25.0))
         );
+        let g = npz("npz_centres_west", 10.0, 10.0, -180.0, Some(-160.0)).unwrap();
+        assert_eq!(
+            (g.crs, g.position(0.0, 0.0)),
+            (Crs::Geographic, (-180.0, 25.0))
+        );
+        // A 0..360 grid's centres from 0°: its west edge is -5°.
+        let g = npz("npz_centres_zero", 10.0, 10.0, 0.0, Some(20.0)).unwrap();
+        assert_eq!(g.crs, Crs::Geographic);
         // Past 360°, or across -180° from the west: not longitudes.
         let g = npz("npz_past_360", 10.0, 10.0, 340.0, None).unwrap();
         assert_eq!(g.crs, Crs::Unknown);
@@ -804,19 +816,24 @@ mod tests {
         assert_eq!(g.crs, Crs::Unknown);
     }
 
-    /// Bounds at the cell centres ending at 179.9° (cells of 0.1): the east edge is 179.95°,
-    /// degrees. `xmin` plus the columns put it at 180.05°, and the file was refused.
+    /// Bounds at the cell centres from -10.1° to 179.9° (cells of 0.1): degrees. `xmin`
+    /// plus the columns put the east edge at 180.05°, and the file was refused; from -10.1°
+    /// it is no 0..360 grid either.
     #[test]
     fn npz_centres_up_to_the_antimeridian_are_degrees() {
         let scalar = |v: f64| npy_bytes("<f8", false, "()", &v.to_le_bytes());
+        let cols = 1901;
         let path = write_npz(
             "npz_centres_179",
             &[
-                ("elevation", npy_bytes("|u1", false, "(2, 3)", &[0; 6])),
+                (
+                    "elevation",
+                    npy_bytes("|u1", false, &format!("(2, {cols})"), &vec![0; 2 * cols]),
+                ),
                 ("dx", scalar(0.1)),
                 ("dy", scalar(0.1)),
-                ("xmin", scalar(-179.9)),
-                ("xmax", scalar(-179.7)),
+                ("xmin", scalar(-10.1)),
+                ("xmax", scalar(179.9)),
                 ("ymin", scalar(10.0)),
                 ("ymax", scalar(10.1)),
             ],
