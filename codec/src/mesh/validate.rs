@@ -133,24 +133,31 @@ pub fn repair(mesh: &TriMesh) -> Result<(TriMesh, ValidationReport), MeshError> 
 /// decimal are rarely on one line once read (0,0 / 0.1,0.7 / 0.3,2.1 gives a cross product of
 /// 2.8e-17), and such a face was kept with a normal pointing anywhere. A coordinate read is
 /// off by up to half an ulp, so on an axis whose largest magnitude among the corners is `m`
-/// each difference is off by up to ε·m; the cross product of corners truly on one line is
-/// then at most about that error's length times |b−a| + |c−a|, and the bound allows 16
-/// times it. An axis the three corners share exactly adds no error (they were written
+/// each difference is off by up to ε·m; each component of the cross product of corners truly
+/// on one line is then at most that of the other two axes' errors times the edges' extents
+/// on them, and the bound allows 16 times it. Per component, so that a large coordinate on
+/// one axis excuses no extent on another, and no length is taken, which underflows for
+/// edges of 1e-100. An axis the corners share exactly adds no error (they were written
 /// alike): a unit triangle at x = 1.7e308 is a face.
 fn without_area(positions: &[DVec3], t: &[u32; 3]) -> bool {
-    const ROUNDING: f64 = 16.0 * f64::EPSILON;
+    const ROUNDING: f64 = 32.0 * f64::EPSILON;
     let [a, b, c] = t.map(|i| positions[i as usize]);
     let (ab, ac) = (b - a, c - a);
     let m = a.abs().max(b.abs()).max(c.abs());
-    let off = DVec3::select(
+    let e = DVec3::select(
         ab.cmpeq(DVec3::ZERO) & ac.cmpeq(DVec3::ZERO),
         DVec3::ZERO,
         m,
     );
-    // The largest axis' error, doubled, bounds the error's length without overflowing; an
-    // area past the f64 range is no zero area (`has_surface` says what it is).
-    let n = ab.cross(ac).length();
-    n.is_finite() && n <= ROUNDING * 2.0 * off.max_element() * (ab.length() + ac.length())
+    let s = ab.abs() + ac.abs();
+    let bound = DVec3::new(
+        e.y * s.z + e.z * s.y,
+        e.z * s.x + e.x * s.z,
+        e.x * s.y + e.y * s.x,
+    ) * ROUNDING;
+    // An area past the f64 range is no zero area (`has_surface` says what it is).
+    let n = ab.cross(ac);
+    n.is_finite() && n.abs().cmple(bound).all()
 }
 
 /// Removes faces with a repeated corner and faces whose vertex set appeared before; returns
@@ -409,6 +416,16 @@ mod tests {
         assert!(!without_area(&far, &[0, 1, 2]));
         let huge = [DVec3::ZERO, DVec3::X * 1e200, DVec3::Y * 1e200];
         assert!(!without_area(&huge, &[0, 1, 2]));
+        // Nor does a large coordinate on one axis excuse a small extent on another; and a
+        // face of 1e-100, whose cross product's length underflows, is a face.
+        let tall = [
+            DVec3::new(0.0, 0.0, 1e9),
+            DVec3::new(1.0, 0.0, 1e9 + 1.0),
+            DVec3::new(0.0, 1e-6, 1e9),
+        ];
+        assert!(!without_area(&tall, &[0, 1, 2]));
+        let tiny = [DVec3::ZERO, DVec3::X * 1e-100, DVec3::Y * 1e-100];
+        assert!(!without_area(&tiny, &[0, 1, 2]));
         let m = TriMesh::new(
             vec![
                 DVec3::ZERO,
