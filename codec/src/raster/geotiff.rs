@@ -190,14 +190,14 @@ fn gdal_scaling<R: Read + Seek>(
 ) -> Result<Option<Scaling>, RasterError> {
     // The `tiff` crate refuses a text tag that is not UTF-8 as an "invalid tag", naming
     // neither; said here, since the scale it may hold cannot be passed over.
-    let not_text = |e| {
-        match e {
+    let not_text = |e| match e {
         TiffError::FormatError(tiff::TiffFormatError::InvalidTag) => RasterError::format(
             path,
-            "its GDAL_METADATA tag (42112) is not UTF-8 text, so the scale and offset it may              set cannot be read (GDAL writes it in UTF-8; `gdalinfo` shows what it holds)",
+            "its GDAL_METADATA tag (42112) is not UTF-8 text ending in a NUL, so the scale and \
+             offset it may set cannot be read (GDAL writes it so; `gdalinfo` shows what it \
+             holds)",
         ),
         e => tiff_error(path, e),
-    }
     };
     let Some(value) = decoder
         .find_tag(Tag::Unknown(GDAL_METADATA))

@@ -88,8 +88,14 @@ fn find_mask<R: Read + Seek>(decoder: &mut Decoder<R>) -> Result<bool, tiff::Tif
         if !decoder.more_images() {
             break;
         }
-        if decoder.next_image().is_err() {
-            return Ok(false);
+        match decoder.next_image() {
+            Ok(()) => {}
+            // A page the crate will not open as an image: not read here either.
+            Err(tiff::TiffError::FormatError(_) | tiff::TiffError::UnsupportedError(_)) => {
+                return Ok(false)
+            }
+            // The file failing to read, or a page past the limits, is said.
+            Err(e) => return Err(e),
         }
         let kind = decoder
             .find_tag_unsigned::<u32>(Tag::NewSubfileType)?
