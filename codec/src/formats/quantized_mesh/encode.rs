@@ -318,8 +318,8 @@ fn first_use_order(mesh: &TerrainMesh) -> (Vec<u32>, Vec<[u32; 3]>) {
 /// 16-bit indices, then asks IndexDatatype for an array, which is 32-bit from 65,536 vertices
 /// on, as a 16-bit index 65,535 would be WebGL's primitive restart: "RangeError: Invalid
 /// typed array length" (a QA pass, on a N44W072 zoom-10 tile at a small threshold). With
-/// one more vertex the tile has 32-bit indices, which every reader takes. An interior vertex,
-/// so that no edge list holds a position twice.
+/// one more vertex the tile has 32-bit indices, which every reader takes. An interior vertex
+/// where there is one (the edge lists leave the copy out whichever it is).
 fn cesium_pad(mesh: &TerrainMesh, order: &[u32]) -> u32 {
     let (last_col, last_row) = ((mesh.cols - 1) as f64, (mesh.rows - 1) as f64);
     let interior = |&old: &u32| {
@@ -333,7 +333,8 @@ fn cesium_pad(mesh: &TerrainMesh, order: &[u32]) -> u32 {
 fn edge_lists(mesh: &TerrainMesh, order: &[u32], q: &Quantized) -> [Vec<u32>; 4] {
     let (last_col, last_row) = ((mesh.cols - 1) as f64, (mesh.rows - 1) as f64);
     let mut lists: [Vec<u32>; 4] = Default::default();
-    for (new, &old) in order.iter().enumerate() {
+    // Not the copy `cesium_pad` may add after the mesh's own vertices.
+    for (new, &old) in order.iter().enumerate().take(mesh.positions.len()) {
         let [x, y, _] = mesh.positions[old as usize];
         let new = new as u32;
         if x == 0.0 {
