@@ -736,23 +736,11 @@ mod tests {
     #[test]
     fn npz_bounds_at_centres_with_xmax_in_metres() {
         let grid = npy_bytes("|u1", false, "(2, 3)", &[1, 2, 3, 4, 5, 6]);
-        let scalar = |v: f64| npy_bytes("<f8", false, "()", &v.to_le_bytes());
-        let path = write_npz(
+        let g = placed_by_bounds(
             "npz_centres",
-            &[
-                ("elevation", grid),
-                ("dx", scalar(10.0)),
-                ("dy", scalar(5.0)),
-                ("xmin", scalar(500_000.0)),
-                ("xmax", scalar(500_020.0)),
-                ("ymin", scalar(4_000_005.0)),
-                ("ymax", scalar(4_000_000.0)),
-            ],
+            grid,
+            [10.0, 5.0, 500_000.0, 500_020.0, 4_000_005.0, 4_000_000.0],
         );
-        let g = read_npz(&path, &ReadOptions::default())
-            .unwrap()
-            .georef
-            .unwrap();
         assert_eq!(g.crs, Crs::Unknown);
         assert_eq!(g.position(0.0, 0.0), (500_000.0, 4_000_005.0));
         assert_eq!(g.position(1.0, 2.0), (500_020.0, 4_000_000.0));
@@ -821,27 +809,27 @@ mod tests {
     /// it is no 0..360 grid either.
     #[test]
     fn npz_centres_up_to_the_antimeridian_are_degrees() {
-        let scalar = |v: f64| npy_bytes("<f8", false, "()", &v.to_le_bytes());
         let cols = 1901;
-        let path = write_npz(
+        let grid = npy_bytes("|u1", false, &format!("(2, {cols})"), &vec![0; 2 * cols]);
+        let g = placed_by_bounds(
             "npz_centres_179",
-            &[
-                (
-                    "elevation",
-                    npy_bytes("|u1", false, &format!("(2, {cols})"), &vec![0; 2 * cols]),
-                ),
-                ("dx", scalar(0.1)),
-                ("dy", scalar(0.1)),
-                ("xmin", scalar(-10.1)),
-                ("xmax", scalar(179.9)),
-                ("ymin", scalar(10.0)),
-                ("ymax", scalar(10.1)),
-            ],
+            grid,
+            [0.1, 0.1, -10.1, 179.9, 10.0, 10.1],
         );
-        let g = read_npz(&path, &ReadOptions::default())
+        assert_eq!(g.crs, Crs::Geographic);
+    }
+
+    /// The placement read from an `.npz` of `grid` (an `elevation` array's bytes) with the
+    /// bounds `[dx, dy, xmin, xmax, ymin, ymax]`.
+    fn placed_by_bounds(test: &str, grid: Vec<u8>, bounds: [f64; 6]) -> Georef {
+        let scalar = |v: f64| npy_bytes("<f8", false, "()", &v.to_le_bytes());
+        let names = ["dx", "dy", "xmin", "xmax", "ymin", "ymax"];
+        let mut members = vec![("elevation", grid)];
+        members.extend(names.into_iter().zip(bounds.map(scalar)));
+        let path = write_npz(test, &members);
+        read_npz(&path, &ReadOptions::default())
             .unwrap()
             .georef
-            .unwrap();
-        assert_eq!(g.crs, Crs::Geographic);
+            .unwrap()
     }
 }

@@ -15,6 +15,7 @@ use zerotile_codec::zerotree::{self, Complexity};
 use zerotile_codec::Grid;
 
 use super::{cell, median_ms, short};
+use crate::serve::threshold::Depth;
 
 /// What to sweep.
 #[derive(Clone, Debug, PartialEq)]
@@ -44,18 +45,6 @@ pub struct TerrainEval {
     pub decode_share: Option<f64>,
     /// A folder for each point's mesh as OBJ (`--out`).
     pub out: Option<PathBuf>,
-}
-
-/// The pass threshold a decode budget of `d` metres reads to: `d` rounded down to a power of
-/// two, as the server rounds it (`serve::threshold::Depth`, so that nearby T share a cached
-/// decode). Unrounded, T = 3 was read to the 0.5 m pass here and to the 0.25 m one by the
-/// server, so eval's sizes and meshes did not model the tiles for T off a power of two.
-pub fn decode_depth(d: f64) -> f64 {
-    if d > 0.0 {
-        d.log2().floor().exp2()
-    } else {
-        d
-    }
 }
 
 /// The two terrain meshers (see `zerotile_codec::bintree` for why there are two).
@@ -399,7 +388,7 @@ fn measure(
     // as the server does for that T.
     let limit = match (mesher, limit) {
         (Mesher::Bintree, DecodeLimit::Threshold(t)) => {
-            DecodeLimit::Threshold(decode_depth(t * eval.decode_share.unwrap_or(DECODE_SHARE)))
+            Depth::for_budget(t * eval.decode_share.unwrap_or(DECODE_SHARE)).limit()
         }
         (_, l) => l,
     };

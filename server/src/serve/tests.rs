@@ -1202,9 +1202,13 @@ fn one_triangle_data(tag: &str) -> std::path::PathBuf {
 
 /// The router over the object meshes of `data/meshes` (and the one-tile `hill`).
 fn router_with_meshes(tag: &str, data: &std::path::Path) -> Router {
-    let state = state_over(hill_dataset(tag, "local", &[ROOT]), Config::default())
-        .with_meshes(crate::serve::meshes::MeshCatalog::open(data, 1 << 20));
-    app(state)
+    app(state_with_meshes(tag, "local", data))
+}
+
+/// A one-tile `hill` of `scheme` beside the meshes of `data`, with the default config.
+fn state_with_meshes(tag: &str, scheme: &str, data: &std::path::Path) -> AppState {
+    state_over(hill_dataset(tag, scheme, &[ROOT]), Config::default())
+        .with_meshes(crate::serve::meshes::MeshCatalog::open(data, 1 << 20))
 }
 
 /// A mesh replaced on disk while the server was down is a new mesh after the restart: a
@@ -1494,11 +1498,7 @@ async fn uploads_past_their_budget_are_shed_before_the_body_is_read() {
     use crate::serve::state::{UPLOAD_JOBS, UPLOAD_QUEUE};
     const TRI: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
     let data = one_triangle_data("upload-budget");
-    let state = state_over(
-        hill_dataset("upload-budget", "local", &[ROOT]),
-        Config::default(),
-    )
-    .with_meshes(crate::serve::meshes::MeshCatalog::open(&data, 1 << 20));
+    let state = state_with_meshes("upload-budget", "local", &data);
     let app = app(state.clone());
     let held: Vec<_> = (0..UPLOAD_JOBS + UPLOAD_QUEUE)
         .map(|_| state.uploads.admit().expect("a place"))
@@ -2004,11 +2004,7 @@ async fn meshes_are_gzipped_for_clients_that_accept_it() {
 #[tokio::test]
 async fn if_match_is_a_precondition() {
     let data = one_triangle_data("if-match");
-    let state = state_over(
-        hill_dataset("if-match", "local", &[ROOT]),
-        Config::default(),
-    )
-    .with_meshes(crate::serve::meshes::MeshCatalog::open(&data, 1 << 20));
+    let state = state_with_meshes("if-match", "local", &data);
     let app = app(state.clone());
     let failed = |s: StatusCode, h: &axum::http::HeaderMap, body: &[u8], what: &str| {
         assert_eq!(s, StatusCode::PRECONDITION_FAILED, "{what}");
@@ -2733,11 +2729,7 @@ async fn an_unmoved_view_revalidates_without_meshing() {
 #[tokio::test]
 async fn descriptions_revalidate_with_a_tag_of_their_bytes() {
     let data = one_triangle_data("describe-etag");
-    let state = state_over(
-        hill_dataset("describe-etag", "mercator", &[ROOT]),
-        Config::default(),
-    )
-    .with_meshes(crate::serve::meshes::MeshCatalog::open(&data, 1 << 20));
+    let state = state_with_meshes("describe-etag", "mercator", &data);
     let app = app(state);
     // Vary as a set of lower-case names.
     let vary = |h: &axum::http::HeaderMap| -> std::collections::BTreeSet<String> {

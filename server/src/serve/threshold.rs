@@ -57,7 +57,13 @@ pub enum Depth {
 
 impl Depth {
     pub fn for_threshold(t: f64) -> Self {
-        let d = t * DECODE_SHARE;
+        Self::for_budget(t * DECODE_SHARE)
+    }
+
+    /// The depth a decode budget of `d` metres reads to: `d` rounded down to a power of two,
+    /// so that nearby budgets share one cached decode. `zerotile eval terrain` rounds its
+    /// budgets (other shares too) by it, to read as deep as the tiles.
+    pub fn for_budget(d: f64) -> Self {
         if d <= 0.0 {
             return Self::All;
         }

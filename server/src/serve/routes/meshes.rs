@@ -17,7 +17,8 @@ use axum::body::{Body, Bytes};
 use axum::extract::rejection::{PathRejection, QueryRejection};
 use axum::extract::{Path, Query, State};
 use axum::http::header::{
-    ACCEPT_ENCODING, CONTENT_ENCODING, CONTENT_LENGTH, CONTENT_TYPE, LOCATION, RETRY_AFTER,
+    ACCEPT_ENCODING, CONTENT_ENCODING, CONTENT_LENGTH, CONTENT_TYPE, IF_MATCH, LOCATION,
+    RETRY_AFTER,
 };
 use axum::http::{HeaderMap, HeaderValue, StatusCode};
 use axum::response::{IntoResponse, Response};
@@ -652,8 +653,11 @@ pub async fn upload(
     });
     // If-Match before the body is read too, against the mesh's description (RFC 9110
     // §13.1.1): `*` uploads only over a mesh that exists; a tag never passes, the
-    // description's being weak.
+    // description's being weak. Without it no description is made.
     let target = target.and_then(|t| {
+        if !headers.contains_key(IF_MATCH) {
+            return Ok(t);
+        }
         let current = match state.meshes.get(&t.0) {
             Some(e) => Some(revalidate::tagged(&headers, &description(&e))?.1),
             None => None,
