@@ -8,7 +8,7 @@ use zerotile_codec::mesh::io::Format;
 
 use super::catalog::Changes;
 use super::meshes::tests::{QUAD_PLY, TRI};
-use super::meshes::{MeshCatalog, MESH_DIR};
+use super::meshes::{MeshCatalog, UploadError, MESH_DIR};
 use crate::fixtures::{mkfifo, within};
 
 const QUAD: &[u8] = b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3\nf 1 3 4\n";
@@ -197,6 +197,28 @@ fn an_upload_is_not_read_again_by_the_next_rescan() {
     assert_eq!(rescan(&cat), None);
     assert!(Arc::ptr_eq(&e, &cat.get("a").unwrap()));
     assert_eq!(cat.get("a").unwrap().mesh.face_count(), 1);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A replace-only upload (`If-Match: *`) after a rescan removed its mesh is refused and
+/// writes nothing; over a mesh still served it replaces it.
+#[test]
+fn a_replace_after_the_rescan_removed_the_mesh_creates_nothing() {
+    let (dir, cat) = opened("replace", "a.ply", QUAD_PLY);
+    std::fs::remove_file(dir.join(MESH_DIR).join("a.ply")).unwrap();
+    assert!(rescan(&cat).is_some());
+    assert!(matches!(
+        cat.replace("a", TRI, Some(Format::Obj)),
+        Err(UploadError::Gone)
+    ));
+    assert!(cat.get("a").is_none());
+    assert!(!dir.join(MESH_DIR).join("a.obj").exists());
+
+    let (_, replaced) = cat.upload("a", QUAD_PLY, Some(Format::Ply)).unwrap();
+    assert!(!replaced);
+    let (e, replaced) = cat.replace("a", TRI, Some(Format::Obj)).unwrap();
+    assert!(replaced);
+    assert_eq!(e.mesh.face_count(), 1);
     let _ = std::fs::remove_dir_all(&dir);
 }
 

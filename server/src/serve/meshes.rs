@@ -297,6 +297,28 @@ impl MeshCatalog {
         bytes: &[u8],
         format: Option<Format>,
     ) -> Result<(Arc<MeshEntry>, bool), UploadError> {
+        self.store_upload(name, bytes, format, false)
+    }
+
+    /// [`Self::upload`] only over a mesh served under `name` ([`UploadError::Gone`] if none):
+    /// `If-Match: *`. Judged under the store lock the rescan takes, so a rescan that removes
+    /// the mesh while the body is read cannot let this create it.
+    pub fn replace(
+        &self,
+        name: &str,
+        bytes: &[u8],
+        format: Option<Format>,
+    ) -> Result<(Arc<MeshEntry>, bool), UploadError> {
+        self.store_upload(name, bytes, format, true)
+    }
+
+    fn store_upload(
+        &self,
+        name: &str,
+        bytes: &[u8],
+        format: Option<Format>,
+        must_exist: bool,
+    ) -> Result<(Arc<MeshEntry>, bool), UploadError> {
         self.takes_uploads()?;
         let read = io::read_bytes(bytes, format, &limits()).map_err(anyhow::Error::from);
         let served = read
@@ -310,6 +332,9 @@ impl MeshCatalog {
         let path = self.dir.join(format!("{name}.{}", format.extension()));
         // A poisoned lock (a rescan's reader that panicked) guards only a cache of stamps.
         let mut seen = self.store.lock().unwrap_or_else(PoisonError::into_inner);
+        if must_exist && self.get(name).is_none() {
+            return Err(UploadError::Gone);
+        }
         // Under the store lock, so two uploads cannot both take the last room. A mesh
         // replaced frees its own charge.
         let held: u64 = self
@@ -359,6 +384,10 @@ pub enum UploadError {
          replace a mesh of the same name or ask the operator for room"
     )]
     Quota { held: u64, quota: u64, faces: usize },
+    /// A replace-only upload ([`MeshCatalog::replace`]) found no mesh of its name: it was
+    /// removed (a rescan) while the body was read.
+    #[error("no mesh of this name is served any more, and If-Match: * replaces only")]
+    Gone,
     /// The mesh was fine; writing it was not.
     #[error("storing the mesh: {0:#}")]
     Store(anyhow::Error),

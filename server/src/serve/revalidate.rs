@@ -75,13 +75,23 @@ pub fn if_match(headers: &HeaderMap, etag: Option<&str>) -> ApiResult<()> {
 }
 
 /// The request's preconditions on a representation tagged `etag`: the 412 error for a failed
-/// `If-Match`, else the 304 when `If-None-Match` lists the tag.
+/// `If-Match`, else the 304 when `If-None-Match` lists the tag. For answers whose every 4xx
+/// is known before this; see [`Held`] for those that learn one from their work.
 pub fn preconditions(
     headers: &HeaderMap,
     etag: &str,
     cache_control: &str,
 ) -> ApiResult<Option<Response>> {
     if_match(headers, Some(etag))?;
+    not_modified(headers, etag, cache_control)
+}
+
+/// The 304 when `If-None-Match` lists `etag`.
+fn not_modified(
+    headers: &HeaderMap,
+    etag: &str,
+    cache_control: &str,
+) -> ApiResult<Option<Response>> {
     if !negotiate::not_modified(headers, etag) {
         return Ok(None);
     }
@@ -90,6 +100,37 @@ pub fn preconditions(
     // With the 200's Vary, as a 304 repeats it (RFC 9110 §15.4.5).
     validators(res.headers_mut(), etag, cache_control)?;
     Ok(Some(res))
+}
+
+/// A failed `If-Match` held back until the work shows the request would succeed without it:
+/// RFC 9110 §13.2.1 has a request that fails anyway (a view of no terrain, 404; an octree
+/// level past the mesh's, 400) answer its own error, not 412. The work is done for it, as
+/// for the request without the header; clients send `If-Match` to views and LODs rarely,
+/// and only `*` can pass their weak tags.
+#[must_use = "release() it once the request is known to succeed"]
+pub struct Held(Option<ApiError>);
+
+impl Held {
+    /// The preconditions on `etag`: a 304 for `If-None-Match` at once (only when `If-Match`
+    /// passed, as §13.2.2 orders them), a failed `If-Match` held.
+    pub fn check(
+        headers: &HeaderMap,
+        etag: &str,
+        cache_control: &str,
+    ) -> ApiResult<Result<Self, Response>> {
+        match if_match(headers, Some(etag)) {
+            Err(e) => Ok(Ok(Self(Some(e)))),
+            Ok(()) => Ok(match not_modified(headers, etag, cache_control)? {
+                Some(res) => Err(res),
+                None => Ok(Self(None)),
+            }),
+        }
+    }
+
+    /// The 412, now that the request would have succeeded without it.
+    pub fn release(self) -> ApiResult<()> {
+        self.0.map_or(Ok(()), Err)
+    }
 }
 
 /// `value` as JSON, and its tag: a hash of its bytes, in the coding the layer sends them in.

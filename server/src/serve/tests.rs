@@ -2094,6 +2094,49 @@ async fn if_match_is_a_precondition() {
     let _ = std::fs::remove_dir_all(&data);
 }
 
+/// A request that fails without its `If-Match` gets its own error with it too, not a 412
+/// (RFC 9110 §13.2.1): a view over tiles the dataset lacks (404, known only after its tiles
+/// were meshed) and an octree level past the mesh's deepest (400). The same requests that
+/// would succeed still get the 412.
+#[tokio::test]
+async fn a_request_failing_anyway_gets_its_error_not_412() {
+    let path = hill_file_with("if-match-4xx", "geodetic", &[ROOT], |_| {});
+    let data = one_triangle_data("if-match-4xx");
+    let state = state_over(Dataset::open(&path).unwrap(), Config::default())
+        .with_meshes(crate::serve::meshes::MeshCatalog::open(&data, 1 << 20));
+    let app = app(state);
+    for (uri, status, code) in [
+        (
+            "/v1/datasets/hill/view?eye=90,0,1000&target=90,0.01,0&fov=60",
+            StatusCode::NOT_FOUND,
+            "empty_view",
+        ),
+        (
+            "/v1/meshes/a/octree?level=30",
+            StatusCode::BAD_REQUEST,
+            "bad_mesh_query",
+        ),
+        (
+            "/v1/datasets/hill/view?eye=-90,0,1000&target=-90,0.01,0&fov=60",
+            StatusCode::OK,
+            "",
+        ),
+        ("/v1/meshes/a/octree?level=0", StatusCode::OK, ""),
+    ] {
+        let (s, _, body) = get(&app, uri).await;
+        assert_eq!(s, status, "{uri}: {}", String::from_utf8_lossy(&body));
+        let (s, _, body) = send(&app, Method::GET, uri, &[("if-match", "\"stale\"")]).await;
+        if status == StatusCode::OK {
+            assert_eq!(s, StatusCode::PRECONDITION_FAILED, "{uri}");
+            assert_eq!(error_code(&body), "precondition_failed", "{uri}");
+        } else {
+            assert_eq!(s, status, "{uri} with If-Match");
+            assert_eq!(error_code(&body), code, "{uri} with If-Match");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&data);
+}
+
 /// A world scheme's missing root tile is a flat quantized-mesh tile (Cesium asks for every
 /// root); in any other format, off the tiling, or below the roots, a missing tile is a 404.
 /// A root that exists is meshed, not flattened.

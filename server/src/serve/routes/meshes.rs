@@ -490,9 +490,10 @@ pub async fn lod(
     let etag = revalidate::weak_tag('m', key, codings::of_answer(&headers, content_type));
     // Revalidated on every use (an upload replaces the mesh at this URL); the tag comes from
     // the ask, before any mesh work.
-    if let Some(res) = revalidate::preconditions(&headers, &etag, REVALIDATE)? {
-        return Ok(res);
-    }
+    let held = match revalidate::Held::check(&headers, &etag, REVALIDATE)? {
+        Ok(held) => held,
+        Err(not_modified) => return Ok(not_modified),
+    };
 
     let answer = match state.meshes.answers.get(&key) {
         Some(hit) => hit,
@@ -527,6 +528,7 @@ pub async fn lod(
             .map_err(ApiError::internal)??
         }
     };
+    held.release()?;
 
     let mut res = Response::new(Body::from(answer.bytes.clone()));
     let h = res.headers_mut();
@@ -654,8 +656,9 @@ pub async fn upload(
     // If-Match before the body is read too, against the mesh's description (RFC 9110
     // §13.1.1): `*` uploads only over a mesh that exists; a tag never passes, the
     // description's being weak. Without it no description is made.
+    let replace_only = headers.contains_key(IF_MATCH);
     let target = target.and_then(|t| {
-        if !headers.contains_key(IF_MATCH) {
+        if !replace_only {
             return Ok(t);
         }
         let current = match state.meshes.get(&t.0) {
@@ -683,7 +686,15 @@ pub async fn upload(
     let format = label.format(&body);
     let job_state = state.clone();
     let (entry, replaced) = tokio::task::spawn_blocking(move || {
-        ticket.run(|| job_state.meshes.upload(&name, &body, format))
+        // Only `*` passed If-Match above; the catalog checks again, under its lock, that the
+        // mesh is still there after the body's read.
+        ticket.run(|| {
+            if replace_only {
+                job_state.meshes.replace(&name, &body, format)
+            } else {
+                job_state.meshes.upload(&name, &body, format)
+            }
+        })
     })
     .await
     .map_err(ApiError::internal)?
@@ -731,6 +742,14 @@ fn upload_error(e: UploadError) -> ApiError {
             StatusCode::INSUFFICIENT_STORAGE,
             "mesh_quota",
             e.to_string(),
+        ),
+        UploadError::Gone => ApiError::new(
+            StatusCode::PRECONDITION_FAILED,
+            "precondition_failed",
+            format!(
+                "If-Match names no current representation of this resource: {e} (it was \
+                 removed while the body was read)"
+            ),
         ),
         UploadError::Store(_) => ApiError::internal(e),
     }

@@ -69,9 +69,10 @@ pub async fn view(
     // meshing its tiles again.
     let coding = codings::of_answer(&headers, media);
     let etag = revalidate::weak_tag('v', view_key(&d, &plane, t, format), coding);
-    if let Some(res) = revalidate::preconditions(&headers, &etag, REVALIDATE)? {
-        return Ok(res);
-    }
+    let held = match revalidate::Held::check(&headers, &etag, REVALIDATE)? {
+        Ok(held) => held,
+        Err(not_modified) => return Ok(not_modified),
+    };
 
     // Mesh off the async threads.
     let ticket = state.admit_render()?;
@@ -95,6 +96,7 @@ pub async fn view(
             "the view plane covers no terrain of this dataset",
         ));
     }
+    held.release()?;
 
     // The body: JSON with the figures, or a mesh file with them in headers.
     let triangles = mesh.faces.len();
