@@ -230,6 +230,7 @@ pub fn run(job: &Export) -> Result<Exported> {
         },
         _ => Variant::Mesh {
             coding: Coding::Identity,
+            frame: crate::serve::frame::Frame::Scheme,
         },
     };
 

@@ -18,6 +18,7 @@ pub mod catalog;
 pub mod codings;
 pub mod dataset;
 pub mod error;
+pub mod frame;
 pub mod listen;
 pub mod mesh_reload;
 pub mod meshes;
@@ -39,6 +40,8 @@ pub mod threshold;
 pub mod tile_cache;
 pub mod view_plane;
 
+#[cfg(test)]
+mod frame_tests;
 #[cfg(test)]
 mod mesh_reload_tests;
 #[cfg(test)]
@@ -135,6 +138,7 @@ pub fn app(state: AppState) -> Router {
             header::HeaderName::from_static("x-faces"),
             header::HeaderName::from_static("x-error"),
             header::HeaderName::from_static("x-max-level"),
+            header::HeaderName::from_static("x-frame-origin"),
             // What a client is told to do next: when to retry a 503, which methods
             // a route answers (405), which coding an upload must use (415).
             header::RETRY_AFTER,

@@ -8,7 +8,7 @@ use zerotile_codec::formats::layer_json::AvailableRange;
 use zerotile_codec::formats::mesh_bin::{self, MeshCrs};
 use zerotile_codec::formats::quantized_mesh::{self, Diagonals, QmOptions};
 use zerotile_codec::formats::terrain_rgb::{self, PngCompression, RgbOptions};
-use zerotile_codec::geo::{self, Scheme};
+use zerotile_codec::geo::{self, EnuFrame, Scheme};
 use zerotile_codec::mesh::{io, Format, TriMesh};
 use zerotile_codec::raster::Encoding;
 use zerotile_codec::tile::Neighbourhood;
@@ -16,6 +16,7 @@ use zerotile_codec::zerotree::TerrainMesh;
 use zerotile_codec::Grid;
 
 use super::dataset::Dataset;
+use super::frame;
 
 fn geo_id(id: TileId) -> geo::TileId {
     geo::TileId::new(id.z, id.x, id.y)
@@ -146,9 +147,18 @@ pub fn tri_mesh(d: &Dataset, id: TileId, mesh: &TerrainMesh) -> Result<TriMesh> 
     Ok(TriMesh::new(positions, mesh.triangles.clone()))
 }
 
-/// OBJ, GLB or JSON bytes of the mesh.
-pub fn mesh_file(d: &Dataset, id: TileId, mesh: &TerrainMesh, format: Format) -> Result<Vec<u8>> {
-    let m = tri_mesh(d, id, mesh)?;
+/// OBJ, GLB or JSON bytes of the mesh, in the scheme's coordinates or in `enu`.
+pub fn mesh_file(
+    d: &Dataset,
+    id: TileId,
+    mesh: &TerrainMesh,
+    format: Format,
+    enu: Option<&EnuFrame>,
+) -> Result<Vec<u8>> {
+    let mut m = tri_mesh(d, id, mesh)?;
+    if let Some(f) = enu {
+        frame::to_enu(&mut m, d.tiling.scheme(), f);
+    }
     io::write_z_up_bytes(&m, format)
         .with_context(|| format!("writing tile {id} as {}", format.name()))
 }

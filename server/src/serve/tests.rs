@@ -17,9 +17,9 @@ use crate::serve::dataset::Dataset;
 use crate::serve::{pipeline, render, threshold};
 
 /// The root tile of a zoom-0 pyramid.
-const ROOT: TileId = TileId { z: 0, x: 0, y: 0 };
+pub(super) const ROOT: TileId = TileId { z: 0, x: 0, y: 0 };
 
-fn id(z: u8, x: u32, y: u32) -> TileId {
+pub(super) fn id(z: u8, x: u32, y: u32) -> TileId {
     TileId { z, x, y }
 }
 
@@ -34,7 +34,7 @@ fn stored(x0: u32, y0: u32, x1: u32, y1: u32) -> Vec<Availability> {
 }
 
 /// A smooth 257² hill, as every tile of a dataset of `scheme` holding `tiles`.
-fn hill_dataset(tag: &str, scheme: &str, tiles: &[TileId]) -> Dataset {
+pub(super) fn hill_dataset(tag: &str, scheme: &str, tiles: &[TileId]) -> Dataset {
     hill_dataset_in(tag, scheme, tiles, default_bounds(scheme))
 }
 
@@ -148,7 +148,7 @@ fn router_of(tag: &str, scheme: &str) -> Router {
 }
 
 /// The router over `d`, renamed `hill`.
-fn router_over(d: Dataset) -> Router {
+pub(super) fn router_over(d: Dataset) -> Router {
     app(state_over(d, Config::default()))
 }
 
@@ -181,11 +181,11 @@ async fn send(
 }
 
 /// A GET without extra headers, the common case.
-async fn get(app: &Router, uri: &str) -> (StatusCode, axum::http::HeaderMap, Vec<u8>) {
+pub(super) async fn get(app: &Router, uri: &str) -> (StatusCode, axum::http::HeaderMap, Vec<u8>) {
     send(app, Method::GET, uri, &[]).await
 }
 
-fn error_code(body: &[u8]) -> String {
+pub(super) fn error_code(body: &[u8]) -> String {
     let v: serde_json::Value = serde_json::from_slice(body).unwrap();
     assert!(v["message"].as_str().is_some_and(|m| !m.is_empty()));
     v["error"].as_str().unwrap().to_string()
@@ -843,7 +843,10 @@ fn gzip_variants_are_rendered_compressed_for_the_cache() {
     let d = hill_dataset("gzip-render", "local", &[ROOT]);
     let state = AppState::new(Catalog::default(), Config::default()).unwrap();
     let render = |coding| {
-        let v = Variant::Mesh { coding };
+        let v = Variant::Mesh {
+            coding,
+            frame: super::frame::Frame::Scheme,
+        };
         render_tile(
             &state,
             &d,

@@ -32,6 +32,7 @@ use super::meta::dataset;
 use crate::serve::codings::{self, Coding};
 use crate::serve::dataset::Dataset;
 use crate::serve::error::{echo, ApiError, ApiResult};
+use crate::serve::frame::{self, Frame};
 use crate::serve::negotiate::{self, Extensions, RangeAsk, QUANTIZED_MESH};
 use crate::serve::pipeline;
 use crate::serve::render;
@@ -87,6 +88,18 @@ impl TileFormat {
         })
     }
 
+    fn extension(self) -> &'static str {
+        match self {
+            Self::Terrain => "terrain",
+            Self::Png => "png",
+            Self::Json => "json",
+            Self::Bin => "bin",
+            Self::Obj => "obj",
+            Self::Glb => "glb",
+            Self::Ezw => "ezw",
+        }
+    }
+
     pub(crate) fn media_type(self) -> &'static str {
         match self {
             Self::Terrain => QUANTIZED_MESH,
@@ -120,19 +133,32 @@ pub(crate) enum Variant {
         terrarium: bool,
         size: u32,
     },
-    /// Meshes: compressed here (and cached so) in the coding of [`tile_coding`].
+    /// Meshes: compressed here (and cached so) in the coding of [`tile_coding`], written in
+    /// `frame` (json and obj; bin carries its CRS, and always the scheme's).
     Mesh {
         coding: Coding,
+        frame: Frame,
     },
-    /// PNG, GLB and EZW bodies: compact already, sent as they are.
+    /// GLB: compact already, sent as it is.
+    Glb {
+        frame: Frame,
+    },
+    /// PNG and EZW bodies: compact already, sent as they are.
     Plain,
 }
 
 impl Variant {
     fn coding(self) -> Coding {
         match self {
-            Self::Terrain { coding, .. } | Self::Mesh { coding } => coding,
-            Self::Png { .. } | Self::Plain => Coding::Identity,
+            Self::Terrain { coding, .. } | Self::Mesh { coding, .. } => coding,
+            Self::Png { .. } | Self::Glb { .. } | Self::Plain => Coding::Identity,
+        }
+    }
+
+    fn frame(self) -> Frame {
+        match self {
+            Self::Mesh { frame, .. } | Self::Glb { frame } => frame,
+            _ => Frame::Scheme,
         }
     }
 }
@@ -185,7 +211,7 @@ pub async fn tile(
 
     // Threshold and format options, all checked before any work.
     let t = threshold::from_query(&d, id.z, &query)?;
-    let variant = variant(format, &query, &headers)?;
+    let variant = variant(&d, format, &query, &headers)?;
 
     // Conditional requests.
     let etag_key = etag_hash(&d, id, t.t, format, variant);
@@ -195,7 +221,11 @@ pub async fn tile(
     } else {
         format!("W/\"{etag_key:016x}\"")
     };
-    let base = cache_headers(&state, &etag, t.t, format, variant)?;
+    let mut base = cache_headers(&state, &etag, t.t, format, variant)?;
+    if variant.frame() == Frame::Enu {
+        let enu = frame::at_tile(&d, id).map_err(ApiError::internal)?;
+        base.insert("x-frame-origin", frame::origin_header(&enu)?);
+    }
     // If-Match before If-None-Match and Range (RFC 9110 §13.2.2), before any render.
     revalidate::if_match(&headers, Some(&etag))?;
     if negotiate::not_modified(&headers, &etag) {
@@ -295,7 +325,7 @@ fn cache_headers(
         Variant::Mesh { .. } => {
             h.insert(VARY, HeaderValue::from_static("Accept-Encoding"));
         }
-        Variant::Png { .. } | Variant::Plain => {}
+        Variant::Png { .. } | Variant::Glb { .. } | Variant::Plain => {}
     }
     if format == TileFormat::Ezw {
         h.insert(ACCEPT_RANGES, HeaderValue::from_static("bytes"));
@@ -398,10 +428,13 @@ fn in_tiling(d: &Dataset, id: TileId) -> bool {
 }
 
 fn variant(
+    d: &Dataset,
     format: TileFormat,
     q: &HashMap<String, String>,
     headers: &HeaderMap,
 ) -> ApiResult<Variant> {
+    let takes_frame = matches!(format, TileFormat::Json | TileFormat::Obj | TileFormat::Glb);
+    let frame = Frame::from_query(q, d.tiling.scheme(), takes_frame, format.extension())?;
     Ok(match format {
         TileFormat::Terrain => Variant::Terrain {
             ext: negotiate::terrain_extensions(headers, q.get("extensions").map(String::as_str))?,
@@ -413,8 +446,10 @@ fn variant(
         },
         TileFormat::Json | TileFormat::Bin | TileFormat::Obj => Variant::Mesh {
             coding: tile_coding(headers),
+            frame,
         },
-        TileFormat::Glb | TileFormat::Ezw => Variant::Plain,
+        TileFormat::Glb => Variant::Glb { frame },
+        TileFormat::Ezw => Variant::Plain,
     })
 }
 
@@ -508,15 +543,22 @@ pub(crate) fn render_tile(
             let mesh = mesh_of()?;
             (render::mesh_bin(d, id, &mesh)?, Some(mesh.triangle_count()))
         }
-        (TileFormat::Json | TileFormat::Obj | TileFormat::Glb, _) => {
+        (
+            TileFormat::Json | TileFormat::Obj | TileFormat::Glb,
+            Variant::Mesh { frame, .. } | Variant::Glb { frame },
+        ) => {
             let mesh = mesh_of()?;
             let f = match format {
                 TileFormat::Json => MeshFormat::Json,
                 TileFormat::Obj => MeshFormat::Obj,
                 _ => MeshFormat::Glb,
             };
+            let enu = match frame {
+                Frame::Scheme => None,
+                Frame::Enu => Some(frame::at_tile(d, id)?),
+            };
             (
-                render::mesh_file(d, id, &mesh, f)?,
+                render::mesh_file(d, id, &mesh, f, enu.as_ref())?,
                 Some(mesh.triangle_count()),
             )
         }

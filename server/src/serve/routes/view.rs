@@ -19,13 +19,14 @@ use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
 use zerotile_codec::container::TileId;
-use zerotile_codec::geo::{lonlat_to_mercator, Bounds, Scheme};
+use zerotile_codec::geo::{lonlat_to_mercator, Bounds, EnuFrame, Scheme};
 use zerotile_codec::mesh::{io, Format, TriMesh};
 
 use super::meta::dataset;
 use crate::serve::codings;
 use crate::serve::dataset::Dataset;
 use crate::serve::error::{echo, ApiError, ApiResult};
+use crate::serve::frame::{self, Frame};
 use crate::serve::revalidate::{self, REVALIDATE};
 use crate::serve::state::AppState;
 use crate::serve::threshold::{self, eq4, view_plane, ViewPlane};
@@ -59,6 +60,9 @@ pub async fn view(
             ))
         }
     };
+    // Metres about the target, or the scheme's coordinates.
+    let frame = Frame::from_query(&q, d.tiling.scheme(), true, format.name())?;
+    let enu = (frame == Frame::Enu).then(|| frame::at_lonlat(plane.target));
     let (zoom, tiles) = tiles_in_view(&d, &plane)?;
     let media = match format {
         Format::Json => "application/json",
@@ -68,7 +72,7 @@ pub async fn view(
     // The plane and T decide the mesh, so a camera that has not moved revalidates without
     // meshing its tiles again.
     let coding = codings::of_answer(&headers, media);
-    let etag = revalidate::weak_tag('v', view_key(&d, &plane, t, format), coding);
+    let etag = revalidate::weak_tag('v', view_key(&d, &plane, t, format, frame), coding);
     let held = match revalidate::Held::check(&headers, &etag, REVALIDATE)? {
         Ok(held) => held,
         Err(not_modified) => return Ok(not_modified),
@@ -81,7 +85,7 @@ pub async fn view(
     let job_plane = plane.clone();
     let cancel = pipeline::Cancel::default();
     let _cancel_on_drop = cancel.on_drop();
-    let mesh = tokio::task::spawn_blocking(move || {
+    let mut mesh = tokio::task::spawn_blocking(move || {
         ticket.run(|| {
             let r = view_mesh(&job_state, &job_d, &tiles, t, &job_plane, &cancel);
             pipeline::count_cancelled(&job_state, r)
@@ -97,6 +101,9 @@ pub async fn view(
         ));
     }
     held.release()?;
+    if let Some(enu) = &enu {
+        frame::to_enu(&mut mesh, d.tiling.scheme(), enu);
+    }
 
     // The body: JSON with the figures, or a mesh file with them in headers.
     let triangles = mesh.faces.len();
@@ -110,6 +117,7 @@ pub async fn view(
                     indices: mesh.faces.iter().flatten().copied().collect(),
                     positions: mesh.positions.iter().flat_map(|p| p.to_array()).collect(),
                 },
+                origin: enu.as_ref().map(EnuFrame::origin),
                 ratio: plane.ratio,
                 threshold: t,
                 triangles,
@@ -133,13 +141,16 @@ pub async fn view(
     }
     h.insert("x-triangles", header(&triangles.to_string())?);
     h.insert("x-zoom", header(&zoom.to_string())?);
+    if let Some(enu) = &enu {
+        h.insert("x-frame-origin", frame::origin_header(enu)?);
+    }
     Ok(res)
 }
 
 /// What a view's bytes depend on: the server (its mesher, its tile cap), the dataset's build,
 /// the plane (whose footprint picks the zoom and tiles), T and the format. Derived values,
 /// not the query's text, so `fov=60` and `fov=60.0` share a tag.
-fn view_key(d: &Dataset, plane: &ViewPlane, t: f64, format: Format) -> u64 {
+fn view_key(d: &Dataset, plane: &ViewPlane, t: f64, format: Format, frame: Frame) -> u64 {
     let mut h = DefaultHasher::new();
     (revalidate::RENDERER, MAX_VIEW_TILES).hash(&mut h);
     d.version.hash(&mut h);
@@ -149,7 +160,7 @@ fn view_key(d: &Dataset, plane: &ViewPlane, t: f64, format: Format) -> u64 {
     for v in [plane.ratio, plane.a_v, plane.a_t, t] {
         v.to_bits().hash(&mut h);
     }
-    format.name().hash(&mut h);
+    (format.name(), frame).hash(&mut h);
     h.finish()
 }
 
@@ -162,6 +173,9 @@ struct ViewBody<'a> {
     a_v: f64,
     footprint: &'a [[f64; 2]],
     mesh: MeshBody,
+    /// `[lon°, lat°, height m]` of the ENU frame's origin (`frame=enu` only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    origin: Option<[f64; 3]>,
     ratio: f64,
     threshold: f64,
     triangles: usize,
