@@ -8,7 +8,7 @@ use zerotile_codec::mesh::io::Format;
 
 use super::catalog::Changes;
 use super::meshes::tests::{QUAD_PLY, TRI};
-use super::meshes::{MeshCatalog, UploadError, MESH_DIR};
+use super::meshes::{MeshCatalog, Put, UploadError, MESH_DIR};
 use crate::fixtures::{mkfifo, within};
 
 const QUAD: &[u8] = b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3\nf 1 3 4\n";
@@ -192,7 +192,7 @@ fn fifos_folders_dangling_links_bad_names_and_shadowed_files_are_skipped() {
 #[test]
 fn an_upload_is_not_read_again_by_the_next_rescan() {
     let (dir, cat) = opened("upload", "a.ply", QUAD_PLY);
-    let (e, replaced) = cat.upload("a", TRI, Some(Format::Obj)).unwrap();
+    let (e, replaced) = cat.upload("a", TRI, Some(Format::Obj), Put::Any).unwrap();
     assert!(replaced);
     assert_eq!(rescan(&cat), None);
     assert!(Arc::ptr_eq(&e, &cat.get("a").unwrap()));
@@ -201,24 +201,42 @@ fn an_upload_is_not_read_again_by_the_next_rescan() {
 }
 
 /// A replace-only upload (`If-Match: *`) after a rescan removed its mesh is refused and
-/// writes nothing; over a mesh still served it replaces it.
+/// writes nothing; over a mesh still served it replaces it. A create-only one (`If-None-Match:
+/// *`) is refused over a mesh served, whoever placed it.
 #[test]
 fn a_replace_after_the_rescan_removed_the_mesh_creates_nothing() {
     let (dir, cat) = opened("replace", "a.ply", QUAD_PLY);
     std::fs::remove_file(dir.join(MESH_DIR).join("a.ply")).unwrap();
     assert!(rescan(&cat).is_some());
     assert!(matches!(
-        cat.replace("a", TRI, Some(Format::Obj)),
+        cat.upload("a", TRI, Some(Format::Obj), Put::Replace),
         Err(UploadError::Gone)
     ));
     assert!(cat.get("a").is_none());
     assert!(!dir.join(MESH_DIR).join("a.obj").exists());
 
-    let (_, replaced) = cat.upload("a", QUAD_PLY, Some(Format::Ply)).unwrap();
+    let (_, replaced) = cat
+        .upload("a", QUAD_PLY, Some(Format::Ply), Put::Any)
+        .unwrap();
     assert!(!replaced);
-    let (e, replaced) = cat.replace("a", TRI, Some(Format::Obj)).unwrap();
+    let (e, replaced) = cat
+        .upload("a", TRI, Some(Format::Obj), Put::Replace)
+        .unwrap();
     assert!(replaced);
     assert_eq!(e.mesh.face_count(), 1);
+
+    settled(&dir, "b.obj", TRI);
+    assert!(rescan(&cat).is_some());
+    assert!(matches!(
+        cat.upload("b", QUAD_PLY, Some(Format::Ply), Put::Create),
+        Err(UploadError::Exists)
+    ));
+    assert!(!dir.join(MESH_DIR).join("b.ply").exists());
+    assert_eq!(cat.get("b").unwrap().mesh.face_count(), 1);
+    let (_, replaced) = cat
+        .upload("c", TRI, Some(Format::Obj), Put::Create)
+        .unwrap();
+    assert!(!replaced);
     let _ = std::fs::remove_dir_all(&dir);
 }
 

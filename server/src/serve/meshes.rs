@@ -289,35 +289,16 @@ impl MeshCatalog {
     }
 
     /// Validates `bytes` as a mesh, writes it atomically as `meshes/NAME.EXT` (replacing an
-    /// older file of that name only once the new one is whole) and serves it from now on.
-    /// Also says whether a mesh of that name was replaced (HTTP tells 200 from 201 by it).
+    /// older file of that name only once the new one is whole) and serves it from now on,
+    /// if `put` allows it, judged under the store lock the rescan takes (so a rescan that
+    /// removes or adds the mesh while an upload's body is read cannot slip past it). Also
+    /// says whether a mesh of that name was replaced (HTTP tells 200 from 201 by it).
     pub fn upload(
         &self,
         name: &str,
         bytes: &[u8],
         format: Option<Format>,
-    ) -> Result<(Arc<MeshEntry>, bool), UploadError> {
-        self.store_upload(name, bytes, format, false)
-    }
-
-    /// [`Self::upload`] only over a mesh served under `name` ([`UploadError::Gone`] if none):
-    /// `If-Match: *`. Judged under the store lock the rescan takes, so a rescan that removes
-    /// the mesh while the body is read cannot let this create it.
-    pub fn replace(
-        &self,
-        name: &str,
-        bytes: &[u8],
-        format: Option<Format>,
-    ) -> Result<(Arc<MeshEntry>, bool), UploadError> {
-        self.store_upload(name, bytes, format, true)
-    }
-
-    fn store_upload(
-        &self,
-        name: &str,
-        bytes: &[u8],
-        format: Option<Format>,
-        must_exist: bool,
+        put: Put,
     ) -> Result<(Arc<MeshEntry>, bool), UploadError> {
         self.takes_uploads()?;
         let read = io::read_bytes(bytes, format, &limits()).map_err(anyhow::Error::from);
@@ -332,8 +313,10 @@ impl MeshCatalog {
         let path = self.dir.join(format!("{name}.{}", format.extension()));
         // A poisoned lock (a rescan's reader that panicked) guards only a cache of stamps.
         let mut seen = self.store.lock().unwrap_or_else(PoisonError::into_inner);
-        if must_exist && self.get(name).is_none() {
-            return Err(UploadError::Gone);
+        match (put, self.get(name).is_some()) {
+            (Put::Replace, false) => return Err(UploadError::Gone),
+            (Put::Create, true) => return Err(UploadError::Exists),
+            _ => {}
         }
         // Under the store lock, so two uploads cannot both take the last room. A mesh
         // replaced frees its own charge.
@@ -365,6 +348,17 @@ impl MeshCatalog {
     }
 }
 
+/// What an upload may do to a mesh of its name: HTTP's `If-Match: *` and `If-None-Match: *`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Put {
+    /// Create it or replace it.
+    Any,
+    /// Only replace one served.
+    Replace,
+    /// Only create one.
+    Create,
+}
+
 /// Why an upload was not stored: the client's mesh, or this server.
 #[derive(Debug, thiserror::Error)]
 pub enum UploadError {
@@ -384,10 +378,13 @@ pub enum UploadError {
          replace a mesh of the same name or ask the operator for room"
     )]
     Quota { held: u64, quota: u64, faces: usize },
-    /// A replace-only upload ([`MeshCatalog::replace`]) found no mesh of its name: it was
-    /// removed (a rescan) while the body was read.
-    #[error("no mesh of this name is served any more, and If-Match: * replaces only")]
+    /// A [`Put::Replace`] found no mesh of its name: it was removed (a rescan) while the
+    /// body was read.
+    #[error("no mesh of this name is served, and If-Match: * replaces only")]
     Gone,
+    /// A [`Put::Create`] found a mesh of its name (one placed meanwhile, or there all along).
+    #[error("a mesh of this name is served, and If-None-Match: * creates only")]
+    Exists,
     /// The mesh was fine; writing it was not.
     #[error("storing the mesh: {0:#}")]
     Store(anyhow::Error),
@@ -535,15 +532,15 @@ pub(super) mod tests {
         let names: Vec<String> = cat.list().iter().map(|e| e.name.clone()).collect();
         assert_eq!(names, ["tri"]);
 
-        let Err(err) = cat.upload("g10", FLAT, Some(Format::Obj)) else {
+        let Err(err) = cat.upload("g10", FLAT, Some(Format::Obj), Put::Any) else {
             panic!("a mesh without area was accepted");
         };
         assert!(format!("{err:#}").contains("zero area"), "{err:#}");
         assert!(cat.get("g10").is_none());
         assert!(!dir.join(MESH_DIR).join("g10.obj").exists());
-        assert!(cat.upload("g10", TRI, Some(Format::Obj)).is_ok());
+        assert!(cat.upload("g10", TRI, Some(Format::Obj), Put::Any).is_ok());
         let huge = b"v 0 0 0\nv 1e39 0 0\nv 0 1 0\nf 1 2 3\n";
-        let Err(err) = cat.upload("huge", huge, Some(Format::Obj)) else {
+        let Err(err) = cat.upload("huge", huge, Some(Format::Obj), Put::Any) else {
             panic!("a mesh beyond f32 was accepted");
         };
         assert!(format!("{err:#}").contains("vertex 2 at"), "{err:#}");
@@ -568,7 +565,9 @@ pub(super) mod tests {
         assert_eq!(cat.get("a").unwrap().mesh.face_count(), 1);
 
         std::fs::remove_file(meshes.join("a.ply")).unwrap();
-        let (e, replaced) = cat.upload("a", QUAD_PLY, Some(Format::Ply)).unwrap();
+        let (e, replaced) = cat
+            .upload("a", QUAD_PLY, Some(Format::Ply), Put::Any)
+            .unwrap();
         assert!(replaced);
         assert_eq!(e.source, meshes.join("a.ply"));
         assert!(!meshes.join("a.obj").exists());
@@ -587,7 +586,7 @@ pub(super) mod tests {
         std::fs::write(meshes.join("a.obj"), TRI).unwrap();
         let cat = MeshCatalog::open(&dir, 1 << 20);
         let quad = br#"{"positions": [0,0,0, 1,0,0, 1,1,0, 0,1,0], "indices": [0,1,2, 0,2,3]}"#;
-        let (e, _) = cat.upload("a", quad, None).unwrap();
+        let (e, _) = cat.upload("a", quad, None, Put::Any).unwrap();
         assert_eq!(e.source, meshes.join("a.json"));
         assert_eq!(std::fs::read(meshes.join("a.json")).unwrap(), quad);
         assert!(!meshes.join("a.obj").exists());
@@ -609,7 +608,7 @@ pub(super) mod tests {
         assert_eq!(before[0], before[1], "one mesh, one tag");
         let quad = b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3\nf 1 3 4\n";
         for name in ["b", "a"] {
-            let (e, _) = cat.upload(name, quad, Some(Format::Obj)).unwrap();
+            let (e, _) = cat.upload(name, quad, Some(Format::Obj), Put::Any).unwrap();
             assert!(!before.contains(&e.content), "{name}: {} reused", e.content);
             assert_eq!(cat.get(name).unwrap().mesh.face_count(), 2);
         }
@@ -663,7 +662,7 @@ pub(super) mod tests {
                     let (cat, start) = (&cat, &start);
                     s.spawn(move || {
                         start.wait();
-                        if let Err(e) = cat.upload("a", body, Some(*format)) {
+                        if let Err(e) = cat.upload("a", body, Some(*format), Put::Any) {
                             panic!("round {round}, upload {t}: {e}");
                         }
                     });

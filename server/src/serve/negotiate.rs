@@ -1,8 +1,8 @@
 //! Content negotiation: quantized-mesh extensions from `Accept`, gzip from
 //! `Accept-Encoding`, conditional requests and byte ranges. Header parsing only.
 
-use axum::http::header::{ACCEPT, ACCEPT_ENCODING, IF_MATCH, IF_NONE_MATCH, IF_RANGE, RANGE};
-use axum::http::HeaderMap;
+use axum::http::header::{ACCEPT, ACCEPT_ENCODING, IF_MATCH, IF_NONE_MATCH, IF_RANGE, RANGE, VARY};
+use axum::http::{HeaderMap, HeaderValue};
 
 use super::error::ApiError;
 
@@ -100,12 +100,14 @@ pub fn terrain_extensions(
     }
 }
 
+/// The 406, with the `Vary: Accept` of every `.terrain` answer: `Accept` chose it.
 fn not_acceptable() -> ApiError {
     ApiError::new(
         axum::http::StatusCode::NOT_ACCEPTABLE,
         "not_acceptable",
         format!("this route serves {QUANTIZED_MESH} (or */*, application/octet-stream)"),
     )
+    .with_header(VARY, HeaderValue::from_static("Accept"))
 }
 
 /// Whether `Accept-Encoding` allows gzip: its own entry (`gzip`, `x-gzip`) decides when
@@ -183,13 +185,28 @@ pub fn if_match(headers: &HeaderMap, current: Option<&str>) -> bool {
 
 /// Whether `If-None-Match` lists `etag` (weak comparison, as RFC 9110 asks for GET) or `*`.
 pub fn not_modified(headers: &HeaderMap, etag: &str) -> bool {
+    none_match_lists_star(headers) || none_match_lists_tag(headers, etag)
+}
+
+/// Whether `If-None-Match` lists `etag` itself (weak comparison): only a client that had the
+/// representation can send it.
+pub fn none_match_lists_tag(headers: &HeaderMap, etag: &str) -> bool {
     let bare = |t: &str| t.trim().trim_start_matches("W/").to_string();
+    none_match_entries(headers).any(|t| t != "*" && bare(t) == bare(etag))
+}
+
+/// Whether `If-None-Match` lists `*`: "any current representation".
+pub fn none_match_lists_star(headers: &HeaderMap) -> bool {
+    none_match_entries(headers).any(|t| t == "*")
+}
+
+fn none_match_entries(headers: &HeaderMap) -> impl Iterator<Item = &str> {
     headers
         .get_all(IF_NONE_MATCH)
         .iter()
         .filter_map(|v| v.to_str().ok())
         .flat_map(|v| v.split(','))
-        .any(|t| t.trim() == "*" || bare(t) == bare(etag))
+        .map(str::trim)
 }
 
 /// Whether `Range` may be honoured (RFC 9110 §13.1.5): with no `If-Range`, or one naming

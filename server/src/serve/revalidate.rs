@@ -95,41 +95,68 @@ fn not_modified(
     if !negotiate::not_modified(headers, etag) {
         return Ok(None);
     }
+    not_modified_response(etag, cache_control).map(Some)
+}
+
+fn not_modified_response(etag: &str, cache_control: &str) -> ApiResult<Response> {
     let mut res = Response::new(Body::empty());
     *res.status_mut() = StatusCode::NOT_MODIFIED;
     // With the 200's Vary, as a 304 repeats it (RFC 9110 §15.4.5).
     validators(res.headers_mut(), etag, cache_control)?;
-    Ok(Some(res))
+    Ok(res)
 }
 
-/// A failed `If-Match` held back until the work shows the request would succeed without it:
-/// RFC 9110 §13.2.1 has a request that fails anyway (a view of no terrain, 404; an octree
-/// level past the mesh's, 400) answer its own error, not 412. The work is done for it, as
-/// for the request without the header; clients send `If-Match` to views and LODs rarely,
-/// and only `*` can pass their weak tags.
+/// The answer a precondition gives, held back until the work shows the request would
+/// succeed without it: RFC 9110 §13.2.1 has a request that fails anyway (a view of no
+/// terrain, 404; an octree level past the mesh's, 400) answer its own error. Held: a failed
+/// `If-Match` (412), and the 304 of an `If-None-Match: *` (there may be no representation
+/// to match). The work is done for them, as for the request without the headers; clients
+/// send them to views and LODs rarely. An `If-None-Match` naming the tag itself is a 304 at
+/// once: only a client that had the representation holds its tag.
 #[must_use = "release() it once the request is known to succeed"]
-pub struct Held(Option<ApiError>);
+pub struct Held(Option<Result<Response, ApiError>>);
 
 impl Held {
-    /// The preconditions on `etag`: a 304 for `If-None-Match` at once (only when `If-Match`
-    /// passed, as §13.2.2 orders them), a failed `If-Match` held.
+    /// The preconditions on `etag`, in RFC 9110 §13.2.2's order: `Err` is the 304 to send
+    /// now, `Ok` what to do once the work succeeds.
     pub fn check(
         headers: &HeaderMap,
         etag: &str,
         cache_control: &str,
     ) -> ApiResult<Result<Self, Response>> {
-        match if_match(headers, Some(etag)) {
-            Err(e) => Ok(Ok(Self(Some(e)))),
-            Ok(()) => Ok(match not_modified(headers, etag, cache_control)? {
-                Some(res) => Err(res),
-                None => Ok(Self(None)),
-            }),
+        if let Err(e) = if_match(headers, Some(etag)) {
+            return Ok(Ok(Self(Some(Err(e)))));
         }
+        if negotiate::none_match_lists_tag(headers, etag) {
+            return Ok(Err(not_modified_response(etag, cache_control)?));
+        }
+        Ok(Ok(Self(if negotiate::none_match_lists_star(headers) {
+            Some(Ok(not_modified_response(etag, cache_control)?))
+        } else {
+            None
+        })))
     }
 
-    /// The 412, now that the request would have succeeded without it.
-    pub fn release(self) -> ApiResult<()> {
-        self.0.map_or(Ok(()), Err)
+    /// The 412 or the 304 held, now that the request would have succeeded without them.
+    pub fn release(self) -> ApiResult<Option<Response>> {
+        self.0.transpose()
+    }
+}
+
+/// The 412 for an upload's `If-None-Match` that lists `current`, the tag of the representation
+/// it would replace (`None`: there is none), or `*` while there is one (RFC 9110 §13.1.2: for
+/// a method other than GET and HEAD, a false condition is 412).
+pub fn if_none_match_on_write(headers: &HeaderMap, current: Option<&str>) -> ApiResult<()> {
+    match current {
+        Some(tag) if negotiate::not_modified(headers, tag) => Err(ApiError::new(
+            StatusCode::PRECONDITION_FAILED,
+            "precondition_failed",
+            format!(
+                "If-None-Match names the current representation of this resource (tag {tag}, \
+                 or *): the upload would replace it"
+            ),
+        )),
+        _ => Ok(()),
     }
 }
 

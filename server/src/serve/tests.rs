@@ -1822,6 +1822,17 @@ async fn every_format_answers_with_its_media_type_and_magic() {
     let (s, h, _) = get(&geo, uri).await;
     assert_eq!(s, StatusCode::OK);
     assert_eq!(h[header::CONTENT_TYPE], "application/vnd.quantized-mesh");
+    // `Accept` decides a .terrain answer, its 406 too: each says so in Vary.
+    let (s, h, body) = send(&geo, Method::GET, uri, &[("accept", "image/png")]).await;
+    assert_eq!(s, StatusCode::NOT_ACCEPTABLE);
+    assert_eq!(error_code(&body), "not_acceptable");
+    let vary: Vec<String> = h
+        .get_all(header::VARY)
+        .iter()
+        .flat_map(|v| v.to_str().unwrap().split(','))
+        .map(|v| v.trim().to_ascii_lowercase())
+        .collect();
+    assert!(vary.iter().any(|v| v == "accept"), "{vary:?}");
     // Extensions asked for are named in the media type, as CesiumJS checks.
     let uri = "/v1/datasets/hill/tiles/0/0/0.terrain?threshold=4&extensions=octvertexnormals";
     let (s, h, _) = get(&geo, uri).await;
@@ -2071,12 +2082,12 @@ async fn if_match_is_a_precondition() {
 
     // The upload: `*` replaces a mesh that exists and creates none; a tag is weak.
     let obj = "v 0 0 0\nv 2 0 0\nv 0 2 0\nf 1 2 3\n";
-    let post = |uri: &str, if_match: &str| {
+    let post_with = |name: header::HeaderName, uri: &str, value: &str| {
         let req = Request::builder()
             .method(Method::POST)
             .uri(uri)
             .header(header::CONTENT_TYPE, "model/obj")
-            .header(header::IF_MATCH, if_match)
+            .header(name, value)
             .body(Body::from(obj))
             .unwrap();
         let app = app.clone();
@@ -2086,6 +2097,7 @@ async fn if_match_is_a_precondition() {
             (parts.status, parts.headers, body)
         }
     };
+    let post = |uri: &str, if_match: &str| post_with(header::IF_MATCH, uri, if_match);
     let (s, h, body) = post("/v1/meshes/b", "*").await;
     failed(s, &h, &body, "POST a new mesh, If-Match: *");
     assert_eq!(get(&app, "/v1/meshes/b").await.0, StatusCode::NOT_FOUND);
@@ -2094,13 +2106,26 @@ async fn if_match_is_a_precondition() {
     failed(s, &h, &body, "POST over a mesh, If-Match its tag");
     let (s, _, _) = post("/v1/meshes/a", "*").await;
     assert_eq!(s, StatusCode::OK);
+
+    // If-None-Match on an upload (RFC 9110 §13.1.2): `*` creates only, and the
+    // description's tag refuses the upload over it; another tag passes.
+    let (s, h, body) = post_with(header::IF_NONE_MATCH, "/v1/meshes/a", "*").await;
+    failed(s, &h, &body, "POST over a mesh, If-None-Match: *");
+    let (_, h, _) = get(&app, "/v1/meshes/a").await;
+    let tag = h[header::ETAG].to_str().unwrap().to_string();
+    let (s, h, body) = post_with(header::IF_NONE_MATCH, "/v1/meshes/a", &tag).await;
+    failed(s, &h, &body, "POST over a mesh, If-None-Match its tag");
+    let (s, _, _) = post_with(header::IF_NONE_MATCH, "/v1/meshes/a", "\"other\"").await;
+    assert_eq!(s, StatusCode::OK);
+    let (s, _, _) = post_with(header::IF_NONE_MATCH, "/v1/meshes/c", "*").await;
+    assert_eq!(s, StatusCode::CREATED);
     let _ = std::fs::remove_dir_all(&data);
 }
 
-/// A request that fails without its `If-Match` gets its own error with it too, not a 412
-/// (RFC 9110 §13.2.1): a view over tiles the dataset lacks (404, known only after its tiles
-/// were meshed) and an octree level past the mesh's deepest (400). The same requests that
-/// would succeed still get the 412.
+/// A request that fails without its `If-Match` (or `If-None-Match: *`) gets its own error
+/// with it too, not a 412 (or a 304: RFC 9110 §13.2.1): a view over tiles the dataset lacks
+/// (404, known only after its tiles were meshed) and an octree level past the mesh's deepest
+/// (400). The same requests that would succeed still get the 412 (or 304).
 #[tokio::test]
 async fn a_request_failing_anyway_gets_its_error_not_412() {
     let path = hill_file_with("if-match-4xx", "geodetic", &[ROOT], |_| {});
@@ -2135,6 +2160,15 @@ async fn a_request_failing_anyway_gets_its_error_not_412() {
         } else {
             assert_eq!(s, status, "{uri} with If-Match");
             assert_eq!(error_code(&body), code, "{uri} with If-Match");
+        }
+        // `*` matches any representation, and these have none: their error, not a 304.
+        let (s, h, body) = send(&app, Method::GET, uri, &[("if-none-match", "*")]).await;
+        if status == StatusCode::OK {
+            assert_eq!(s, StatusCode::NOT_MODIFIED, "{uri}");
+            assert!(body.is_empty() && h.contains_key(header::ETAG), "{uri}");
+        } else {
+            assert_eq!(s, status, "{uri} with If-None-Match: *");
+            assert_eq!(error_code(&body), code, "{uri} with If-None-Match: *");
         }
     }
     let _ = std::fs::remove_dir_all(&data);
@@ -2553,14 +2587,15 @@ async fn a_view_too_small_for_a_centroid_finds_its_middle_across_the_seam() {
 
 /// A tilted camera with a tiny fov sees the triangles under its target, as a straight-down
 /// one does (fov 1e-20° and 1e-300° were 404 empty_view from -71.5,44.3: the footprint's clip
-/// rounded it away; 1e-15° gave the triangles).
+/// rounded it away; 1e-15° gave the triangles). Subnormal fovs too, which were refused as
+/// outside (0, 179].
 #[tokio::test]
 async fn a_tilted_telescope_sees_the_triangles_under_its_target() {
     let path = hill_file_with("view-telescope", "geodetic", &[ROOT], |m| {
         m.bounds = [-72.0, 44.0, -71.0, 45.0];
     });
     let app = router_over(Dataset::open(&path).unwrap());
-    for fov in ["1e-15", "1e-20", "1e-300"] {
+    for fov in ["1e-15", "1e-20", "1e-300", "1e-310", "5e-324"] {
         for eye in ["-71.5,44.3,3000", "-71.45,44.3,3000", "-71.5,44.5,3000"] {
             let uri = format!("/v1/datasets/hill/view?eye={eye}&target=-71.5,44.5,300&fov={fov}");
             let (status, _, body) = get(&app, &uri).await;

@@ -317,8 +317,14 @@ pub fn number(name: &str, s: &str, lo: f64, hi: f64) -> Result<f64, ApiError> {
             format!("{name} must be a number, got {}", echo(s)),
         )
     })?;
-    if !v.is_finite() || v < lo || v > hi {
-        // A lower bound of the smallest positive f64 is "above 0" to a reader.
+    // A lower bound of the smallest positive (normal) f64 is "above 0" to a reader, and is
+    // taken so: the subnormals below it are in (0, hi] too.
+    let below = if lo == f64::MIN_POSITIVE {
+        v <= 0.0
+    } else {
+        v < lo
+    };
+    if !v.is_finite() || below || v > hi {
         let low = if lo == f64::MIN_POSITIVE {
             "(0".to_owned()
         } else {

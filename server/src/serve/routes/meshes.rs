@@ -17,8 +17,8 @@ use axum::body::{Body, Bytes};
 use axum::extract::rejection::{PathRejection, QueryRejection};
 use axum::extract::{Path, Query, State};
 use axum::http::header::{
-    ACCEPT_ENCODING, CONTENT_ENCODING, CONTENT_LENGTH, CONTENT_TYPE, IF_MATCH, LOCATION,
-    RETRY_AFTER,
+    ACCEPT_ENCODING, CONTENT_ENCODING, CONTENT_LENGTH, CONTENT_TYPE, IF_MATCH, IF_NONE_MATCH,
+    LOCATION, RETRY_AFTER,
 };
 use axum::http::{HeaderMap, HeaderValue, StatusCode};
 use axum::response::{IntoResponse, Response};
@@ -35,7 +35,8 @@ use zerotile_codec::mesh::{qem, QemOptions, TriMesh};
 use crate::serve::built_once::BuildError;
 use crate::serve::codings;
 use crate::serve::error::{echo, ApiError, ApiResult};
-use crate::serve::meshes::{MeshAnswer, MeshEntry, Structure, UploadError, MAX_UPLOAD_BYTES};
+use crate::serve::meshes::{MeshAnswer, MeshEntry, Put, Structure, UploadError, MAX_UPLOAD_BYTES};
+use crate::serve::negotiate;
 use crate::serve::revalidate::{self, REVALIDATE};
 use crate::serve::state::AppState;
 use crate::serve::threshold::{aspect, integer, number, vec3};
@@ -528,7 +529,9 @@ pub async fn lod(
             .map_err(ApiError::internal)??
         }
     };
-    held.release()?;
+    if let Some(not_modified) = held.release()? {
+        return Ok(not_modified);
+    }
 
     let mut res = Response::new(Body::from(answer.bytes.clone()));
     let h = res.headers_mut();
@@ -653,19 +656,28 @@ pub async fn upload(
             .map(|()| t)
             .map_err(upload_error)
     });
-    // If-Match before the body is read too, against the mesh's description (RFC 9110
-    // §13.1.1): `*` uploads only over a mesh that exists; a tag never passes, the
-    // description's being weak. Without it no description is made.
-    let replace_only = headers.contains_key(IF_MATCH);
+    // The preconditions before the body is read too, against the mesh's description (RFC
+    // 9110 §13.1.1–2): If-Match `*` uploads only over a mesh that exists (a tag never passes,
+    // the description's being weak), If-None-Match `*` only where none does, and its tag
+    // refuses an upload over the description it names. Without them no description is made.
+    let put = if headers.contains_key(IF_MATCH) {
+        Put::Replace
+    } else if negotiate::none_match_lists_star(&headers) {
+        Put::Create
+    } else {
+        Put::Any
+    };
     let target = target.and_then(|t| {
-        if !replace_only {
+        if !headers.contains_key(IF_MATCH) && !headers.contains_key(IF_NONE_MATCH) {
             return Ok(t);
         }
         let current = match state.meshes.get(&t.0) {
             Some(e) => Some(revalidate::tagged(&headers, &description(&e))?.1),
             None => None,
         };
-        revalidate::if_match(&headers, current.as_deref()).map(|()| t)
+        revalidate::if_match(&headers, current.as_deref())?;
+        revalidate::if_none_match_on_write(&headers, current.as_deref())?;
+        Ok(t)
     });
     // Admitted before the body is read, so the uploads in hand bound the bodies held too.
     let admitted = target.and_then(|t| state.admit_upload().map(|ticket| (t, ticket)));
@@ -686,15 +698,9 @@ pub async fn upload(
     let format = label.format(&body);
     let job_state = state.clone();
     let (entry, replaced) = tokio::task::spawn_blocking(move || {
-        // Only `*` passed If-Match above; the catalog checks again, under its lock, that the
-        // mesh is still there after the body's read.
-        ticket.run(|| {
-            if replace_only {
-                job_state.meshes.replace(&name, &body, format)
-            } else {
-                job_state.meshes.upload(&name, &body, format)
-            }
-        })
+        // The catalog judges `*` again, under its lock: the mesh may have come or gone
+        // while the body was read.
+        ticket.run(|| job_state.meshes.upload(&name, &body, format, put))
     })
     .await
     .map_err(ApiError::internal)?
@@ -743,13 +749,10 @@ fn upload_error(e: UploadError) -> ApiError {
             "mesh_quota",
             e.to_string(),
         ),
-        UploadError::Gone => ApiError::new(
+        UploadError::Gone | UploadError::Exists => ApiError::new(
             StatusCode::PRECONDITION_FAILED,
             "precondition_failed",
-            format!(
-                "If-Match names no current representation of this resource: {e} (it was \
-                 removed while the body was read)"
-            ),
+            format!("{e} (any more: a rescan changed it while the body was read)"),
         ),
         UploadError::Store(_) => ApiError::internal(e),
     }

@@ -100,7 +100,9 @@ pub async fn view(
             "the view plane covers no terrain of this dataset",
         ));
     }
-    held.release()?;
+    if let Some(not_modified) = held.release()? {
+        return Ok(not_modified);
+    }
     if let Some(enu) = &enu {
         frame::to_enu(&mut mesh, d.tiling.scheme(), enu);
     }
