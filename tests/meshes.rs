@@ -81,6 +81,12 @@ fn lods_come_in_every_format_with_their_counts() {
     );
     let qem = s.get("/v1/meshes/uv-sphere-5002/qem?ratio=0.5", &[]);
     assert_eq!((qem.status, qem.header("x-max-level")), (200, None));
+    // An ε between two rungs is cut at the lower, and X-Error names that rung: 0.26 is
+    // level 3 (0.25), face for face.
+    let between = s.get("/v1/meshes/uv-sphere-5002/curvature?error=0.26", &[]);
+    let level3 = s.get("/v1/meshes/uv-sphere-5002/curvature?level=3", &[]);
+    assert_eq!(between.number("x-error"), 0.25);
+    assert_eq!(between.number("x-faces"), level3.number("x-faces"));
     // A larger ε keeps fewer faces.
     let r3 = s.get(
         "/v1/meshes/uv-sphere-5002/curvature?level=3&format=obj",

@@ -151,6 +151,13 @@ pub fn to_faces(
     Ok((d.mesh(), d.worst_error()))
 }
 
+/// The ε bound [`to_error`]`(error)` decimates to: the highest rung of the ladder at or below
+/// `error`, or `error` itself below the first rung (0.15). What a client is told the mesh's
+/// ε is: two errors between the same rungs give one mesh, and it was cut at the rung.
+pub fn bound_of(error: f64) -> f64 {
+    ladder::top_rung(error).map_or(error, ladder::rung)
+}
+
 /// Decimates to ε ≤ `error`, climbing the fixed ladder of bounds to its highest rung at or
 /// below `error` ([`ladder`]): a larger bound never keeps more faces, which one greedy run
 /// straight to the bound does not give. From 0.15 up it continues the run [`levels`] cuts

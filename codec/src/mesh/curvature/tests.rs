@@ -501,3 +501,16 @@ fn shared_mesh(name: &str) -> TriMesh {
     )
     .unwrap()
 }
+
+/// The bound a request is cut at is the rung below it: 0.26 and 0.2999 are both the third
+/// level's 0.25, 10 is 1.25^10 ≈ 9.31, and below the first rung the request itself.
+#[test]
+fn a_bound_between_rungs_is_the_rung_below() {
+    assert_eq!(super::bound_of(0.26), 0.25);
+    assert_eq!(super::bound_of(0.2999), 0.25);
+    assert_eq!(super::bound_of(0.3), 0.3);
+    assert_eq!(super::bound_of(0.15), 0.15);
+    assert_eq!(super::bound_of(0.1), 0.1);
+    assert_eq!(super::bound_of(0.0), 0.0);
+    assert!((super::bound_of(10.0) - 1.25_f64.powi(10)).abs() < 1e-12);
+}

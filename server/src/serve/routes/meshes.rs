@@ -395,7 +395,8 @@ fn compute(e: &MeshEntry, ask: &Ask) -> Result<Computed, ApiError> {
         Ask::Curvature(eps) => {
             let m = curvature::to_error(&e.mesh, *eps, &CurvatureOptions::default())
                 .map_err(|x| bad(x.to_string()))?;
-            Ok(Computed::new(m, *eps))
+            // The rung the mesh was cut at, not the ask: 0.26 and 0.2999 are one mesh.
+            Ok(Computed::new(m, curvature::bound_of(*eps)))
         }
         Ask::CurvatureLevel(k) => {
             let levels = e
