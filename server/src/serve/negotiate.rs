@@ -230,9 +230,11 @@ pub enum RangeAsk {
     Unsatisfiable,
 }
 
-/// Parses `Range: bytes=a-b | a- | -n` against a body of `len` bytes.
+/// Parses `Range: bytes=a-b | a- | -n` against a body of `len` bytes. Two `Range` lines are
+/// one list (RFC 9110 §5.3), so several ranges: the whole body, as for a comma.
 pub fn range(headers: &HeaderMap, len: u64) -> RangeAsk {
-    let Some(v) = headers.get(RANGE).and_then(|v| v.to_str().ok()) else {
+    let mut lines = headers.get_all(RANGE).iter();
+    let (Some(v), None) = (lines.next().and_then(|v| v.to_str().ok()), lines.next()) else {
         return RangeAsk::Full;
     };
     let Some(spec) = v.trim().strip_prefix("bytes=") else {
@@ -403,6 +405,10 @@ mod tests {
         );
         assert_eq!(r("bytes=100-", 100), RangeAsk::Unsatisfiable);
         assert_eq!(r("bytes=0-1,5-6", 100), RangeAsk::Full);
+        // Two lines are two ranges, as a comma is (only the first was read).
+        let mut two = with(RANGE, "bytes=0-1");
+        two.append(RANGE, HeaderValue::from_static("bytes=5-6"));
+        assert_eq!(range(&two, 100), RangeAsk::Full);
         assert_eq!(r("items=0-1", 100), RangeAsk::Full);
         // Positions too long for u64 are still positions, not garbage.
         assert_eq!(

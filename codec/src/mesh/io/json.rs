@@ -44,7 +44,19 @@ pub(super) fn read(bytes: &[u8], limits: &MeshLimits) -> Result<TriMesh, MeshErr
         .chunks_exact(3)
         .map(|p| DVec3::new(p[0], p[1], p[2]))
         .collect();
-    // Indices past u32 are out of range for any mesh we accept: clamp so check() reports them.
+    // An index past u32 is past any mesh's vertices: named here as sent, since clamped
+    // for check() it would be reported as 4294967295.
+    if let Some(k) = flat.indices.iter().position(|&i| u32::try_from(i).is_err()) {
+        return Err(MeshError::decode(
+            FORMAT,
+            format!(
+                "face {} has index {}, past the {} vertices",
+                k / 3,
+                flat.indices[k],
+                flat.positions.len() / 3
+            ),
+        ));
+    }
     let faces = flat
         .indices
         .chunks_exact(3)

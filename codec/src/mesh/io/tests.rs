@@ -1137,3 +1137,15 @@ fn glb_of_a_z_up_mesh_is_turned_onto_y_up() {
         write_bytes(&tile, Format::Obj).expect("obj")
     );
 }
+
+/// A JSON index past u32 is named as sent (it was clamped first, and reported as
+/// 4294967295).
+#[test]
+fn a_json_index_past_u32_is_named_as_sent() {
+    let body = br#"{"positions": [0,0,0, 1,0,0, 0,1,0], "indices": [0,1,4294967296]}"#;
+    let e = read_bytes(body, Some(Format::Json), &limits())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("4294967296") && !e.contains("4294967295"), "{e}");
+    assert!(e.contains("face 0") && e.contains("3 vertices"), "{e}");
+}
