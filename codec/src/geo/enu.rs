@@ -107,6 +107,29 @@ mod tests {
         );
     }
 
+    /// Against points worked out apart from this code (a Python transcription of the
+    /// textbook formulas, checked by hand: 0.1° of longitude at 44.5° N is 111.32 km ×
+    /// 0.1 × cos 44.5° ≈ 7.94 km, and 13.6 km away the ground has fallen ~14.6 m below the
+    /// horizon): north-east of the origin is +x +y, south-west −x −y.
+    #[test]
+    fn reference_points_off_the_equator() {
+        for (o, p, want) in [
+            (
+                [-71.5, 44.5],
+                [-71.4, 44.6, 500.0],
+                [7939.967582074987, 11118.022011596102, 485.35983988035423],
+            ),
+            (
+                [138.7, -35.3],
+                [138.6, -35.4, 10.0],
+                [-9084.179855828897, -11099.29254082937, -6.151876955727857],
+            ),
+        ] {
+            let got = EnuFrame::at(W, o[0], o[1], 0.0).from_geodetic(p[0], p[1], p[2]);
+            assert!((got - DVec3::from_array(want)).length() < 1e-3, "{got}");
+        }
+    }
+
     /// A rotation and a shift: distances between points are those of ECEF.
     #[test]
     fn distances_are_kept() {

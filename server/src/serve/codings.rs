@@ -60,6 +60,9 @@ pub enum Coding {
 }
 
 impl Coding {
+    /// Every coding a body goes out in.
+    pub const ALL: [Self; 3] = [Self::Identity, Self::Gzip, Self::Br];
+
     /// Its `Content-Encoding` value; identity has none.
     pub fn content_encoding(self) -> Option<&'static str> {
         match self {

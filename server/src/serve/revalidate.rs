@@ -143,12 +143,17 @@ impl Held {
     }
 }
 
-/// The 412 for an upload's `If-None-Match` that lists `current`, the tag of the representation
-/// it would replace (`None`: there is none), or `*` while there is one (RFC 9110 §13.1.2: for
-/// a method other than GET and HEAD, a false condition is 412).
-pub fn if_none_match_on_write(headers: &HeaderMap, current: Option<&str>) -> ApiResult<()> {
-    match current {
-        Some(tag) if negotiate::not_modified(headers, tag) => Err(ApiError::new(
+/// The 412 for an upload's `If-None-Match` that lists one of `current`, the tags of the
+/// representation it would replace in each coding (`None`: there is none), or `*` while
+/// there is one (RFC 9110 §13.1.2: for a method other than GET and HEAD, a false condition
+/// is 412).
+pub fn if_none_match_on_write(headers: &HeaderMap, current: Option<&[String]>) -> ApiResult<()> {
+    let listed = current
+        .into_iter()
+        .flatten()
+        .find(|tag| negotiate::not_modified(headers, tag));
+    match listed {
+        Some(tag) => Err(ApiError::new(
             StatusCode::PRECONDITION_FAILED,
             "precondition_failed",
             format!(
@@ -156,17 +161,28 @@ pub fn if_none_match_on_write(headers: &HeaderMap, current: Option<&str>) -> Api
                  or *): the upload would replace it"
             ),
         )),
-        _ => Ok(()),
+        None => Ok(()),
     }
 }
 
 /// `value` as JSON, and its tag: a hash of its bytes, in the coding the layer sends them in.
 pub fn tagged(headers: &HeaderMap, value: &impl Serialize) -> ApiResult<(Vec<u8>, String)> {
+    let (bytes, key) = json_key(value)?;
+    Ok((bytes, weak_tag('j', key, codings::of_layer(headers))))
+}
+
+/// [`tagged`]'s tag of `value` in every coding: what a client may hold of it, whichever
+/// `Accept-Encoding` it read it with.
+pub fn tags_in_every_coding(value: &impl Serialize) -> ApiResult<Vec<String>> {
+    let (_, key) = json_key(value)?;
+    Ok(Coding::ALL.map(|c| weak_tag('j', key, c)).to_vec())
+}
+
+fn json_key(value: &impl Serialize) -> ApiResult<(Vec<u8>, u64)> {
     let bytes = serde_json::to_vec(value).map_err(ApiError::internal)?;
     let mut h = DefaultHasher::new();
     bytes.hash(&mut h);
-    let etag = weak_tag('j', h.finish(), codings::of_layer(headers));
-    Ok((bytes, etag))
+    Ok((bytes, h.finish()))
 }
 
 /// `value` as JSON with its [`tagged`] tag, or a 304 when the client holds those bytes (a 412

@@ -672,12 +672,17 @@ pub async fn upload(
         if !headers.contains_key(IF_MATCH) && !headers.contains_key(IF_NONE_MATCH) {
             return Ok(t);
         }
-        let current = match state.meshes.get(&t.0) {
-            Some(e) => Some(revalidate::tagged(&headers, &description(&e))?.1),
-            None => None,
+        let (tag, tags) = match state.meshes.get(&t.0) {
+            Some(e) => {
+                let d = description(&e);
+                let tags = revalidate::tags_in_every_coding(&d)?;
+                (Some(revalidate::tagged(&headers, &d)?.1), Some(tags))
+            }
+            None => (None, None),
         };
-        revalidate::if_match(&headers, current.as_deref())?;
-        revalidate::if_none_match_on_write(&headers, current.as_deref())?;
+        revalidate::if_match(&headers, tag.as_deref())?;
+        // A tag is judged here only; `*` again under the catalog's lock.
+        revalidate::if_none_match_on_write(&headers, tags.as_deref())?;
         Ok(t)
     });
     // Admitted before the body is read, so the uploads in hand bound the bodies held too.
@@ -753,7 +758,9 @@ fn upload_error(e: UploadError) -> ApiError {
         UploadError::Gone | UploadError::Exists => ApiError::new(
             StatusCode::PRECONDITION_FAILED,
             "precondition_failed",
-            format!("{e} (any more: a rescan changed it while the body was read)"),
+            format!(
+                "{e} (any more: a rescan or another upload changed that while the body was read)"
+            ),
         ),
         UploadError::Store(_) => ApiError::internal(e),
     }
