@@ -58,7 +58,7 @@ pub enum Command {
 #[derive(Args, Debug)]
 pub struct ExportArgs {
     /// Dataset: a name in DATA, or the path of a .ztd file.
-    pub dataset: String,
+    pub dataset: std::ffi::OsString,
     /// Folder of datasets.
     #[arg(long, default_value = "data")]
     pub data: PathBuf,
@@ -91,7 +91,7 @@ pub struct ExportArgs {
 #[derive(Args, Debug)]
 pub struct InfoArgs {
     /// Dataset: a name in DATA, or the path of a .ztd file.
-    pub dataset: String,
+    pub dataset: std::ffi::OsString,
     /// Folder of datasets.
     #[arg(long, default_value = "data")]
     pub data: PathBuf,

@@ -545,3 +545,25 @@ fn negative_numbers_are_values_refused_by_their_range() {
     };
     assert_eq!(t.step, Some(-1.0));
 }
+
+/// `info` and `export` take a dataset path that is not UTF-8 (a Latin-1 file name), as
+/// `ingest` takes its input: clap refused it as invalid UTF-8, a usage error (exit 2).
+#[test]
+fn a_dataset_path_need_not_be_utf8() {
+    use std::ffi::{OsStr, OsString};
+    use std::os::unix::ffi::OsStrExt;
+    let latin1 = OsStr::from_bytes(b"./caf\xe9.ztd");
+    for args in [&["info"][..], &["export", "--out", "tree"]] {
+        let argv = ["zerotile"]
+            .iter()
+            .chain(args)
+            .map(OsString::from)
+            .chain([latin1.to_owned()]);
+        let dataset = match Cli::try_parse_from(argv).map(|c| c.command) {
+            Ok(Command::Info(a)) => a.dataset,
+            Ok(Command::Export(a)) => a.dataset,
+            other => panic!("{args:?}: {other:?}"),
+        };
+        assert_eq!(dataset, latin1, "{args:?}");
+    }
+}

@@ -32,8 +32,9 @@ pub const MARKER: &str = ".zerotile-export";
 /// What to export.
 #[derive(Clone, Debug)]
 pub struct Export {
-    /// A dataset name in `data`, or a path to a `.ztd` file.
-    pub dataset: String,
+    /// A dataset name in `data`, or a path to a `.ztd` file (any bytes: a path need not be
+    /// UTF-8).
+    pub dataset: std::ffi::OsString,
     pub data: PathBuf,
     pub format: String,
     pub out: PathBuf,

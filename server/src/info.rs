@@ -48,7 +48,9 @@ const MAX_RANGES: usize = 64;
 /// What to look at.
 #[derive(Clone, Debug)]
 pub struct Info {
-    pub dataset: String,
+    /// A dataset name in `data`, or a path to a `.ztd` file (any bytes: a path need not be
+    /// UTF-8).
+    pub dataset: std::ffi::OsString,
     pub data: PathBuf,
     pub verify: bool,
     pub progress: bool,
@@ -150,8 +152,8 @@ pub fn json(r: &Report) -> serde_json::Result<String> {
 }
 
 pub fn run(job: &Info) -> Result<Report> {
-    let data = job.data.to_string_lossy();
-    for given in [&*job.dataset, &*data] {
+    let (dataset, data) = (job.dataset.to_string_lossy(), job.data.to_string_lossy());
+    for given in [&*dataset, &*data] {
         if crate::serve::storage::is_url(given) {
             crate::bail_usage!(
                 "{given}: info reads local files; verify a dataset before uploading it, or \
@@ -574,7 +576,7 @@ mod tests {
         let path = dir.join(name);
         std::fs::write(&path, file).unwrap();
         let report = run(&Info {
-            dataset: path.display().to_string(),
+            dataset: path.clone().into_os_string(),
             data: dir.clone(),
             verify,
             progress: false,
@@ -599,6 +601,25 @@ mod tests {
         let mut w = Writer::new();
         w.add(TileId { z: 0, x: 0, y: 0 }, corners, &enc.bytes);
         w.finish(&m).unwrap()
+    }
+
+    /// A path that is not UTF-8 (a Latin-1 file name from an old archive) is read like any
+    /// other; it was refused as a usage error before it got here.
+    #[test]
+    fn a_path_that_is_not_utf8_is_read() {
+        use std::os::unix::ffi::OsStrExt;
+        let dir = crate::fixtures::scratch("info-latin1");
+        let path = dir.join(std::ffi::OsStr::from_bytes(b"caf\xe9.ztd"));
+        std::fs::write(&path, sound_file(|_| {})).unwrap();
+        let r = run(&Info {
+            dataset: path.into_os_string(),
+            data: dir.join("elsewhere"),
+            verify: true,
+            progress: false,
+        })
+        .unwrap();
+        assert!(r.ok(), "{:?}", r.problems());
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     /// A good copy under a file name `serve` would not take (`n44.v2.ztd`, `n44 copy.ztd`)
@@ -1047,7 +1068,7 @@ mod tests {
     fn a_folder_or_a_missing_name_is_refused_with_what_to_give() {
         let dir = crate::fixtures::scratch("info-dir");
         let job = |dataset: String| Info {
-            dataset,
+            dataset: dataset.into(),
             data: dir.clone(),
             verify: false,
             progress: false,

@@ -64,6 +64,17 @@ pub fn open(path: &Path) -> Result<(File, Metadata), OpenError> {
     open_as_found(path)
 }
 
+/// Refuses a command's input `path` when it is there and not a regular file, before a reader
+/// opens it: a FIFO's open waits for a writer (`ingest` on one hung for good), and a folder or
+/// device failed with a message about its contents. A missing file is left to the reader's
+/// open, whose error names it.
+pub fn check_input(path: &Path) -> anyhow::Result<()> {
+    match std::fs::metadata(path).ok().as_ref().and_then(kind) {
+        Some(what) => anyhow::bail!("{}: {}", path.display(), OpenError::NotRegular(what)),
+        None => Ok(()),
+    }
+}
+
 /// [`open`] without the stat before: what a file swapped since the stat meets.
 fn open_as_found(path: &Path) -> Result<(File, Metadata), OpenError> {
     use rustix::fs::{fcntl_getfl, fcntl_setfl, OFlags};
@@ -175,6 +186,61 @@ mod tests {
             }
             other => panic!("{other:?}"),
         }
+        let _ = std::fs::remove_dir_all(&d);
+    }
+
+    /// `ingest`, `eval terrain`, `eval mesh` and `subdivide` refuse a FIFO input at once, by
+    /// name, as `info` and `export` do: each blocked for good in the reader's open.
+    #[test]
+    fn every_commands_input_refuses_a_fifo_at_once() {
+        let d = crate::fixtures::scratch("input-fifo");
+        let fifo = |name: &str| {
+            let p = d.join(name);
+            crate::fixtures::mkfifo(&p);
+            p
+        };
+        let expect = |p: &Path| format!("{}: not a regular file (a FIFO)", p.display());
+        let said = |e: anyhow::Error| format!("{e:#}");
+
+        let hgt = fifo("in.hgt");
+        let job = crate::ingest::Ingest {
+            input: hgt.clone(),
+            ..crate::ingest::Ingest::for_test("f", "geodetic", &d.join("data"))
+        };
+        let got = crate::fixtures::within(10, "ingest blocked on a FIFO", move || {
+            crate::ingest::run(&job).map(|_| ()).map_err(said)
+        });
+        assert_eq!(got, Err(expect(&hgt)));
+
+        let eval = crate::eval::terrain::TerrainEval {
+            input: hgt.clone(),
+            crop: None,
+            encoding: None,
+            npz_key: None,
+            wavelet: None,
+            step: None,
+            sweep: crate::eval::terrain::Sweep::Lossless,
+            repeat: 1,
+            eight_bit: false,
+            mesher: None,
+            decode_share: None,
+            out: None,
+        };
+        let got = crate::fixtures::within(10, "eval terrain blocked on a FIFO", move || {
+            crate::eval::terrain::load(&eval).map(|_| ()).map_err(said)
+        });
+        assert_eq!(got, Err(expect(&hgt)));
+
+        let obj = fifo("in.obj");
+        let args = crate::cli::SubdivideArgs {
+            input: obj.clone(),
+            output: d.join("out.obj"),
+            times: 1,
+        };
+        let got = crate::fixtures::within(10, "subdivide blocked on a FIFO", move || {
+            crate::eval::mesh::subdivide(&args).map_err(said)
+        });
+        assert_eq!(got, Err(expect(&obj)));
         let _ = std::fs::remove_dir_all(&d);
     }
 }

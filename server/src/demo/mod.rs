@@ -88,7 +88,7 @@ pub fn ensure(data: &Path, force: bool, progress: bool) -> Result<Built> {
             if kept(&path, "mesh", demo_mesh) {
                 continue;
             }
-            io::write_path(&mesh, &path).with_context(|| format!("writing {}", path.display()))?;
+            crate::eval::write_mesh(&mesh, &path)?;
             built.meshes += 1;
         }
     }

@@ -196,7 +196,7 @@ pub fn evaluate(args: &MeshArgs) -> Result<MeshPoint> {
     let distance = measure(&input, &output, args.samples)?;
     // Write the result atomically where asked.
     if let Some(out) = &args.out {
-        io::write_path(&output, out).with_context(|| format!("writing {}", out.display()))?;
+        super::write_mesh(&output, out)?;
     }
     Ok(MeshPoint {
         input: args.input.display().to_string(),
@@ -307,8 +307,7 @@ pub fn subdivide(args: &crate::cli::SubdivideArgs) -> Result<()> {
     for _ in 0..args.times {
         mesh = zerotile_codec::mesh::subdivide::loop_subdivide(&mesh);
     }
-    io::write_path(&mesh, &args.output)
-        .with_context(|| format!("writing {}", args.output.display()))?;
+    super::write_mesh(&mesh, &args.output)?;
     eprintln!(
         "{}: {}, {}",
         args.output.display(),
@@ -327,6 +326,7 @@ pub(super) fn subdivided_faces(faces: usize, times: u8, max: usize) -> Option<us
 }
 
 pub(super) fn load(path: &Path, weld: bool) -> Result<TriMesh> {
+    crate::regular_file::check_input(path)?;
     let mut mesh = io::read_path(path, &MeshLimits::default())
         .with_context(|| format!("reading {}", path.display()))?;
     if weld {

@@ -404,6 +404,37 @@ fn subdivide_refuses_beyond_the_face_limit_and_writes_four_times_the_faces_a_ste
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// What a killed `subdivide` or `eval mesh --out` left of its temporary file (a process that
+/// is gone, pid past Linux's pid_max) goes at the next write of that output: the codec's
+/// `write_path` named it so that nothing ever removed it.
+#[test]
+fn a_killed_runs_temporary_output_is_swept_by_the_next_write() {
+    let dir = scratch("evalmesh-sweep");
+    std::fs::create_dir_all(&dir).unwrap();
+    let left = |name: &str| dir.join(format!(".{name}.tmp-4294967295-0"));
+    for name in ["fine.obj", "lod.obj"] {
+        std::fs::write(left(name), b"partial").unwrap();
+    }
+    subdivide(&SubdivideArgs {
+        input: shared_mesh("npm-bunny.obj"),
+        output: dir.join("fine.obj"),
+        times: 1,
+    })
+    .unwrap();
+    evaluate(&MeshArgs {
+        out: Some(dir.join("lod.obj")),
+        ..faces("npm-bunny.obj", Method::Qem, 800)
+    })
+    .unwrap();
+    let mut names: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["fine.obj", "lod.obj"]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn subdivision_counts_four_times_the_faces_a_step_up_to_the_limit() {
     assert_eq!(subdivided_faces(10, 0, 10), Some(10));

@@ -8,7 +8,27 @@ pub mod terrain;
 #[cfg(test)]
 mod terrain_tests;
 
+use std::path::Path;
 use std::time::Instant;
+
+use anyhow::{Context, Result};
+use zerotile_codec::mesh::{io, TriMesh};
+
+/// Writes `mesh` to `path` in the format its extension names, through
+/// [`crate::ingest::write_atomically`] rather than the codec's `io::write_path`: its temporary
+/// file is one the next write of `path` sweeps when a run was killed mid-write, where
+/// `write_path`'s stayed for good.
+pub fn write_mesh(mesh: &TriMesh, path: &Path) -> Result<()> {
+    let format = io::Format::from_path(path).with_context(|| {
+        format!(
+            "{}: unknown extension (use .obj, .ply, .glb or .json)",
+            path.display()
+        )
+    })?;
+    let bytes =
+        io::write_bytes(mesh, format).with_context(|| format!("writing {}", path.display()))?;
+    crate::ingest::write_atomically(path, &bytes)
+}
 
 /// Median wall time of `repeat` runs of `f` in milliseconds, and the last result.
 pub fn median_ms<T>(repeat: usize, mut f: impl FnMut() -> T) -> (f64, T) {

@@ -8,7 +8,7 @@ use glam::DVec3;
 use serde::Serialize;
 use zerotile_codec::bintree::{self, Hierarchy, TileErrors};
 use zerotile_codec::ezw::{self, DecodeLimit, EncodeParams};
-use zerotile_codec::mesh::{io, TriMesh};
+use zerotile_codec::mesh::TriMesh;
 use zerotile_codec::raster::{self, Encoding, ReadOptions};
 use zerotile_codec::wavelet::Wavelet;
 use zerotile_codec::zerotree::{self, Complexity};
@@ -111,6 +111,7 @@ pub struct Point {
 
 /// Loads the input (cropped) and returns heights, the step and the PSNR peak.
 pub fn load(eval: &TerrainEval) -> Result<(Grid<f64>, f64, f64)> {
+    crate::regular_file::check_input(&eval.input)?;
     // The whole window is one stream, which the decoder takes up to its sample limit: a
     // larger file was read, encoded and only then refused ("decoding our own stream"),
     // after gigabytes. With --crop the window's size is checked on the command line.
@@ -520,7 +521,7 @@ fn write_mesh(
         faces: mesh.triangles.clone(),
     };
     let path = dir.join(name);
-    io::write_path(&tri, &path).with_context(|| format!("writing {}", path.display()))
+    super::write_mesh(&tri, &path)
 }
 
 /// Max |a − b| and RMSE over all samples.

@@ -383,6 +383,36 @@ fn an_out_that_is_a_file_is_refused_up_front() {
     }
 }
 
+/// `--out`'s meshes are written as every atomic file is: a killed run's temporary copy of one
+/// (a process that is gone) goes at the next write of it instead of staying for good.
+#[test]
+fn out_sweeps_what_a_killed_run_left_of_a_mesh() {
+    let dir = crate::fixtures::scratch("eval-out-sweep");
+    let eval = TerrainEval {
+        out: Some(dir.clone()),
+        ..n44(65, Sweep::Threshold(vec![4.0]))
+    };
+    let names = || {
+        let mut n: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        n.sort();
+        n
+    };
+    run(&eval).unwrap();
+    let written = names();
+    assert_eq!(written.len(), 1, "{written:?}");
+    std::fs::write(
+        dir.join(format!(".{}.tmp-4294967295-0", written[0])),
+        b"partial",
+    )
+    .unwrap();
+    run(&eval).unwrap();
+    assert_eq!(names(), written);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn bintree_sides_are_the_ones_the_hierarchy_builds() {
     for n in 0..=600 {

@@ -20,6 +20,7 @@ mod antimeridian;
 mod resample;
 mod world;
 
+use std::ffi::OsStr;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -79,7 +80,7 @@ struct Plan {
 /// The container a command names: a path to a `.ztd` file; else the dataset `NAME` in the
 /// folder `data` when it is there; else an existing path; else `NAME` in `data` again (for
 /// the caller's "no such dataset" message).
-pub fn dataset_path(dataset: &str, data: &Path) -> Result<PathBuf> {
+pub fn dataset_path(dataset: &OsStr, data: &Path) -> Result<PathBuf> {
     let as_path = Path::new(dataset);
     if as_path.extension().is_some_and(|e| e == EXTENSION) {
         // `info n44.ztd --data d` meant the file in d when there is none here.
@@ -91,7 +92,11 @@ pub fn dataset_path(dataset: &str, data: &Path) -> Result<PathBuf> {
     }
     // A dataset of that name wins over a file or folder of that name in the current
     // folder: `info n44 --data d` once read a stray ./n44, and `info web` the folder.
-    let named = check_name(dataset).map(|()| data.join(format!("{dataset}.{EXTENSION}")));
+    // A name is UTF-8; anything else is a path (a Latin-1 file name from an old archive).
+    let Some(name) = dataset.to_str() else {
+        return Ok(as_path.to_path_buf());
+    };
+    let named = check_name(name).map(|()| data.join(format!("{name}.{EXTENSION}")));
     if named.as_ref().is_ok_and(|f| f.is_file()) {
         return named;
     }
@@ -104,12 +109,13 @@ pub fn dataset_path(dataset: &str, data: &Path) -> Result<PathBuf> {
 
 /// [`dataset_path`] for a dataset that must exist (info, export): a folder or a missing
 /// file is refused with what to give instead, not an OS error.
-pub fn existing_dataset_path(dataset: &str, data: &Path) -> Result<PathBuf> {
+pub fn existing_dataset_path(dataset: &OsStr, data: &Path) -> Result<PathBuf> {
     // Neither a path that exists nor a name: `info README.md` run elsewhere was a mistyped
     // or missing file, which "use 1–64 characters from …" alone did not say.
     let path = dataset_path(dataset, data).map_err(|e| {
         anyhow::anyhow!(
-            "{dataset}: no such file, and not a dataset name in --data {} ({e:#})",
+            "{}: no such file, and not a dataset name in --data {} ({e:#})",
+            Path::new(dataset).display(),
             data.display()
         )
     })?;
@@ -230,6 +236,7 @@ impl Ingest {
 /// Builds the dataset and returns where it was written and its metadata.
 pub fn run(job: &Ingest) -> Result<(PathBuf, Metadata)> {
     let scheme = check(job)?;
+    crate::regular_file::check_input(&job.input)?;
     // Formats with no georeference at all are refused by name, before their samples are
     // read: a 0.5 MB PNG of 16,000² took 2.4 GB and 3 s to be told it has none.
     let ext = raster::extension(&job.input);
@@ -630,7 +637,9 @@ pub fn write_atomically(target: &Path, bytes: &[u8]) -> Result<()> {
         .parent()
         .filter(|d| !d.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    // Named with the target: the folder alone did not say which write failed.
+    std::fs::create_dir_all(dir)
+        .with_context(|| format!("writing {}: creating {}", target.display(), dir.display()))?;
     let name = target
         .file_name()
         .map_or_else(String::new, |f| f.to_string_lossy().into_owned());
