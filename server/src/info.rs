@@ -180,9 +180,21 @@ pub fn run(job: &Info) -> Result<Report> {
         }
         Err(e) => return Err(e.context(path.display().to_string())),
     };
-    let name_problem = crate::ingest::check_name(&d.name)
-        .err()
-        .map(|e| format!("{e:#}"));
+    // `serve` lists only `*.ztd` (any case): a good copy kept as `n44.bak` was described with
+    // no word that it would not be served.
+    let ext = crate::ingest::EXTENSION;
+    let listed = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case(ext));
+    let name_problem = [
+        (!listed).then(|| format!("it lists only .{ext} files")),
+        crate::ingest::check_name(&d.name)
+            .err()
+            .map(|e| format!("{e:#}")),
+    ]
+    .into_iter()
+    .flatten()
+    .reduce(|a, b| format!("{a}; {b}"));
     let file_len = std::fs::metadata(&path)
         .with_context(|| path.display().to_string())?
         .len();
@@ -643,6 +655,38 @@ mod tests {
         let r = run_on("named", "n44_v2.ztd", sound_file(|_| {}), false).unwrap();
         assert_eq!(r.name_problem, None);
         assert!(!render(&r).contains("note:"));
+        let r = run_on("named", "n44_v2.ZTD", sound_file(|_| {}), false).unwrap();
+        assert_eq!(r.name_problem, None);
+    }
+
+    /// `serve` lists only `*.ztd`: a copy under another extension (or none) gets the note,
+    /// which it did not, its stem being a dataset name.
+    #[test]
+    fn a_file_without_the_ztd_extension_is_noted() {
+        for (name, suggested) in [("n44-xyz.bak", "n44-xyz"), ("n44", "n44")] {
+            let r = run_on("ext", name, sound_file(|_| {}), false).unwrap();
+            assert!(r.ok(), "{name}: {:?}", r.problems());
+            assert_eq!(
+                r.name_problem.as_deref(),
+                Some("it lists only .ztd files"),
+                "{name}"
+            );
+            let text = render(&r);
+            assert!(
+                text.contains(&format!(
+                    "note: serve skips this file under its name (it lists only .ztd files); \
+                     rename it to serve it, e.g. as {suggested}.ztd"
+                )),
+                "{text}"
+            );
+        }
+        // Both wrong: both said.
+        let r = run_on("ext", "n44 copy.bak", sound_file(|_| {}), false).unwrap();
+        let why = r.name_problem.unwrap_or_default();
+        assert!(
+            why.starts_with("it lists only .ztd files; ") && why.contains("use 1–64 characters"),
+            "{why}"
+        );
     }
 
     /// A header that does not hold is an [`Unreadable`] (exit 3), whose `--json` object
@@ -749,6 +793,20 @@ mod tests {
         assert!(
             e.to_string()
                 .contains("available lists 1 zooms, but min_zoom 0 to max_zoom 1 are 2"),
+            "{e:#}"
+        );
+        // A local grid's size that its one zoom is not the full resolution of (every mesh
+        // scaled 2×): it passed --verify.
+        let scaled = sound_file(|m| {
+            (m.source_size, m.bounds) = ([513, 513], [0.0, 512.0, 512.0, 0.0]);
+        });
+        let e = run_on("scaled", "t.ztd", scaled, true).unwrap_err();
+        assert!(e.is::<Unreadable>(), "{e:#}");
+        assert!(
+            e.to_string().contains(
+                "metadata is invalid: source_size [513, 513]: max_zoom 0 is a local grid's full \
+                 resolution when its longer side is 2 to 257 samples"
+            ),
             "{e:#}"
         );
     }
@@ -869,12 +927,16 @@ mod tests {
         );
     }
 
-    /// `info` (without --verify) on a one-tile file whose header announces `available`.
+    /// `info` (without --verify) on a one-tile file whose header announces `available` at
+    /// geodetic zoom 28, the deepest a header may announce (2^29 × 2^28 tiles), storing
+    /// 28/0/0.
     fn announce(available: Vec<Availability>) -> Report {
         let mut m = local_257(16);
+        (m.scheme, m.min_zoom, m.max_zoom) = ("geodetic".into(), 28, 28);
+        m.bounds = [-180.0, -90.0, 180.0, 90.0];
         m.available = vec![available];
         let mut w = Writer::new();
-        w.add(TileId { z: 0, x: 0, y: 0 }, [0.0; 4], b"not decoded here");
+        w.add(TileId { z: 28, x: 0, y: 0 }, [0.0; 4], b"not decoded here");
         report_on("a", w.finish(&m).unwrap(), false)
     }
 
@@ -901,9 +963,10 @@ mod tests {
         assert!(line(None).starts_with("heights 0 … 512 m, fill"));
     }
 
-    /// A header that announces every tile of a 2^32 × 2^32 zoom but stores one: the check
+    /// A header that announces every tile of geodetic zoom 28 but stores one: the check
     /// counts the absent ones by arithmetic (saturating) and lists the first few, rather
-    /// than walking 2^64 positions; repeated ranges are counted, not walked either.
+    /// than walking 2^57 positions; repeated ranges are counted, not walked either. (A range
+    /// past its zoom's tiles, 2^32 × 2^32, is refused with the header now.)
     #[test]
     fn an_absurd_availability_is_counted_not_walked() {
         let range = |end: u32| Availability {
@@ -912,19 +975,23 @@ mod tests {
             end_x: end,
             end_y: end,
         };
-        let report = announce(vec![range(u32::MAX)]);
+        let report = announce(vec![Availability {
+            end_x: (1 << 29) - 1,
+            end_y: (1 << 28) - 1,
+            ..range(0)
+        }]);
         assert_eq!(report.tiles, 1);
         assert_eq!(report.missing.len(), MISSING_LISTED);
-        assert_eq!(report.missing[0], "0/1/0");
-        assert_eq!(report.missing_total, u64::MAX);
+        assert_eq!(report.missing[0], "28/1/0");
+        assert_eq!(report.missing_total, (1 << 57) - 1);
         assert!(!report.ok());
         let text = render(&report);
         assert!(
-            text.contains("announced tiles are missing: 0/1/0, 0/2/0"),
+            text.contains("announced tiles are missing: 28/1/0, 28/2/0"),
             "{text}"
         );
         assert!(
-            text.contains(&format!("and {} more", u64::MAX - 100)),
+            text.contains(&format!("and {} more", (1u64 << 57) - 1 - 100)),
             "{text}"
         );
 
@@ -948,6 +1015,7 @@ mod tests {
     fn zoom_rows_count_record_bytes_and_their_bits_per_sample() {
         let mut m = local_257(3000);
         (m.max_zoom, m.source_size) = (1, [513, 513]);
+        m.bounds = [0.0, 512.0, 512.0, 0.0];
         m.available.push(m.available[0].clone());
         let mut w = Writer::new();
         w.add(TileId { z: 0, x: 0, y: 0 }, [0.0; 4], &[7u8; 1000]);

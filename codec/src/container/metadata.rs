@@ -126,6 +126,17 @@ impl Metadata {
                 self.max_zoom
             ));
         }
+        let local = match tiling.scheme() {
+            Scheme::Local { rows, cols } => Some((rows, cols)),
+            _ => None,
+        };
+        if let Some((rows, cols)) = local {
+            self.check_local_zooms(rows, cols, tiling.max_zoom())?;
+        }
+        self.check_available_in(&tiling)?;
+        if let Some((rows, cols)) = local {
+            self.check_local_bounds(rows, cols)?;
+        }
         if self.source_size.contains(&0) {
             return Err(format!(
                 "source_size {:?}: a source has at least one row and column",
@@ -153,6 +164,72 @@ impl Metadata {
                 "view {{a: {}, b: {}}}: not finite",
                 self.view.a, self.view.b
             ));
+        }
+        Ok(())
+    }
+
+    /// A local dataset's tiles are placed by `source_size` alone (a zoom-z tile spans
+    /// 2^(deepest − z) · (side − 1) samples), so a size that disagrees with what was coded
+    /// scaled every mesh (2401² on a 1201² dataset: twice its real coordinates). Ingest codes
+    /// the grid's full resolution at `max_zoom` and writes its bounds in samples
+    /// ([`Self::check_local_bounds`]), which tie the size down.
+    fn check_local_zooms(&self, rows: usize, cols: usize, deepest: u8) -> Result<(), String> {
+        if self.max_zoom != deepest {
+            let cells = self.tile_side as u64 - 1;
+            let z = u32::from(self.max_zoom);
+            let lo = if z == 0 { 2 } else { (cells << (z - 1)) + 2 };
+            return Err(format!(
+                "source_size [{rows}, {cols}]: max_zoom {} is a local grid's full resolution \
+                 when its longer side is {lo} to {} samples ({}-sample tiles), not {}",
+                self.max_zoom,
+                (cells << z) + 1,
+                self.tile_side,
+                rows.max(cols)
+            ));
+        }
+        Ok(())
+    }
+
+    /// Bounds of a local grid are its samples' extent, `source_size` − 1 (rows counted down).
+    fn check_local_bounds(&self, rows: usize, cols: usize) -> Result<(), String> {
+        let spans = [0.0, (rows - 1) as f64, (cols - 1) as f64, 0.0];
+        if self.bounds != spans {
+            return Err(format!(
+                "bounds {:?}: source_size [{rows}, {cols}] makes a local grid's bounds {spans:?} \
+                 (west, south, east, north in samples)",
+                self.bounds
+            ));
+        }
+        Ok(())
+    }
+
+    /// Every announced range lies in its zoom's tiles: the server would announce tiles it
+    /// cannot place (an export failed on them, "outside zoom 1's 1×2 tiles", after verify
+    /// passed).
+    fn check_available_in(&self, tiling: &Tiling) -> Result<(), String> {
+        for (z, ranges) in (self.min_zoom..=self.max_zoom).zip(&self.available) {
+            let (nx, ny) = tiling.tiles_per_axis(z).map_err(|e| e.to_string())?;
+            for r in ranges {
+                if r.start_x.max(r.end_x) < nx && r.start_y.max(r.end_y) < ny {
+                    continue;
+                }
+                let of = match tiling.scheme() {
+                    Scheme::Local { rows, cols } => {
+                        format!("a local grid of source_size [{rows}, {cols}] (rows, columns)")
+                    }
+                    _ => format!("the {} scheme", self.scheme),
+                };
+                return Err(format!(
+                    "available at zoom {z}: tiles x {}–{}, y {}–{} are outside its {nx} × {ny} \
+                     tiles (x 0–{}, y 0–{}) in {of}",
+                    r.start_x,
+                    r.end_x,
+                    r.start_y,
+                    r.end_y,
+                    nx - 1,
+                    ny - 1
+                ));
+            }
         }
         Ok(())
     }

@@ -322,24 +322,101 @@ fn metadata_ingest_writes_is_accepted() {
         |m| m.bounds = [-180.0, -90.0, 180.0, 90.0],
         |m| m.bounds = [-180.0, -90.000_000_000_5, 180.0, 90.0],
         |m| (m.scheme, m.max_zoom) = ("mercator".into(), 28),
-        |m| (m.scheme, m.bounds) = ("local".into(), [0.0, 1200.0, 1200.0, 0.0]),
         // A local grid's full resolution: 1201 samples a side at zoom 3 (256 · 2³ ≥ 1200).
-        |m| (m.scheme, m.max_zoom) = ("local".into(), 3),
+        |m| *m = local_1201(),
+        // 599 column steps, 299 row steps: zoom 2 (3 × 2 tiles).
+        |m| {
+            *m = local_1201();
+            (m.source_size, m.max_zoom) = ([300, 600], 2);
+            m.bounds = [0.0, 299.0, 599.0, 0.0];
+        },
         |m| (m.precision, m.source_height_range) = (None, Some([115.0, 1908.0])),
     ];
     for (k, edit) in cases.into_iter().enumerate() {
         let mut m = metadata();
         edit(&mut m);
-        // Ingest lists every zoom.
-        let zooms = usize::from(m.max_zoom - m.min_zoom) + 1;
-        m.available.resize(zooms, m.available[0].clone());
+        // Ingest lists every zoom, within its tiles.
+        m.available = every_tile(&m);
         assert!(with_metadata(&m).is_ok(), "case {k}: {m:?}");
     }
     // Past it there is nothing to code.
-    let mut m = metadata();
-    (m.scheme, m.max_zoom) = ("local".into(), 4);
+    let mut m = local_1201();
+    m.max_zoom = 4;
     assert!(matches!(
         with_metadata(&m),
         Err(ContainerError::Metadata(e)) if e.contains("deepest zoom 3 (a local grid of 1201 × 1201 samples)")
     ));
+}
+
+/// A local 1201² dataset as ingest writes it: zooms 0 to 3, every tile listed.
+fn local_1201() -> Metadata {
+    let mut m = metadata();
+    (m.scheme, m.max_zoom) = ("local".into(), 3);
+    m.bounds = [0.0, 1200.0, 1200.0, 0.0];
+    m.available = every_tile(&m);
+    m
+}
+
+/// One range a zoom, the tiling's whole grid there.
+fn every_tile(m: &Metadata) -> Vec<Vec<Availability>> {
+    let tiling = m.tiling().unwrap();
+    (m.min_zoom..=m.max_zoom)
+        .map(|z| {
+            let (nx, ny) = tiling.tiles_per_axis(z).unwrap();
+            vec![Availability {
+                start_x: 0,
+                start_y: 0,
+                end_x: nx - 1,
+                end_y: ny - 1,
+            }]
+        })
+        .collect()
+}
+
+/// A local dataset's tiles are placed by `source_size`: one that disagrees with its zooms,
+/// tiles or bounds (a buggy writer, the CRC resealed) scaled every mesh or announced tiles
+/// the tiling has not, and `info --verify` passed it.
+#[test]
+fn a_local_source_size_that_disagrees_with_the_dataset_is_refused() {
+    let cases: [([usize; 2], &str); 4] = [
+        (
+            [2401, 2401],
+            "source_size [2401, 2401]: max_zoom 3 is a local grid's full resolution when its \
+             longer side is 1026 to 2049 samples (257-sample tiles), not 2401",
+        ),
+        ([1201, 65535], "longer side is 1026 to 2049 samples"),
+        (
+            [1201, 255],
+            "available at zoom 1: tiles x 0–1, y 0–1 are outside its 1 × 2 tiles (x 0–0, y 0–1) \
+             in a local grid of source_size [1201, 255]",
+        ),
+        // Same tiles, another width: only the bounds tell.
+        (
+            [1201, 1100],
+            "bounds [0.0, 1200.0, 1200.0, 0.0]: source_size [1201, 1100] makes a local grid's \
+             bounds [0.0, 1200.0, 1099.0, 0.0]",
+        ),
+    ];
+    for (size, says) in cases {
+        let mut m = local_1201();
+        m.source_size = size;
+        match with_metadata(&m) {
+            Err(ContainerError::Metadata(e)) => assert!(e.contains(says), "{size:?}: {e}"),
+            other => panic!("{size:?}: {other:?}"),
+        }
+    }
+    // A world dataset's source_size is the source raster's, which places nothing.
+    let mut m = metadata();
+    m.source_size = [2401, 2401];
+    assert!(with_metadata(&m).is_ok());
+    // A world range past its zoom's tiles is refused too: mercator's zoom 0 is one tile.
+    m.scheme = "mercator".into();
+    match with_metadata(&m) {
+        Err(ContainerError::Metadata(e)) => assert!(
+            e.contains("available at zoom 0: tiles x 0–1, y 0–0 are outside its 1 × 1 tiles")
+                && e.contains("the mercator scheme"),
+            "{e}"
+        ),
+        other => panic!("{other:?}"),
+    }
 }

@@ -2394,12 +2394,17 @@ fn a_grazing_view_stops_at_the_terrains_diagonal() {
     );
 }
 
-/// A grid one row high has no area: A_t is floored at one square unit, so the ratio and
-/// eq. 4's T stay finite rather than infinite (or NaN with a = 0).
+/// A source one row high has no area: A_t is floored at one square unit, so the ratio and
+/// eq. 4's T stay finite rather than infinite (or NaN with a = 0). A world dataset's: a
+/// local one's bounds follow its source_size, at least 2 × 2.
 #[test]
 fn a_dataset_without_area_still_gets_a_finite_ratio() {
-    let d = hill_dataset_in("flat", "local", &[ROOT], [0.0, 0.0, 256.0, 0.0]);
-    let q = view_query(&[("eye", "128,0,10"), ("target", "128,0,0"), ("fov", "90")]);
+    let d = hill_dataset_in("flat", "geodetic", &[ROOT], [10.0, 45.0, 11.0, 45.0]);
+    let q = view_query(&[
+        ("eye", "10.5,45,10"),
+        ("target", "10.5,45,0"),
+        ("fov", "90"),
+    ]);
     let v = threshold::view_plane(&d, &q).unwrap();
     assert_eq!(v.a_t, 1.0);
     // The view stops at the diagonal's floor, one unit: the footprint is the disk's
