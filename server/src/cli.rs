@@ -290,8 +290,8 @@ pub struct TerrainArgs {
     /// Print one JSON object per operating point.
     #[arg(long)]
     pub json: bool,
-    /// Also write each point's mesh to DIR/MODE-PARAM.obj (x = column, y = row, z = height),
-    /// to look at in any mesh viewer.
+    /// Also write each point's mesh to DIR/MODE-PARAM.obj (x = column, y = minus the row, z =
+    /// height: a local dataset's frame, counter-clockwise from above), for any mesh viewer.
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
     /// Rescale the window to 0..=255 integers first (the paper's 8-bit setting; PSNR peak 255).

@@ -504,8 +504,11 @@ pub fn floor_warning(p: &Point) -> Option<String> {
     ))
 }
 
-/// Writes `mesh` as `dir/MODE-PARAM.obj` (atomically, as every mesh file is written).
-fn write_mesh(
+/// Writes `mesh` as `dir/MODE-PARAM.obj` (atomically, as every mesh file is written), in
+/// the server's local-scheme coordinates (`render::tri_mesh`): x the window's column, y minus
+/// its row, z the height. The mesher's (column, row) plane is mirrored, so its triangles were
+/// clockwise from above and every viewer lit the terrain's underside.
+pub(crate) fn write_mesh(
     dir: &Path,
     mode: &str,
     param: Option<f64>,
@@ -517,7 +520,11 @@ fn write_mesh(
         None => format!("{mode}.obj"),
     };
     let tri = TriMesh {
-        positions: mesh.positions.iter().map(|&p| DVec3::from(p)).collect(),
+        positions: mesh
+            .positions
+            .iter()
+            .map(|&[c, r, h]| DVec3::new(c, -r, h))
+            .collect(),
         faces: mesh.triangles.clone(),
     };
     let path = dir.join(name);
@@ -547,8 +554,14 @@ pub fn table(points: &[Point]) -> String {
     use std::fmt::Write as _;
     let mut out = String::new();
     if let Some(p) = points.first() {
-        let bound = match p.mesher {
-            "bintree" => "mesh err ≤ T",
+        // What the bintree guarantees: the mesh within its tolerance of the decoded heights.
+        // `--threshold` gives it T minus the decode's error; the other modes their last pass,
+        // the T column, on top of the decode's error (which "mesh err ≤ T" hid).
+        let bound = match (p.mesher, p.mode) {
+            ("bintree", "threshold") => {
+                "mesh within param − max err of the decoded heights, so mesh err ≤ param"
+            }
+            ("bintree", _) => "mesh within T of the decoded heights, so mesh err ≤ T + max err",
             _ => "T stops the zerotree; mesh err not bounded by T",
         };
         let _ = writeln!(

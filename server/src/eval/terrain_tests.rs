@@ -413,6 +413,43 @@ fn out_sweeps_what_a_killed_run_left_of_a_mesh() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `--out` meshes are in the server's local-scheme frame: x the column, y minus the row, so
+/// every face is counter-clockwise from above (normal up). They were (column, row), mirrored,
+/// every face pointing down.
+#[test]
+fn out_meshes_face_up_with_y_minus_the_row() {
+    let dir = crate::fixtures::scratch("eval-out-winding");
+    let points = run(&TerrainEval {
+        out: Some(dir.clone()),
+        ..n44(65, Sweep::Threshold(vec![4.0]))
+    })
+    .unwrap();
+    let limits = zerotile_codec::mesh::io::MeshLimits::default();
+    let m = zerotile_codec::mesh::io::read_path(&dir.join("threshold-4.obj"), &limits).unwrap();
+    assert_eq!(m.faces.len(), points[0].mesh_triangles);
+    for f in &m.faces {
+        let [a, b, c] = f.map(|i| m.positions[i as usize]);
+        let up = (b - a).cross(c - a).z;
+        assert!(up > 0.0, "{f:?} faces down");
+    }
+    // The window's north-west corner sample at the origin, its south-east at (64, -64).
+    let window = raster::read_heightmap(shared_data("dem/N44W072.hgt"), &ReadOptions::default())
+        .unwrap()
+        .crop(300, 500, 65, 65)
+        .unwrap();
+    for (r, c) in [(0, 0), (64, 64)] {
+        let v = m
+            .positions
+            .iter()
+            .find(|p| (p.x, p.y) == (c as f64, -(r as f64)))
+            .unwrap();
+        // Vertices carry the decoded heights.
+        let err = (v.z - window.heights.get(r, c)).abs();
+        assert!(err <= points[0].max_abs_err + 1e-9, "({r}, {c}): {err}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn bintree_sides_are_the_ones_the_hierarchy_builds() {
     for n in 0..=600 {
@@ -491,7 +528,8 @@ fn the_table_gives_each_meshs_share_of_the_full_mesh() {
     // The mesher is named, with what T bounds under it.
     assert!(
         text.starts_with(&format!(
-            "{} (65×65, cdf97, bintree mesher: mesh err ≤ T)",
+            "{} (65×65, cdf97, bintree mesher: mesh within param − max err of the decoded \
+             heights, so mesh err ≤ param)",
             points[0].input
         )),
         "{text}"
@@ -519,6 +557,37 @@ fn the_table_gives_each_meshs_share_of_the_full_mesh() {
         "{}",
         table(&p)
     );
+}
+
+/// Outside `--threshold` the bintree meshes within the T column of the decoded heights, so
+/// its error reaches T plus the decode's: the header said "mesh err ≤ T", which no rate or
+/// max-error point kept. It states what each point holds.
+#[test]
+fn the_bintree_header_states_the_bound_the_rows_keep() {
+    for sweep in [
+        Sweep::Bpp(vec![0.25, 1.0, 2.0]),
+        Sweep::MaxError(vec![1.0, 4.0]),
+    ] {
+        let points = run(&n44(65, sweep)).unwrap();
+        let text = table(&points);
+        assert!(
+            text.lines().next().unwrap().ends_with(
+                "bintree mesher: mesh within T of the decoded heights, so mesh err ≤ T + max err)"
+            ),
+            "{text}"
+        );
+        for p in &points {
+            assert!(
+                p.mesh_max_abs_err <= p.threshold + p.max_abs_err + 1e-9,
+                "{p:?}"
+            );
+        }
+        // What the header said before: some row breaks it.
+        assert!(
+            points.iter().any(|p| p.mesh_max_abs_err > p.threshold),
+            "{points:?}"
+        );
+    }
 }
 
 /// Numbers far from a column's usual size keep the column and their size: a 1e12 threshold
