@@ -116,29 +116,51 @@ fn check_out(out: &Path) -> Result<()> {
     if out.join(MARKER).is_file() {
         return only_own_files(out);
     }
-    let mut entries = std::fs::read_dir(out).with_context(|| format!("--out {}", out.display()))?;
-    if entries.next().is_some() {
-        bail!(
-            "--out {}: the folder has files and is not an earlier zerotile export (no {MARKER}); \
-             give a new or empty folder, an export replaces everything in it",
-            out.display()
-        );
-    }
-    Ok(())
+    // Named, as an earlier export's additions are: the user sees what the export would have
+    // replaced (a folder is one entry, not walked).
+    let mut entries = std::fs::read_dir(out)
+        .and_then(|d| {
+            d.map(|e| e.map(|e| PathBuf::from(e.file_name())))
+                .collect::<std::io::Result<Vec<_>>>()
+        })
+        .with_context(|| format!("--out {}", out.display()))?;
+    entries.sort();
+    let Some((what, them)) = name_entries(&entries) else {
+        return Ok(());
+    };
+    bail!(
+        "--out {}: the folder has files and is not an earlier zerotile export (no {MARKER}): \
+         {what} not an export's own; an export replaces everything in the folder, so move \
+         {them} out first or give a new or empty folder",
+        out.display()
+    );
 }
 
 /// Errors unless the earlier export `out` holds only what an export writes: the swap deletes
 /// the whole folder, and the marker alone said nothing of an `index.html` a user had added
 /// since (it was deleted with exit 0). Names the first few, and how many there are.
 fn only_own_files(out: &Path) -> Result<()> {
-    const SHOWN: usize = 5;
     let foreign = foreign_entries(out).with_context(|| format!("--out {}", out.display()))?;
-    let (what, them) = match foreign.as_slice() {
-        [] => return Ok(()),
-        [one] => (
+    let Some((what, them)) = name_entries(&foreign) else {
+        return Ok(());
+    };
+    bail!(
+        "--out {}: an earlier zerotile export, but {what} not the export's own; an export \
+         replaces the whole folder, so move {them} out first or give another --out",
+        out.display()
+    );
+}
+
+/// `entries` for a refusal: ("X is" | "N entries (X, Y and M more) are", what to move);
+/// `None` when there are none.
+fn name_entries(entries: &[PathBuf]) -> Option<(String, String)> {
+    const SHOWN: usize = 5;
+    match entries {
+        [] => None,
+        [one] => Some((
             format!("{} in it is", one.display()),
             one.display().to_string(),
-        ),
+        )),
         many => {
             let mut listed = many
                 .iter()
@@ -149,17 +171,12 @@ fn only_own_files(out: &Path) -> Result<()> {
             if many.len() > SHOWN {
                 listed += &format!(" and {} more", many.len() - SHOWN);
             }
-            (
+            Some((
                 format!("{} entries in it ({listed}) are", many.len()),
                 "them".into(),
-            )
+            ))
         }
-    };
-    bail!(
-        "--out {}: an earlier zerotile export, but {what} not the export's own; an export \
-         replaces the whole folder, so move {them} out first or give another --out",
-        out.display()
-    );
+    }
 }
 
 /// What in the export `out` no export writes, relative to `out`, sorted: anything but
@@ -486,6 +503,31 @@ mod tests {
             }
         }
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// A folder that is no export is refused naming what is in it (a folder as one entry), as
+    /// an earlier export's additions are: it named nothing, where the README said it did.
+    #[test]
+    fn a_folder_that_is_no_export_is_refused_naming_its_entries() {
+        let dir = crate::fixtures::scratch("check-out-other").join("other");
+        std::fs::create_dir_all(dir.join("sub")).unwrap();
+        std::fs::write(dir.join("sub/b.txt"), "mine").unwrap();
+        std::fs::write(dir.join("a.txt"), "mine").unwrap();
+        let err = check_out(&dir).unwrap_err().to_string();
+        assert!(
+            err.contains(
+                "other: the folder has files and is not an earlier zerotile export \
+                 (no .zerotile-export): 2 entries in it (a.txt, sub) are not an export's own"
+            ) && err.contains("move them out first or give a new or empty folder"),
+            "{err}"
+        );
+        std::fs::remove_dir_all(dir.join("sub")).unwrap();
+        let err = check_out(&dir).unwrap_err().to_string();
+        assert!(
+            err.contains("a.txt in it is not an export's own") && err.contains("move a.txt out"),
+            "{err}"
+        );
+        let _ = std::fs::remove_dir_all(dir.parent().unwrap());
     }
 
     /// A symbolic link as --out is refused for what it is (the swap would replace the link).

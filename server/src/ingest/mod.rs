@@ -298,19 +298,20 @@ pub fn build(job: &Ingest, map: Heightmap) -> Result<(PathBuf, Metadata)> {
         local_plan(heights, fill)
     } else {
         let georef = georef.with_context(|| {
-            // The one format placed by its name, which a renamed copy loses.
-            let hgt = job
-                .input
-                .extension()
-                .is_some_and(|e| e.eq_ignore_ascii_case("hgt"));
-            format!(
-                "{}: no georeference, so it cannot be placed on the globe (use --scheme local){}",
-                job.input.display(),
-                if hgt {
-                    "; an SRTM .hgt is placed by its file name, as N44W072.hgt"
-                } else {
-                    ""
+            // The formats placed by a convention the file can miss: a .hgt by its name (a
+            // renamed copy loses it), an .npz by scalar keys (bounds alone do not place it).
+            let ext = job.input.extension().map(|e| e.to_ascii_lowercase());
+            let how = match ext.as_ref().and_then(|e| e.to_str()) {
+                Some("hgt") => "; an SRTM .hgt is placed by its file name, as N44W072.hgt",
+                Some("npz") => {
+                    "; an .npz is placed by scalar xmin, ymin, ymax, dx and dy beside the array \
+                     (xmax optional), agreeing with its shape"
                 }
+                _ => "",
+            };
+            format!(
+                "{}: no georeference, so it cannot be placed on the globe (use --scheme local){how}",
+                job.input.display(),
             )
         })?;
         if !matches!(georef.crs, Crs::Geographic | Crs::WebMercator) {
@@ -986,6 +987,26 @@ mod tests {
         assert!(
             e.ends_with(
                 "(use --scheme local); an SRTM .hgt is placed by its file name, as N44W072.hgt"
+            ),
+            "{e}"
+        );
+    }
+
+    /// An .npz without its placement keys is told which they are: bounds without dx and dy
+    /// were refused with no word of them.
+    #[test]
+    fn an_npz_without_a_georeference_is_told_the_keys_that_place_it() {
+        let data = scratch("npz-keys");
+        let map = Heightmap::new(Grid::new(3, 3, vec![1.0; 9]).unwrap(), Some(1.0), None);
+        let j = Ingest {
+            input: "bounds.npz".into(),
+            ..job("b", "geodetic", &data)
+        };
+        let e = build(&j, map).unwrap_err().to_string();
+        assert!(
+            e.ends_with(
+                "(use --scheme local); an .npz is placed by scalar xmin, ymin, ymax, dx and dy \
+                 beside the array (xmax optional), agreeing with its shape"
             ),
             "{e}"
         );
