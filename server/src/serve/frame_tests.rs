@@ -1,11 +1,11 @@
 //! `?frame=enu` on tiles and views: the same mesh as the scheme's, moved into metres about
 //! the tile's centre or the view's target.
 
-use axum::http::StatusCode;
+use axum::http::{Method, StatusCode};
 use glam::DVec3;
 use zerotile_codec::geo::{Ellipsoid, EnuFrame};
 
-use super::tests::{error_code, get, hill_dataset, id, router_over, ROOT};
+use super::tests::{error_code, get, hill_dataset, id, router_over, send, ROOT};
 
 /// Positions of a mesh JSON (`{positions, …}`) at `at` (a JSON pointer).
 fn positions(body: &[u8], at: &str) -> Vec<DVec3> {
@@ -162,6 +162,19 @@ async fn an_enu_view_is_about_its_target() {
     let (s, h, _) = get(&app, &format!("{view}&frame=enu&format=glb")).await;
     assert_eq!(s, StatusCode::OK);
     assert_eq!(origin(&h), [-109.33, 15.83, 0.0]);
+    // Its 304s, by tag and by `*`, carry the origin too, as a tile's does.
+    let tag = h["etag"].to_str().unwrap().to_string();
+    for none_match in [tag.as_str(), "*"] {
+        let (s, h, _) = send(
+            &app,
+            Method::GET,
+            &format!("{view}&frame=enu&format=glb"),
+            &[("if-none-match", none_match)],
+        )
+        .await;
+        assert_eq!(s, StatusCode::NOT_MODIFIED, "{none_match}");
+        assert_eq!(origin(&h), [-109.33, 15.83, 0.0], "{none_match}");
+    }
 
     let local = router_over(hill_dataset("frame-local", "local", &[ROOT]));
     for uri in [

@@ -160,7 +160,7 @@ fn state_over(mut d: Dataset, config: Config) -> AppState {
     AppState::new(catalog, config).unwrap()
 }
 
-async fn send(
+pub(super) async fn send(
     app: &Router,
     method: Method,
     uri: &str,

@@ -75,7 +75,7 @@ pub async fn view(
     let etag = revalidate::weak_tag('v', view_key(&d, &plane, t, format, frame), coding);
     let held = match revalidate::Held::check(&headers, &etag, REVALIDATE)? {
         Ok(held) => held,
-        Err(not_modified) => return Ok(not_modified),
+        Err(not_modified) => return with_origin(not_modified, enu.as_ref()),
     };
 
     // Mesh off the async threads.
@@ -101,7 +101,7 @@ pub async fn view(
         ));
     }
     if let Some(not_modified) = held.release()? {
-        return Ok(not_modified);
+        return with_origin(not_modified, enu.as_ref());
     }
     if let Some(enu) = &enu {
         frame::to_enu(&mut mesh, d.tiling.scheme(), enu);
@@ -189,6 +189,16 @@ struct ViewBody<'a> {
 struct MeshBody {
     indices: Vec<u32>,
     positions: Vec<f64>,
+}
+
+/// A 304 with the 200's `X-Frame-Origin`, as a tile's has: the validator headers a cache
+/// updates its copy from (RFC 9110 §15.4.5) include what places the mesh.
+fn with_origin(mut res: Response, enu: Option<&EnuFrame>) -> ApiResult<Response> {
+    if let Some(enu) = enu {
+        res.headers_mut()
+            .insert("x-frame-origin", frame::origin_header(enu)?);
+    }
+    Ok(res)
 }
 
 fn header(s: &str) -> ApiResult<HeaderValue> {
