@@ -182,12 +182,9 @@ pub fn run(job: &Info) -> Result<Report> {
     };
     // `serve` lists only `*.ztd` (any case): a good copy kept as `n44.bak` was described with
     // no word that it would not be served.
-    let ext = crate::ingest::EXTENSION;
-    let listed = path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case(ext));
     let name_problem = [
-        (!listed).then(|| format!("it lists only .{ext} files")),
+        (!crate::ingest::is_dataset_file(&path))
+            .then(|| format!("it lists only .{} files", crate::ingest::EXTENSION)),
         crate::ingest::check_name(&d.name)
             .err()
             .map(|e| format!("{e:#}")),

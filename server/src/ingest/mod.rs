@@ -41,6 +41,13 @@ pub const TILE_SIDE: usize = 257;
 /// Container file extension.
 pub const EXTENSION: &str = "ztd";
 
+/// Whether `serve` lists `path` as a dataset: its extension is [`EXTENSION`] in any case, as
+/// mesh files are read (a `.ZTD` copied from elsewhere).
+pub fn is_dataset_file(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case(EXTENSION))
+}
+
 /// What to ingest and how.
 #[derive(Clone, Debug)]
 pub struct Ingest {

@@ -28,6 +28,25 @@ fn origin(h: &axum::http::HeaderMap) -> [f64; 3] {
     [v[0], v[1], v[2]]
 }
 
+/// Every vertex of `enu` is WGS84's placement, in the frame at `origin`, of its vertex in
+/// `scheme` (whose x, y `lonlat` turns into degrees), to 1e-6 m.
+fn assert_placed(
+    origin: [f64; 3],
+    scheme: &[DVec3],
+    enu: &[DVec3],
+    lonlat: impl Fn(DVec3) -> [f64; 2],
+) {
+    let f = EnuFrame::at(Ellipsoid::WGS84, origin[0], origin[1], origin[2]);
+    assert_eq!(scheme.len(), enu.len());
+    for (&p, &m) in scheme.iter().zip(enu) {
+        let [lon, lat] = lonlat(p);
+        assert!(
+            (f.from_geodetic(lon, lat, p.z) - m).length() < 1e-6,
+            "{p} → {m}"
+        );
+    }
+}
+
 fn extent(ps: &[DVec3]) -> DVec3 {
     let lo = ps.iter().fold(DVec3::INFINITY, |a, &p| a.min(p));
     let hi = ps.iter().fold(DVec3::NEG_INFINITY, |a, &p| a.max(p));
@@ -53,18 +72,10 @@ async fn an_enu_tile_is_the_scheme_tile_in_metres_about_its_centre() {
 
     let o = origin(&h);
     assert_eq!(o, [-109.3359375, 15.8203125, 0.0]);
-    let f = EnuFrame::at(Ellipsoid::WGS84, o[0], o[1], o[2]);
-    let (degrees, metres) = (
-        positions(&scheme, "/positions"),
-        positions(&enu, "/positions"),
-    );
-    assert_eq!(degrees.len(), metres.len());
-    for (d, m) in degrees.iter().zip(&metres) {
-        assert!(
-            (f.from_geodetic(d.x, d.y, d.z) - *m).length() < 1e-6,
-            "{d} → {m}"
-        );
-    }
+    let metres = positions(&enu, "/positions");
+    assert_placed(o, &positions(&scheme, "/positions"), &metres, |d| {
+        [d.x, d.y]
+    });
     // The ground size: 0.703125° of the meridian (~110.6 km a degree at 16°N) and of the
     // parallel (cos 16° of the equator's 111.3 km a degree), to within a percent.
     let e = extent(&metres);
@@ -107,18 +118,13 @@ async fn an_enu_mercator_tile_is_placed_through_its_longitudes_and_latitudes() {
     let (s, h, enu) = get(&app, &format!("{base}&frame=enu")).await;
     assert_eq!(s, StatusCode::OK);
     let o = origin(&h);
-    let f = EnuFrame::at(Ellipsoid::WGS84, o[0], o[1], o[2]);
     let (xy, metres) = (
         positions(&scheme, "/positions"),
         positions(&enu, "/positions"),
     );
-    for (p, m) in xy.iter().zip(&metres) {
-        let [lon, lat] = zerotile_codec::geo::mercator_to_lonlat([p.x, p.y]);
-        assert!(
-            (f.from_geodetic(lon, lat, p.z) - *m).length() < 1e-6,
-            "{p} → {m}"
-        );
-    }
+    assert_placed(o, &xy, &metres, |p| {
+        zerotile_codec::geo::mercator_to_lonlat([p.x, p.y])
+    });
     // Mercator stretches by 1 / cos(lat): the ENU tile is smaller than its EPSG:3857 span.
     let (ex, em) = (extent(&xy), extent(&metres));
     let shrink = o[1].to_radians().cos();
@@ -146,18 +152,12 @@ async fn an_enu_view_is_about_its_target() {
     let v0: serde_json::Value = serde_json::from_slice(&scheme).unwrap();
     assert!(v0.get("origin").is_none());
     assert_eq!(v["triangles"], v0["triangles"]);
-    let f = EnuFrame::at(Ellipsoid::WGS84, -109.33, 15.83, 0.0);
-    let (degrees, metres) = (
-        positions(&scheme, "/mesh/positions"),
-        positions(&enu, "/mesh/positions"),
+    assert_placed(
+        [-109.33, 15.83, 0.0],
+        &positions(&scheme, "/mesh/positions"),
+        &positions(&enu, "/mesh/positions"),
+        |d| [d.x, d.y],
     );
-    assert_eq!(degrees.len(), metres.len());
-    for (d, m) in degrees.iter().zip(&metres) {
-        assert!(
-            (f.from_geodetic(d.x, d.y, d.z) - *m).length() < 1e-6,
-            "{d} → {m}"
-        );
-    }
 
     let (s, h, _) = get(&app, &format!("{view}&frame=enu&format=glb")).await;
     assert_eq!(s, StatusCode::OK);

@@ -118,12 +118,8 @@ fn scan_dir(dir: &std::path::Path) -> Result<Vec<Found>> {
     let mut found = Vec::new();
     for entry in std::fs::read_dir(dir).with_context(listing)? {
         let path = entry.with_context(listing)?.path();
-        // Any case, as mesh files are read: a `.ZTD` copied from elsewhere was neither
-        // opened nor listed as skipped.
-        if !path
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case(EXTENSION))
-        {
+        // Any case: a `.ZTD` copied from elsewhere was neither opened nor listed as skipped.
+        if !crate::ingest::is_dataset_file(&path) {
             continue;
         }
         let Some((file, meta)) = stat(&path)? else {

@@ -171,11 +171,12 @@ pub fn tagged(headers: &HeaderMap, value: &impl Serialize) -> ApiResult<(Vec<u8>
     Ok((bytes, weak_tag('j', key, codings::of_layer(headers))))
 }
 
-/// [`tagged`]'s tag of `value` in every coding: what a client may hold of it, whichever
-/// `Accept-Encoding` it read it with.
-pub fn tags_in_every_coding(value: &impl Serialize) -> ApiResult<Vec<String>> {
+/// [`tagged`]'s tag of `value` in the layer's coding for `headers`, and in every coding: what
+/// a client may hold of it, whichever `Accept-Encoding` it read it with.
+pub fn tags(headers: &HeaderMap, value: &impl Serialize) -> ApiResult<(String, Vec<String>)> {
     let (_, key) = json_key(value)?;
-    Ok(Coding::ALL.map(|c| weak_tag('j', key, c)).to_vec())
+    let every = Coding::ALL.map(|c| weak_tag('j', key, c)).to_vec();
+    Ok((weak_tag('j', key, codings::of_layer(headers)), every))
 }
 
 fn json_key(value: &impl Serialize) -> ApiResult<(Vec<u8>, u64)> {

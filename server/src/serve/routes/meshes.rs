@@ -674,9 +674,8 @@ pub async fn upload(
         }
         let (tag, tags) = match state.meshes.get(&t.0) {
             Some(e) => {
-                let d = description(&e);
-                let tags = revalidate::tags_in_every_coding(&d)?;
-                (Some(revalidate::tagged(&headers, &d)?.1), Some(tags))
+                let (tag, every) = revalidate::tags(&headers, &description(&e))?;
+                (Some(tag), Some(every))
             }
             None => (None, None),
         };

@@ -63,8 +63,7 @@ pub enum TileFormat {
 }
 
 impl TileFormat {
-    /// Every format, for the checks that the docs list each.
-    #[cfg(test)]
+    /// Every format: the extensions a tile address takes, and the docs' list.
     pub(crate) const ALL: [Self; 7] = [
         Self::Terrain,
         Self::Png,
@@ -76,16 +75,7 @@ impl TileFormat {
     ];
 
     fn from_extension(ext: &str) -> Option<Self> {
-        Some(match ext {
-            "terrain" => Self::Terrain,
-            "png" => Self::Png,
-            "json" => Self::Json,
-            "bin" => Self::Bin,
-            "obj" => Self::Obj,
-            "glb" => Self::Glb,
-            "ezw" => Self::Ezw,
-            _ => return None,
-        })
+        Self::ALL.into_iter().find(|f| f.extension() == ext)
     }
 
     fn extension(self) -> &'static str {
