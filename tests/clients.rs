@@ -4,7 +4,8 @@
 //! MapLibre on a `zerotile export --format png --base-url URL` tree through its `tiles.json`
 //! alone (URL a placeholder the page's `transformRequest` maps to the real host), each tree
 //! served by a plain file server on another origin, as a CDN would. Both static checks
-//! sample the SRTM source's heights from the tree (the browser side is
+//! sample the SRTM source's heights from the tree, CesiumJS's raised to the ellipsoid by
+//! EGM96's undulation (the browser side is
 //! `tests/e2e/clients.mjs`).
 //!
 //! Needs `node`, Chromium (`apt-get install -y chromium`, or `CHROMIUM=/path`) and
@@ -24,7 +25,7 @@ use std::time::Instant;
 use zerotile_tests::server::Server;
 use zerotile_tests::{
     client_data, e2e_out, ingest_n44_geodetic, node_missing, repo_root, run_in, shared_data,
-    srtm_heights, tools_ready,
+    srtm_heights, srtm_heights_on_the_ellipsoid, tools_ready,
 };
 
 /// What is missing for the browser tests, if anything.
@@ -73,7 +74,9 @@ fn cesium_maplibre_and_the_viewer_render_in_headless_chromium() {
         "n44m",
         &["--format", "png", "--base-url", "http://cdn.invalid/rgb"],
     );
-    let expect = srtm_heights(&hgt);
+    // CesiumJS draws on the ellipsoid: SRTM's EGM96 heights come raised by the geoid's
+    // undulation, as n44g records them (an .hgt's datum).
+    let expect = srtm_heights_on_the_ellipsoid(&hgt);
     eprintln!("data ready in {:.1} s", t0.elapsed().as_secs_f64());
 
     let server = Server::start(&data);
@@ -86,7 +89,13 @@ fn cesium_maplibre_and_the_viewer_render_in_headless_chromium() {
         .arg(&exported)
         .arg("--static-png")
         .arg(&png)
-        .args(["--expect", &expect, "--out"])
+        .args([
+            "--expect",
+            &expect,
+            "--expect-png",
+            &srtm_heights(&hgt),
+            "--out",
+        ])
         .arg(&out)
         .env("CHROMIUM", &chromium)
         .status()

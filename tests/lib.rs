@@ -86,13 +86,15 @@ pub fn ingest_n44_geodetic(data: &Path) {
 
 /// [`ingest_n44_geodetic`] under the dataset name `name`.
 pub fn ingest_n44_geodetic_as(data: &Path, name: &str) {
+    ingest_n44_geodetic_with(data, name, &[]);
+}
+
+/// [`ingest_n44_geodetic_as`] with more ingest arguments.
+pub fn ingest_n44_geodetic_with(data: &Path, name: &str, args: &[&str]) {
     let hgt = shared_data().join("dem/N44W072.hgt");
-    run_ok(&mut ingest_command(
-        &hgt,
-        name,
-        data,
-        &["--scheme", "geodetic"],
-    ));
+    let mut all = vec!["--scheme", "geodetic"];
+    all.extend(args);
+    run_ok(&mut ingest_command(&hgt, name, data, &all));
 }
 
 #[path = "../codec/src/scratch.rs"]
@@ -208,6 +210,11 @@ pub fn run_ok(cmd: &mut std::process::Command) -> std::process::Output {
 /// from 45° N down, columns from 72° W), bilinear between them: Mount Washington and a 10×10
 /// grid over the tile.
 pub fn srtm_heights(hgt: &Path) -> String {
+    srtm_heights_plus(hgt, |_, _| 0.0)
+}
+
+/// [`srtm_heights`], each plus `above(lon, lat)`.
+fn srtm_heights_plus(hgt: &Path, above: impl Fn(f64, f64) -> f64) -> String {
     let bytes = std::fs::read(hgt).expect("the SRTM tile in ../shared/data");
     let n = 1201usize;
     assert_eq!(bytes.len(), n * n * 2, "{}", hgt.display());
@@ -241,7 +248,13 @@ pub fn srtm_heights(hgt: &Path) -> String {
     }
     let rows: Vec<_> = points
         .iter()
-        .map(|&(lon, lat)| serde_json::json!([lon, lat, height(lon, lat)]))
+        .map(|&(lon, lat)| serde_json::json!([lon, lat, height(lon, lat) + above(lon, lat)]))
         .collect();
     serde_json::Value::from(rows).to_string()
+}
+
+/// [`srtm_heights`] above the WGS84 ellipsoid, where a quantized-mesh client draws the
+/// EGM96 heights of SRTM: each raised by the geoid's undulation (about −28 m there).
+pub fn srtm_heights_on_the_ellipsoid(hgt: &Path) -> String {
+    srtm_heights_plus(hgt, zerotile_codec::geo::geoid::undulation_exact)
 }

@@ -110,6 +110,7 @@ fn write_world(path: &Path, scheme: &str, xs: &[u32]) {
         precision: None,
         height_range: [0.0, 1500.0],
         source_height_range: None,
+        vertical_datum: None,
         fill: 0.0,
         view: ViewParams { a: 40.0, b: 0.0 },
         available: vec![vec![Availability {

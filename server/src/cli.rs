@@ -5,6 +5,7 @@ use std::process::ExitCode;
 
 use clap::{ArgGroup, Args, Parser, Subcommand};
 use zerotile_codec::formats::terrain_rgb::PngCompression;
+use zerotile_codec::geo::VerticalDatum;
 use zerotile_codec::raster::Encoding;
 use zerotile_codec::wavelet::Wavelet;
 
@@ -175,6 +176,12 @@ pub struct IngestArgs {
     /// written as it is: `--fill -5`.
     #[arg(long, value_name = "METRES", allow_negative_numbers = true)]
     pub fill: Option<f64>,
+    /// What the heights are measured from: egm96 (mean sea level, as SRTM's) or ellipsoid
+    /// (WGS84). Quantized-mesh tiles and `frame=enu` meshes of egm96 heights are raised by
+    /// the geoid's undulation to the ellipsoid, which Cesium draws on. Default: egm96 for
+    /// `.hgt`, otherwise served as they are.
+    #[arg(long, value_name = "DATUM")]
+    pub vertical_datum: Option<VerticalDatum>,
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -400,6 +407,7 @@ fn ingest(a: IngestArgs) -> anyhow::Result<()> {
         npz_key: a.key,
         fill: a.fill,
         max_zoom: a.max_zoom,
+        vertical_datum: a.vertical_datum,
         progress: !a.quiet,
     };
     let started = std::time::Instant::now();

@@ -140,6 +140,43 @@ fn addresses_may_be_names_and_fill_heights_negative() {
     assert_eq!(a.fill, Some(-5.0));
 }
 
+/// `--vertical-datum` names a datum the server models; another is a usage error naming the
+/// two, and without the flag the source's own stands.
+#[test]
+fn ingest_takes_the_vertical_datums_it_models() {
+    for (given, want) in [
+        ("egm96", VerticalDatum::Egm96),
+        ("EGM96", VerticalDatum::Egm96),
+        ("ellipsoid", VerticalDatum::Ellipsoid),
+    ] {
+        let args = ["ingest", "in.tif", "--name", "n", "--vertical-datum", given];
+        let Command::Ingest(a) = parse(&args) else {
+            panic!("not ingest")
+        };
+        assert_eq!(a.vertical_datum, Some(want), "{given}");
+    }
+    let Command::Ingest(a) = parse(&["ingest", "in.hgt", "--name", "n"]) else {
+        panic!("not ingest")
+    };
+    assert_eq!(a.vertical_datum, None);
+    let e = Cli::try_parse_from([
+        "zerotile",
+        "ingest",
+        "in.tif",
+        "--name",
+        "n",
+        "--vertical-datum",
+        "navd88",
+    ])
+    .unwrap_err();
+    assert_eq!(e.exit_code(), 2);
+    let said = e.to_string();
+    assert!(
+        said.contains("--vertical-datum") && said.contains("egm96") && said.contains("ellipsoid"),
+        "{said}"
+    );
+}
+
 #[test]
 fn serve_refuses_origins_and_urls_it_could_not_honour() {
     for origin in [

@@ -36,6 +36,7 @@ pub fn local_257(stream_bytes: u64) -> Metadata {
         precision: None,
         height_range: [0.0, 512.0],
         source_height_range: None,
+        vertical_datum: None,
         fill: 0.0,
         view: ViewParams { a: 1.0, b: 0.0 },
         available: vec![vec![Availability {

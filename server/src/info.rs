@@ -14,7 +14,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 use zerotile_codec::container::TileId;
 use zerotile_codec::ezw::{self, DecodeLimit};
-use zerotile_codec::geo::Bounds;
+use zerotile_codec::geo::{Bounds, VerticalDatum};
 
 use crate::serve::dataset::Dataset;
 
@@ -461,9 +461,14 @@ pub fn render(r: &Report) -> String {
         Some([lo, hi]) if [lo, hi] != m.height_range => format!(" (the source's {lo} … {hi} m)"),
         _ => String::new(),
     };
+    let datum = match m.vertical_datum {
+        Some(VerticalDatum::Egm96) => " above EGM96 (raised to the ellipsoid for Cesium, ENU)",
+        Some(VerticalDatum::Ellipsoid) => " above the WGS84 ellipsoid",
+        None => "",
+    };
     let _ = writeln!(
         s,
-        "heights {} … {} m{source_range}, fill {} m; source {} ({crs}), ingested {}",
+        "heights {} … {} m{datum}{source_range}, fill {} m; source {} ({crs}), ingested {}",
         m.height_range[0], m.height_range[1], m.fill, m.source, m.created
     );
     // Records hold the corners besides the stream: 32 bytes a tile above the stream bytes

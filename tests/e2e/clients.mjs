@@ -5,8 +5,8 @@
 //   viewer   our own page at `/`: terrain and mesh views, controls change the triangle count
 //   static   CesiumJS on a `zerotile export --format terrain` tree (--static DIR) served by a
 //            plain static file server on another origin, as a CDN would: heights sampled from
-//            it must match --expect ([[lon, lat, metres], ...], the source's own heights)
-//            within the deepest level's geometric error
+//            it must match --expect ([[lon, lat, metres], ...], the source's heights above the
+//            WGS84 ellipsoid, where Cesium draws) within the deepest level's geometric error
 //   static-png  MapLibre GL JS on a `zerotile export --format png --base-url
 //            http://cdn.invalid/rgb` tree of the --mercator dataset (--static-png DIR), served
 //            the same way: the terrain source is only `url: "http://cdn.invalid/rgb/tiles.json"`
@@ -19,6 +19,7 @@
 //   node tests/e2e/clients.mjs --base http://127.0.0.1:8080 --geodetic demo-ridges \
 //        --mercator n44m --out target/e2e [--only cesium,maplibre,viewer] \
 //        [--static DIR] [--static-png DIR] [--expect '[[-71.3,44.27,1822]]']
+//        [--expect-png '[[-71.3,44.27,1850]]']  (static-png's points; default --expect's)
 //
 // CesiumJS and MapLibre are served from web/node_modules by a small static server started
 // here (they are not embedded in zerotile). Exit status 0 = every client passed.
@@ -477,7 +478,8 @@ const RESAMPLING_SLACK = 8;
 
 async function staticPng() {
   const cdn = await host(args["static-png"]);
-  const expect = JSON.parse(args.expect || "[]");
+  // MapLibre takes heights as the tiles hold them, above sea level.
+  const expect = JSON.parse(args["expect-png"] || args.expect || "[]");
   check(expect.length > 0, "static-png: no --expect points to compare");
   const info = await describe(args.mercator || "n44m");
   const [lon0, lat0] = expect[0] || [(info.bounds[0] + info.bounds[2]) / 2, (info.bounds[1] + info.bounds[3]) / 2];

@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::geo::{Scheme, Tiling, TilingError};
+use crate::geo::{Scheme, Tiling, TilingError, VerticalDatum};
 use crate::wavelet::Wavelet;
 
 /// Dataset-wide facts, fixed at ingest.
@@ -38,6 +38,12 @@ pub struct Metadata {
     pub source_height_range: Option<[f64; 2]>,
     /// Height given to samples outside the source or without data.
     pub fill: f64,
+    /// What the heights are measured from. `Egm96` ones are offset by the geoid's
+    /// undulation where heights above the ellipsoid are due (quantized-mesh, ENU). `None`
+    /// (not recorded: a source that does not say, or a dataset ingested before it was
+    /// recorded, whose bytes stay the same) serves them as they are.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vertical_datum: Option<VerticalDatum>,
     /// Eq. 4 of the paper: T = a·(A_v / A_t) + b.
     pub view: ViewParams,
     /// Per zoom (index = zoom − min_zoom), the tile ranges that exist.

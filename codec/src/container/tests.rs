@@ -14,6 +14,7 @@ fn metadata() -> Metadata {
         precision: Some(0.5),
         height_range: [115.0, 1908.0],
         source_height_range: None,
+        vertical_datum: None,
         fill: 0.0,
         view: ViewParams { a: 50.0, b: 0.0 },
         // Zooms 0 to 2, one range each (not checked against the tiles here).

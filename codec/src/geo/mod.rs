@@ -3,6 +3,8 @@
 //!
 //! - [`ellipsoid`]: geodetic ↔ ECEF, surface normals, Cesium's ellipsoid-scaled space.
 //! - [`enu`]: a local east-north-up frame in metres, for meshes a viewer takes at face value.
+//! - [`geoid`]: the EGM96 geoid's undulation, which makes heights above sea level heights
+//!   above the ellipsoid.
 //! - [`tiling`]: the `geodetic`, `mercator` and `local` schemes of DESIGN.md §2.1: tile
 //!   bounds, tile ranges, sample positions shared exactly between neighbours and zooms, and
 //!   the per-zoom geometric error clients budget for (§2.5).
@@ -25,12 +27,14 @@ pub mod antimeridian;
 pub mod bounds;
 pub mod ellipsoid;
 pub mod enu;
+pub mod geoid;
 pub mod tiling;
 
 pub use antimeridian::wrap_longitude;
 pub use bounds::{horizon_occlusion_point, is_scaled_point_visible, BoundingSphere};
 pub use ellipsoid::Ellipsoid;
 pub use enu::EnuFrame;
+pub use geoid::VerticalDatum;
 pub use tiling::{
     lonlat_to_mercator, mercator_latitude, mercator_to_lonlat, mercator_y, Bounds, Resolution,
     RowSpacing, Scheme, TileGeo, TileId, TileRange, Tiling, TilingError, MAX_SIDE, MAX_ZOOM,

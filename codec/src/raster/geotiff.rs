@@ -7,6 +7,7 @@
 //!   raster coordinate (0, 0) is the outer corner of the first pixel, with "pixel is point" (2)
 //!   its centre. [`Georef`] is centre-based, so area rasters move by half a pixel;
 //! - the CRS from ProjectedCSTypeGeoKey (3072), else GeographicTypeGeoKey (2048);
+//! - the heights' datum from VerticalCSTypeGeoKey (4096): EGM96 (5773) is recorded;
 //! - no-data from GDAL's GDAL_NODATA tag (42113, ASCII), compared in the sample type (a
 //!   float32 raster's `-3.4e+38` is the f32 nearest to it); NaN is always no-data;
 //! - band 1's scale and offset from GDAL's GDAL_METADATA tag (42112): heights are
@@ -27,6 +28,7 @@ use tiff::{ColorType, TiffError};
 use super::error::check_shape;
 use super::gdal_metadata::{self, Scaling};
 use super::{int_heights, open, tiff_mask, Crs, Georef, Heightmap, RasterError, ReadOptions};
+use crate::geo::VerticalDatum;
 use crate::grid::Grid;
 
 /// GeoKey ids and values (GeoTIFF 1.1 §7).
@@ -34,6 +36,9 @@ const GT_RASTER_TYPE_GEO_KEY: u16 = 1025;
 const RASTER_PIXEL_IS_POINT: u16 = 2;
 const GEOGRAPHIC_TYPE_GEO_KEY: u16 = 2048;
 const PROJECTED_CS_TYPE_GEO_KEY: u16 = 3072;
+const VERTICAL_CS_TYPE_GEO_KEY: u16 = 4096;
+/// EPSG's "EGM96 height", the vertical CRS of SRTM-derived GeoTIFFs that say theirs.
+const EGM96_HEIGHT: u16 = 5773;
 /// "User-defined": the CRS is spelled out in other keys, which we do not interpret.
 const USER_DEFINED: u16 = 32767;
 /// GDAL's own tag of band metadata as XML (the `tiff` crate names only GDAL_NODATA).
@@ -71,6 +76,7 @@ pub(super) fn read(path: &Path, opts: &ReadOptions) -> Result<Heightmap, RasterE
     let nodata = gdal_nodata(&mut decoder, path)?;
     let scaling = gdal_scaling(&mut decoder, path)?;
     let georef = georef(&mut decoder).map_err(tiff_err)?;
+    let vertical_datum = vertical_datum(&mut decoder).map_err(tiff_err)?;
 
     // Decode, and turn samples into heights with no-data as NaN.
     let (mut samples, step) = match decoder.read_image().map_err(tiff_err)? {
@@ -121,7 +127,10 @@ pub(super) fn read(path: &Path, opts: &ReadOptions) -> Result<Heightmap, RasterE
     tiff_mask::apply(&mut decoder, path, &mut samples, (width, height))?;
     let heights = Grid::new(height as usize, width as usize, samples)
         .map_err(|e| RasterError::format(path, e.to_string()))?;
-    Ok(Heightmap::new(heights, step, georef))
+    Ok(Heightmap {
+        vertical_datum,
+        ..Heightmap::new(heights, step, georef)
+    })
 }
 
 /// The decoder's limits from ours. What it allocates is bounded by `decoding_buffer_size`: the
@@ -267,6 +276,18 @@ fn georef<R: Read + Seek>(decoder: &mut Decoder<R>) -> Result<Option<Georef>, Ti
             e,
         ],
     }))
+}
+
+/// The heights' datum, where VerticalCSTypeGeoKey names EGM96's; another (EGM2008, a
+/// national datum) is not one zerotile models, and is served as it is.
+fn vertical_datum<R: Read + Seek>(
+    decoder: &mut Decoder<R>,
+) -> Result<Option<VerticalDatum>, TiffError> {
+    let keys = geo_keys(decoder)?;
+    let key = keys.iter().find(|k| k.0 == VERTICAL_CS_TYPE_GEO_KEY);
+    Ok(key
+        .filter(|k| k.1 == EGM96_HEIGHT)
+        .map(|_| VerticalDatum::Egm96))
 }
 
 /// The GeoKeyDirectory's short-valued keys as (id, value); others live in the double and
@@ -722,6 +743,27 @@ mod tests {
             let map = read(&path, &ReadOptions::default()).unwrap();
             assert_eq!(map.georef.unwrap().crs, want, "key {key} = {code}");
         }
+    }
+
+    #[test]
+    fn an_egm96_vertical_crs_is_recorded_and_others_are_not() {
+        for (keys, want) in [
+            (vec![4096, 0, 1, EGM96_HEIGHT], Some(VerticalDatum::Egm96)),
+            // EGM2008 height: not modelled, so not said.
+            (vec![4096, 0, 1, 3855], None),
+            (vec![2048, 0, 1, 4326], None),
+        ] {
+            let path = scratch_dir("tiff_vertical").join(format!("v{}.tif", keys[3]));
+            write_tiff(&path, (2, 2), &[1, 2, 3, 4], |dir| {
+                let mut all = vec![1, 1, 0, 1];
+                all.extend(&keys);
+                dir.write_tag(Tag::GeoKeyDirectoryTag, &all[..]).unwrap();
+            });
+            let map = read(&path, &ReadOptions::default()).unwrap();
+            assert_eq!(map.vertical_datum, want, "{keys:?}");
+        }
+        // The shared GeoTIFFs do not say theirs.
+        assert_eq!(read_dem("pysheds_dem.tif").vertical_datum, None);
     }
 
     #[test]

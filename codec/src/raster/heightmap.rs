@@ -3,6 +3,7 @@
 
 use super::georef::Georef;
 use crate::error::ParamError;
+use crate::geo::VerticalDatum;
 use crate::grid::Grid;
 
 /// A heightmap read from a file.
@@ -18,6 +19,8 @@ pub struct Heightmap {
     pub nodata_count: usize,
     /// Where the samples sit, when the file says.
     pub georef: Option<Georef>,
+    /// What the heights are measured from, when the format says (SRTM: EGM96).
+    pub vertical_datum: Option<VerticalDatum>,
 }
 
 impl Heightmap {
@@ -29,6 +32,7 @@ impl Heightmap {
             step,
             nodata_count,
             georef: georef.filter(Georef::is_valid),
+            vertical_datum: None,
         }
     }
 
@@ -57,6 +61,7 @@ impl Heightmap {
             heights,
             step: self.step,
             georef: self.georef.map(|g| g.shifted(row, col)),
+            vertical_datum: self.vertical_datum,
         })
     }
 }

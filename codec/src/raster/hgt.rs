@@ -13,6 +13,7 @@ use std::path::Path;
 
 use super::error::check_shape;
 use super::{int_heights, open, Crs, Georef, Heightmap, RasterError, ReadOptions};
+use crate::geo::VerticalDatum;
 use crate::grid::Grid;
 
 /// The two tile sides SRTM ships: 3″ (1201) and 1″ (3601) over one degree.
@@ -56,7 +57,11 @@ pub(super) fn read(path: &Path, opts: &ReadOptions) -> Result<Heightmap, RasterE
 
     // Place it from the tile name, when the name is SRTM's.
     let georef = georef_from_name(path, side);
-    Ok(Heightmap::new(heights, Some(1.0), georef))
+    // SRTM's heights are above the EGM96 geoid (the SRTM Data Specification, NASA JPL).
+    Ok(Heightmap {
+        vertical_datum: Some(VerticalDatum::Egm96),
+        ..Heightmap::new(heights, Some(1.0), georef)
+    })
 }
 
 fn byte_len(side: usize) -> usize {
@@ -120,6 +125,7 @@ mod tests {
         assert_eq!(map.min_max(), Some((115.0, 1908.0)));
         assert_eq!(map.nodata_count, 0);
         assert_eq!(map.step, Some(1.0));
+        assert_eq!(map.vertical_datum, Some(VerticalDatum::Egm96));
 
         // Row 0 col 0 is centred on the tile's north-west corner; the last sample on its
         // south-east corner.

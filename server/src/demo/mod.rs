@@ -66,6 +66,8 @@ pub fn ensure(data: &Path, force: bool, progress: bool) -> Result<Built> {
             npz_key: None,
             fill: None,
             max_zoom: None,
+            // Made up: its heights are above whatever a viewer draws them on.
+            vertical_datum: None,
             progress,
         };
         ingest::build(&job, map)?;

@@ -30,7 +30,7 @@ use rayon::prelude::*;
 use zerotile_codec::container::{Availability, Metadata, TileId, ViewParams, Writer};
 use zerotile_codec::ezw::{self, EncodeParams};
 use zerotile_codec::formats::terrain_rgb;
-use zerotile_codec::geo::{Scheme, Tiling};
+use zerotile_codec::geo::{Scheme, Tiling, VerticalDatum};
 use zerotile_codec::pyramid::Level;
 use zerotile_codec::raster::{self, Crs, Encoding, Heightmap, ReadOptions};
 use zerotile_codec::wavelet::Wavelet;
@@ -64,6 +64,8 @@ pub struct Ingest {
     pub fill: Option<f64>,
     /// Deepest zoom of a geodetic or mercator pyramid (default: as fine as the source).
     pub max_zoom: Option<u8>,
+    /// What the heights are measured from (default: what the source says, if it does).
+    pub vertical_datum: Option<VerticalDatum>,
     pub progress: bool,
 }
 
@@ -235,6 +237,7 @@ impl Ingest {
             npz_key: None,
             fill: None,
             max_zoom: None,
+            vertical_datum: None,
             progress: false,
         }
     }
@@ -276,6 +279,7 @@ pub fn build(job: &Ingest, map: Heightmap) -> Result<(PathBuf, Metadata)> {
     let (rows, cols) = (map.heights.rows(), map.heights.cols());
     let has_nodata = map.has_nodata();
     let source_crs = map.georef.map_or("none".into(), |g| g.crs.to_string());
+    let vertical_datum = job.vertical_datum.or(map.vertical_datum);
     let Heightmap {
         heights, georef, ..
     } = map;
@@ -441,6 +445,7 @@ pub fn build(job: &Ingest, map: Heightmap) -> Result<(PathBuf, Metadata)> {
         height_range: [lo, hi],
         source_height_range: Some([source_lo, source_hi]),
         fill,
+        vertical_datum,
         view: ViewParams {
             a: (hi - lo) / 32.0,
             b: 0.0,
@@ -860,6 +865,42 @@ mod tests {
 
     fn job(name: &str, scheme: &str, data: &Path) -> Ingest {
         Ingest::for_test(name, scheme, data)
+    }
+
+    /// The vertical datum recorded is the flag's, else the source's, else none.
+    #[test]
+    fn the_vertical_datum_is_the_flags_else_the_sources() {
+        let data = scratch("datum");
+        let heights = Grid::new(3, 3, (0..9).map(f64::from).collect()).unwrap();
+        let srtm = Heightmap {
+            vertical_datum: Some(VerticalDatum::Egm96),
+            ..Heightmap::new(heights.clone(), Some(1.0), None)
+        };
+        let plain = Heightmap::new(heights, Some(1.0), None);
+        for (flag, map, want) in [
+            (None, &srtm, Some(VerticalDatum::Egm96)),
+            (
+                Some(VerticalDatum::Ellipsoid),
+                &srtm,
+                Some(VerticalDatum::Ellipsoid),
+            ),
+            (None, &plain, None),
+            (
+                Some(VerticalDatum::Egm96),
+                &plain,
+                Some(VerticalDatum::Egm96),
+            ),
+        ] {
+            let j = Ingest {
+                vertical_datum: flag,
+                ..job("d", "local", &data)
+            };
+            let (path, m) = build(&j, map.clone()).unwrap();
+            assert_eq!(m.vertical_datum, want, "{flag:?}");
+            // And it is what the file holds.
+            let read = crate::serve::dataset::Dataset::open(&path).unwrap();
+            assert_eq!(read.metadata().vertical_datum, want, "{flag:?}");
+        }
     }
 
     /// A data folder not made yet: ingest makes it.

@@ -10,7 +10,8 @@ use std::collections::HashMap;
 use anyhow::Result;
 use axum::http::HeaderValue;
 use zerotile_codec::container::TileId;
-use zerotile_codec::geo::{self, mercator_to_lonlat, Ellipsoid, EnuFrame, Scheme};
+use zerotile_codec::geo::geoid::{lattice_for, Patch};
+use zerotile_codec::geo::{self, mercator_to_lonlat, Ellipsoid, EnuFrame, Scheme, VerticalDatum};
 use zerotile_codec::mesh::TriMesh;
 
 use crate::serve::dataset::Dataset;
@@ -78,14 +79,39 @@ fn lonlat(scheme: Scheme, p: [f64; 2]) -> [f64; 2] {
     }
 }
 
-/// `mesh`, in the scheme's coordinates with z up in metres, moved into `frame`. Longitudes
-/// past ±180° (a view across the antimeridian) land where they should: the trigonometry
-/// goes round.
-pub fn to_enu(mesh: &mut TriMesh, scheme: Scheme, frame: &EnuFrame) {
+/// `mesh`, in the scheme's coordinates with z up in metres, moved into `frame`, its heights
+/// raised by the geoid's undulation from `geoid` where they are above EGM96 (see
+/// [`geoid`]): the frame's up is the ellipsoid's. Longitudes past ±180° (a view across the
+/// antimeridian) land where they should: the trigonometry goes round.
+pub fn to_enu(mesh: &mut TriMesh, scheme: Scheme, frame: &EnuFrame, geoid: Option<&Patch>) {
     for p in &mut mesh.positions {
         let [lon, lat] = lonlat(scheme, [p.x, p.y]);
-        *p = frame.from_geodetic(lon, lat, p.z);
+        let n = geoid.map_or(0.0, |g| g.undulation(lon, lat));
+        *p = frame.from_geodetic(lon, lat, p.z + n);
     }
+}
+
+/// The geoid's undulation over a mesh's box, `[west, south, east, north]` in degrees (west
+/// past east crosses the antimeridian), where the dataset's heights are above EGM96; `None`
+/// where they go as they are (above the ellipsoid, or a datum not recorded). The lattice is
+/// the one for the box's width, so the tiles of a zoom share it.
+pub fn geoid(d: &Dataset, [west, south, east, north]: [f64; 4]) -> Option<Patch> {
+    if d.metadata().vertical_datum != Some(VerticalDatum::Egm96) {
+        return None;
+    }
+    let span = if east >= west {
+        east - west
+    } else {
+        east + 360.0 - west
+    };
+    Some(lattice_for(span).patch(west, south, east, north))
+}
+
+/// A box `[west, south, east, north]` in the scheme's CRS, in degrees.
+pub fn degrees(scheme: Scheme, [west, south, east, north]: [f64; 4]) -> [f64; 4] {
+    let [w, s] = lonlat(scheme, [west, south]);
+    let [e, n] = lonlat(scheme, [east, north]);
+    [w, s, e, n]
 }
 
 /// `X-Frame-Origin`: `lon,lat,height` of the frame's origin, in the shortest digits that read

@@ -8,7 +8,7 @@ use zerotile_codec::geo::{Ellipsoid, EnuFrame};
 use super::tests::{error_code, get, hill_dataset, id, router_over, send, ROOT};
 
 /// Positions of a mesh JSON (`{positions, …}`) at `at` (a JSON pointer).
-fn positions(body: &[u8], at: &str) -> Vec<DVec3> {
+pub(super) fn positions(body: &[u8], at: &str) -> Vec<DVec3> {
     let v: serde_json::Value = serde_json::from_slice(body).unwrap();
     let flat: Vec<f64> = v
         .pointer(at)

@@ -43,6 +43,8 @@ pub mod view_plane;
 #[cfg(test)]
 mod frame_tests;
 #[cfg(test)]
+mod geoid_tests;
+#[cfg(test)]
 mod mesh_reload_tests;
 #[cfg(test)]
 mod reload_tests;

@@ -1,6 +1,8 @@
 //! A decoded tile or its mesh, written in each client format. Pure functions over codec
 //! types; the routes choose which and add the HTTP around them.
 
+use std::borrow::Cow;
+
 use anyhow::{Context, Result};
 use glam::DVec3;
 use zerotile_codec::container::TileId;
@@ -8,7 +10,8 @@ use zerotile_codec::formats::layer_json::AvailableRange;
 use zerotile_codec::formats::mesh_bin::{self, MeshCrs};
 use zerotile_codec::formats::quantized_mesh::{self, Diagonals, QmOptions};
 use zerotile_codec::formats::terrain_rgb::{self, PngCompression, RgbOptions};
-use zerotile_codec::geo::{self, EnuFrame, Scheme};
+use zerotile_codec::geo::geoid;
+use zerotile_codec::geo::{self, EnuFrame, Scheme, TileGeo};
 use zerotile_codec::mesh::{io, Format, TriMesh};
 use zerotile_codec::raster::Encoding;
 use zerotile_codec::tile::Neighbourhood;
@@ -34,15 +37,30 @@ pub fn quantized_mesh(
     around: Option<(Neighbourhood, Diagonals)>,
 ) -> Result<Vec<u8>> {
     let tile = d.tiling.tile_geo(geo_id(id))?;
+    // The geoid's slope (under 10⁻⁴) leaves the normals as the heights give them.
     let normals = around
         .filter(|_| opts.octvertexnormals)
         .map(|(n, diagonals)| quantized_mesh::grid_normals(&tile, &n, &diagonals, mesh));
     Ok(quantized_mesh::encode_with_normals(
-        mesh,
+        &above_ellipsoid(d, &tile, mesh),
         &tile,
         opts,
         normals.as_deref(),
     )?)
+}
+
+/// `mesh` with heights above the WGS84 ellipsoid, which Cesium draws quantized-mesh on:
+/// raised by the geoid's undulation where the dataset's are above EGM96 (the tile's zoom's
+/// lattice, so tiles that share an edge raise it alike), as they are otherwise.
+fn above_ellipsoid<'a>(d: &Dataset, tile: &TileGeo, mesh: &'a TerrainMesh) -> Cow<'a, TerrainMesh> {
+    match frame::geoid(d, [tile.west, tile.south, tile.east, tile.north]) {
+        Some(geoid) => {
+            let mut raised = mesh.clone();
+            geoid::raise(&mut raised, tile, &geoid);
+            Cow::Owned(raised)
+        }
+        None => Cow::Borrowed(mesh),
+    }
 }
 
 /// Two triangles at one height over a whole tile: what a root tile without data holds
@@ -157,7 +175,13 @@ pub fn mesh_file(
 ) -> Result<Vec<u8>> {
     let mut m = tri_mesh(d, id, mesh)?;
     if let Some(f) = enu {
-        frame::to_enu(&mut m, d.tiling.scheme(), f);
+        let b = d.tiling.tile_bounds(geo_id(id))?;
+        let scheme = d.tiling.scheme();
+        let geoid = frame::geoid(
+            d,
+            frame::degrees(scheme, [b.min_x, b.min_y, b.max_x, b.max_y]),
+        );
+        frame::to_enu(&mut m, d.tiling.scheme(), f, geoid.as_ref());
     }
     io::write_z_up_bytes(&m, format)
         .with_context(|| format!("writing tile {id} as {}", format.name()))

@@ -106,6 +106,7 @@ pub(super) fn hill_file_with(
         precision: None,
         height_range: [60.0, 140.0],
         source_height_range: None,
+        vertical_datum: None,
         fill: 60.0,
         view: ViewParams { a: 2.5, b: 0.0 },
         // Set below unless `edit` sets it.

@@ -125,6 +125,8 @@ pub async fn describe(
         },
         "source": m.source,
         "source_crs": m.source_crs,
+        // Which heights quantized-mesh and ENU raise to the ellipsoid: "egm96" ones.
+        "vertical_datum": m.vertical_datum,
         "created": m.created,
         "formats": if georeferenced {
             json!(["terrain", "png", "json", "bin", "obj", "glb", "ezw"])

@@ -83,12 +83,19 @@ pub async fn view(
     let job_state = state.clone();
     let job_d = d.clone();
     let job_plane = plane.clone();
+    let job_enu = enu;
     let cancel = pipeline::Cancel::default();
     let _cancel_on_drop = cancel.on_drop();
-    let mut mesh = tokio::task::spawn_blocking(move || {
+    let mesh = tokio::task::spawn_blocking(move || {
         ticket.run(|| {
             let r = view_mesh(&job_state, &job_d, &tiles, t, &job_plane, &cancel);
-            pipeline::count_cancelled(&job_state, r)
+            let mut mesh = pipeline::count_cancelled(&job_state, r)?;
+            // Here, off the async threads: the geoid's first use in a place evaluates its
+            // lattice's nodes, about a millisecond each.
+            if let Some(enu) = &job_enu {
+                to_enu(&job_d, &mut mesh, enu);
+            }
+            Ok(mesh)
         })
     })
     .await
@@ -102,9 +109,6 @@ pub async fn view(
     }
     if let Some(not_modified) = held.release()? {
         return with_origin(not_modified, enu.as_ref());
-    }
-    if let Some(enu) = &enu {
-        frame::to_enu(&mut mesh, d.tiling.scheme(), enu);
     }
 
     // The body: JSON with the figures, or a mesh file with them in headers.
@@ -294,6 +298,21 @@ fn on_globe(lo: f64, hi: f64) -> Vec<(f64, f64)> {
     } else {
         vec![(lo, hi)]
     }
+}
+
+/// The view's mesh in `enu`, the geoid's undulation over the mesh's own box.
+fn to_enu(d: &Dataset, mesh: &mut TriMesh, enu: &EnuFrame) {
+    let lo = mesh
+        .positions
+        .iter()
+        .fold(DVec3::INFINITY, |a, &p| a.min(p));
+    let hi = mesh
+        .positions
+        .iter()
+        .fold(DVec3::NEG_INFINITY, |a, &p| a.max(p));
+    let scheme = d.tiling.scheme();
+    let geoid = frame::geoid(d, frame::degrees(scheme, [lo.x, lo.y, hi.x, hi.y]));
+    frame::to_enu(mesh, scheme, enu, geoid.as_ref());
 }
 
 /// The stitched meshes of `tiles` at `t`, cut to the footprint and welded into one. Across
