@@ -179,7 +179,8 @@ pub struct IngestArgs {
     /// What the heights are measured from: egm96 (mean sea level, as SRTM's) or ellipsoid
     /// (WGS84). Quantized-mesh tiles and `frame=enu` meshes of egm96 heights are raised by
     /// the geoid's undulation to the ellipsoid, which Cesium draws on. Default: egm96 for
-    /// `.hgt`, otherwise served as they are.
+    /// `.hgt` and for a GeoTIFF whose VerticalCSTypeGeoKey is EGM96 (EPSG:5773), otherwise
+    /// served as they are.
     #[arg(long, value_name = "DATUM")]
     pub vertical_datum: Option<VerticalDatum>,
     /// No progress bar.

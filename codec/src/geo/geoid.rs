@@ -15,7 +15,9 @@
 //! lattice's step depends only on the span asked for, so the tiles of one zoom share a
 //! lattice and a vertex on the edge of two of them gets one N: the offset opens no crack. A
 //! tile of any zoom spans at most [`MAX_CELLS`] cells, so a world tile costs a few dozen
-//! evaluations, not millions.
+//! evaluations, not millions. Coarse lattices are far off (up to 49 m at 45°, 3.6 m at 1°,
+//! at 300 random places) but only wide tiles take them, whose geometric error is far
+//! larger (77 km at geodetic zoom 0, 2.4 km at zoom 5).
 //!
 //! Reference: F. G. Lemoine et al., "The Development of the Joint NASA GSFC and NIMA
 //! Geopotential Model EGM96", NASA/TP-1998-206861; NGA's test values for F477 in the tests.
@@ -72,7 +74,8 @@ const STEPS: [f64; 9] = [0.125, 0.25, 0.5, 1.0, 2.0, 4.0, 10.0, 20.0, 45.0];
 /// finer than the span allows).
 pub const MAX_CELLS: f64 = 8.0;
 
-/// Nodes kept before the cache starts over: ~40 MB, a quarter of the world at 7.5′.
+/// Nodes kept before the cache starts over: ~50 MB with the map's buckets, a quarter of
+/// the world at 7.5′.
 const MAX_NODES: usize = 1 << 20;
 
 /// The lattice for a mesh `span` degrees of longitude across: the finest whose cells it
@@ -131,7 +134,7 @@ impl Lattice {
         } else {
             east + 360.0 - west
         };
-        // A NaN width casts to 0: the patch then holds one column, and the rest come from
+        // A NaN width casts to 0: the patch then holds two columns, and the rest come from
         // the shared nodes.
         let n_cols = ((width / step).ceil() as i32)
             .saturating_add(2)
@@ -194,6 +197,11 @@ pub struct Patch {
 }
 
 impl Patch {
+    /// How many nodes it holds.
+    pub fn nodes(&self) -> usize {
+        self.values.len()
+    }
+
     /// [`Lattice::undulation`], from the nodes held where they cover the point.
     pub fn undulation(&self, lon: f64, lat: f64) -> f64 {
         self.lattice.interpolate(lon, lat, |i, j| {

@@ -94,16 +94,19 @@ pub fn to_enu(mesh: &mut TriMesh, scheme: Scheme, frame: &EnuFrame, geoid: Optio
 /// The geoid's undulation over a mesh's box, `[west, south, east, north]` in degrees (west
 /// past east crosses the antimeridian), where the dataset's heights are above EGM96; `None`
 /// where they go as they are (above the ellipsoid, or a datum not recorded). The lattice is
-/// the one for the box's width, so the tiles of a zoom share it.
+/// the one for the box's larger side: a tile's is its width (no tile is taller than wide),
+/// so the tiles of a zoom share it; a tall, thin view's is its height, so it fetches a few
+/// dozen nodes, not a column of thousands.
 pub fn geoid(d: &Dataset, [west, south, east, north]: [f64; 4]) -> Option<Patch> {
     if d.metadata().vertical_datum != Some(VerticalDatum::Egm96) {
         return None;
     }
-    let span = if east >= west {
+    let wide = if east >= west {
         east - west
     } else {
         east + 360.0 - west
     };
+    let span = wide.max((north - south).abs());
     Some(lattice_for(span).patch(west, south, east, north))
 }
 

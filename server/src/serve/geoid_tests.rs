@@ -3,10 +3,11 @@
 
 use axum::http::StatusCode;
 use zerotile_codec::formats::quantized_mesh;
-use zerotile_codec::geo::geoid::undulation_exact;
+use zerotile_codec::geo::geoid::{lattice_for, undulation_exact};
 use zerotile_codec::geo::{Ellipsoid, EnuFrame, VerticalDatum};
 
 use super::dataset::Dataset;
+use super::frame;
 use super::frame_tests::positions;
 use super::tests::{get, hill_file_with, id, router_over, ROOT};
 
@@ -110,6 +111,35 @@ async fn enu_meshes_stand_on_the_ellipsoid_and_scheme_meshes_keep_the_heights() 
         let want = f.from_geodetic(p.x, p.y, p.z + undulation_exact(p.x, p.y));
         assert!((want - *m).length() < 0.15, "{p}: {m} against {want}");
     }
+}
+
+/// A tall, thin view's box takes the lattice of its height: a few dozen nodes, where its
+/// width's (7.5′) would be a column of hundreds, a millisecond each. A tile's box, as wide as
+/// tall, keeps its width's, the one every tile of its zoom shares.
+#[test]
+fn a_box_takes_the_lattice_of_its_larger_side() {
+    let file = hill_file_with("geoid-box", "geodetic", &[ROOT], |m| {
+        m.vertical_datum = Some(VerticalDatum::Egm96);
+    });
+    let d = Dataset::open(&file).unwrap();
+    let tall = frame::geoid(&d, [-109.6, -20.0, -109.1, 20.0]).unwrap();
+    assert!(tall.nodes() <= 11 * 11, "{} nodes", tall.nodes());
+    let tile = frame::geoid(&d, [WEST, SOUTH, WEST + SPAN, SOUTH + SPAN]).unwrap();
+    let own = lattice_for(SPAN).patch(WEST, SOUTH, WEST + SPAN, SOUTH + SPAN);
+    assert_eq!(tile.nodes(), own.nodes());
+    assert_eq!(
+        tile.undulation(WEST + 0.1, SOUTH + 0.2),
+        own.undulation(WEST + 0.1, SOUTH + 0.2)
+    );
+    // Heights as they are: no patch.
+    let plain = Dataset::open(&hill_file_with(
+        "geoid-box-none",
+        "geodetic",
+        &[ROOT],
+        |_| {},
+    ))
+    .unwrap();
+    assert!(frame::geoid(&plain, [WEST, SOUTH, WEST + SPAN, SOUTH + SPAN]).is_none());
 }
 
 /// The dataset's JSON says which heights are raised.

@@ -25,8 +25,10 @@ pub const REVALIDATE: &str = "public, no-cache";
 /// request differently, so a client's copy from the old server must not revalidate. The
 /// crate's version alone did not move when the bytes did (0.1.0 all along), so the revision
 /// after it counts changes to what a tile or view encodes: bump it with any. 2: GLB turned
-/// to +Y up, a 65,536-vertex quantized-mesh tile padded to 65,537.
-pub const RENDERER: &str = concat!("zerotile ", env!("CARGO_PKG_VERSION"), " r2");
+/// to +Y up, a 65,536-vertex quantized-mesh tile padded to 65,537. 3: quantized-mesh and
+/// ENU heights of EGM96 datasets raised to the ellipsoid (a dataset ingested now, served by
+/// an older build, which ignores the field, would otherwise share their tags).
+pub const RENDERER: &str = concat!("zerotile ", env!("CARGO_PKG_VERSION"), " r3");
 
 /// A weak tag from a hash, naming the coding the body goes out in: each coding has its own
 /// tag, as RFC 9110 §8.8.3 asks of strong ones, so a cache holding several never takes one

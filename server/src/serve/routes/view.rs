@@ -91,8 +91,9 @@ pub async fn view(
             let r = view_mesh(&job_state, &job_d, &tiles, t, &job_plane, &cancel);
             let mut mesh = pipeline::count_cancelled(&job_state, r)?;
             // Here, off the async threads: the geoid's first use in a place evaluates its
-            // lattice's nodes, about a millisecond each.
-            if let Some(enu) = &job_enu {
+            // lattice's nodes, about a millisecond each. An empty mesh (a 404 below) has no
+            // box to fetch them for.
+            if let Some(enu) = job_enu.as_ref().filter(|_| !mesh.faces.is_empty()) {
                 to_enu(&job_d, &mut mesh, enu);
             }
             Ok(mesh)
