@@ -1382,6 +1382,33 @@ async fn a_form_labelled_upload_is_told_to_set_its_content_type() {
     assert!(!v["message"].as_str().unwrap().contains("curl"), "{v}");
 }
 
+/// Two Content-Type lines name no one format: a 400 naming both, where the first was taken
+/// silently; nothing is stored.
+#[tokio::test]
+async fn an_upload_with_two_content_types_is_refused() {
+    let data = one_triangle_data("upload-two-types");
+    let app = router_with_meshes("upload-two-types", &data);
+    let req = Request::builder()
+        .method(Method::POST)
+        .uri("/v1/meshes/b")
+        .header(header::CONTENT_TYPE, "model/obj")
+        .header(header::CONTENT_TYPE, "application/ply")
+        .body(Body::from("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"))
+        .unwrap();
+    let res = app.clone().oneshot(req).await.unwrap();
+    assert_eq!(res.status(), StatusCode::BAD_REQUEST);
+    let body = to_bytes(res.into_body(), 1 << 20).await.unwrap();
+    assert_eq!(error_code(&body), "bad_header");
+    let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
+    let m = v["message"].as_str().unwrap();
+    assert!(
+        m.contains("model/obj") && m.contains("application/ply"),
+        "{m}"
+    );
+    let (s, _, _) = get(&app, "/v1/meshes/b").await;
+    assert_eq!(s, StatusCode::NOT_FOUND);
+}
+
 /// Nothing decodes a compressed upload, so a gzipped OBJ reached the parser as it came and
 /// was a 422 "OBJ: read error"; it is a 415 naming Content-Encoding, and stores nothing. Its
 /// `Accept-Encoding: identity` says which coding would do (RFC 9110 §15.5.16); it was absent.

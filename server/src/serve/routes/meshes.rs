@@ -841,6 +841,20 @@ fn upload_target(
         )
         .with_header(ACCEPT_ENCODING, HeaderValue::from_static("identity")));
     }
+    // RFC 9110 §5.3: Content-Type is one field line. Two (a proxy's and the client's, say)
+    // name no one format; the first was taken silently.
+    let mut types = headers.get_all(CONTENT_TYPE).iter();
+    if let (Some(first), Some(second)) = (types.next(), types.next()) {
+        let shown = |v: &HeaderValue| echo(&String::from_utf8_lossy(v.as_bytes()));
+        return Err(ApiError::bad_request(
+            "bad_header",
+            format!(
+                "two Content-Type lines ({} and {}): an upload names its format in one",
+                shown(first),
+                shown(second)
+            ),
+        ));
+    }
     let ct = headers
         .get(CONTENT_TYPE)
         .and_then(|v| v.to_str().ok())
