@@ -42,8 +42,8 @@ impl Level {
     }
 
     /// The lattice a coarser level is the low-pass of: this one padded to an even tile
-    /// origin and an even tile count.
-    fn padding(&self, side: usize) -> Padding {
+    /// origin and an even tile count, with `outside` (`None`: the edge samples repeated).
+    fn padding(&self, side: usize, outside: Option<f64>) -> Padding {
         let step = side - 1;
         let (w, h) = self.tiles(side);
         let (left, top) = ((self.tile_x0 % 2) as usize, (self.tile_y0 % 2) as usize);
@@ -56,6 +56,7 @@ impl Level {
             top: top * step,
             rows: tiles_y * step + 1,
             cols: tiles_x * step + 1,
+            outside,
         }
     }
 
@@ -83,7 +84,20 @@ impl Level {
     /// and the low rows kept. At its peak that is half this level's size beside it, where
     /// the whole transform took two copies of it (an ingest's peak was 40 bytes a sample).
     pub fn coarser(&self, side: usize) -> Level {
-        let pad = self.padding(side);
+        self.coarser_padded(side, None)
+    }
+
+    /// [`Level::coarser`] of a level that is a window of a world lattice holding `fill`
+    /// beyond it: padded with `fill`, as the world is there. Repeating the edge samples
+    /// instead carried a data edge lying on a tile boundary outwards at each zoom: N44W072's
+    /// 45°N row, on the geodetic grid, became a streak of 370–614 m from 45°N to the pole in
+    /// the zoom 0 and 1 tiles.
+    pub fn coarser_in_world(&self, side: usize, fill: f64) -> Level {
+        self.coarser_padded(side, Some(fill))
+    }
+
+    fn coarser_padded(&self, side: usize, outside: Option<f64>) -> Level {
+        let pad = self.padding(side, outside);
         let (rows, cols) = (pad.rows, pad.cols);
         let src = &self.heights;
         // What `wavelet::forward` does with one level on a `rows × cols` grid.
@@ -104,11 +118,17 @@ impl Level {
         let mut half = vec![0.0; rows * low.cols];
         let mut line = vec![0.0; cols];
         let mut scratch = vec![0.0; cols];
-        let cols_of: Vec<usize> = (0..cols).map(|c| pad.source_col(c, src.cols())).collect();
+        let cols_of: Vec<Option<usize>> =
+            (0..cols).map(|c| pad.source_col(c, src.cols())).collect();
         for r in 0..rows {
-            let from = src.row(pad.source_row(r, src.rows()));
-            for (v, &c) in line.iter_mut().zip(&cols_of) {
-                *v = from[c];
+            match pad.source_row(r, src.rows()) {
+                Some(r) => {
+                    let from = src.row(r);
+                    for (v, &c) in line.iter_mut().zip(&cols_of) {
+                        *v = c.map_or(pad.outside.unwrap_or(0.0), |c| from[c]);
+                    }
+                }
+                None => line.fill(pad.outside.unwrap_or(0.0)),
             }
             if lift_rows {
                 wavelet::analyze_53_line(&mut line, &mut scratch);
@@ -124,7 +144,7 @@ impl Level {
         }
         half.truncate(low.rows * low.cols);
         half.shrink_to_fit();
-        if let Some((lo, hi)) = src.min_max() {
+        if let Some((lo, hi)) = pad.range(src) {
             for v in &mut half {
                 *v = v.clamp(lo, hi);
             }
@@ -139,15 +159,14 @@ impl Level {
     #[cfg(test)]
     fn coarser_whole(&self, side: usize) -> Level {
         use crate::wavelet::Wavelet;
-        let pad = self.padding(side);
+        let pad = self.padding(side, None);
         let (rows, cols) = (pad.rows, pad.cols);
         let src = &self.heights;
         let padded: Vec<f64> = (0..rows * cols)
             .map(|k| {
-                *src.get(
-                    pad.source_row(k / cols, src.rows()),
-                    pad.source_col(k % cols, src.cols()),
-                )
+                let r = pad.source_row(k / cols, src.rows()).unwrap_or(0);
+                let c = pad.source_col(k % cols, src.cols()).unwrap_or(0);
+                *src.get(r, c)
             })
             .collect();
         let mut g = Grid::new(rows, cols, padded).unwrap_or_else(|_| Grid::zeros(rows, cols));
@@ -165,24 +184,49 @@ impl Level {
     }
 }
 
-/// A level padded with its edge samples repeated: `left`/`top` samples before it, `rows × cols`
-/// in all.
+/// A level padded to `rows × cols`, `left`/`top` samples before it: with `outside`, or with
+/// its edge samples repeated.
 struct Padding {
     left: usize,
     top: usize,
     rows: usize,
     cols: usize,
+    outside: Option<f64>,
 }
 
 impl Padding {
-    /// The level's row that padded row `r` repeats (of `n`).
-    fn source_row(&self, r: usize, n: usize) -> usize {
-        r.saturating_sub(self.top).min(n - 1)
+    /// The level's row that padded row `r` (of `n`) is or repeats; `None` where it takes
+    /// `outside`.
+    fn source_row(&self, r: usize, n: usize) -> Option<usize> {
+        Self::source(r, self.top, n, self.outside.is_some())
     }
 
-    /// The level's column that padded column `c` repeats (of `n`).
-    fn source_col(&self, c: usize, n: usize) -> usize {
-        c.saturating_sub(self.left).min(n - 1)
+    /// The level's column that padded column `c` (of `n`) is or repeats; `None` where it
+    /// takes `outside`.
+    fn source_col(&self, c: usize, n: usize) -> Option<usize> {
+        Self::source(c, self.left, n, self.outside.is_some())
+    }
+
+    fn source(k: usize, before: usize, n: usize, filled: bool) -> Option<usize> {
+        match k.checked_sub(before) {
+            Some(i) if i < n => Some(i),
+            _ if filled => None,
+            Some(_) => Some(n - 1),
+            None => Some(0),
+        }
+    }
+
+    /// The heights the padded lattice holds: the level's, and `outside` where any is.
+    fn range(&self, src: &Grid<f64>) -> Option<(f64, f64)> {
+        let (lo, hi) = src.min_max()?;
+        let padded = self.left > 0
+            || self.top > 0
+            || self.rows > src.rows() + self.top
+            || self.cols > src.cols() + self.left;
+        Some(match self.outside.filter(|_| padded) {
+            Some(v) => (lo.min(v), hi.max(v)),
+            None => (lo, hi),
+        })
     }
 }
 

@@ -219,7 +219,7 @@ fn coarser_levels(
         if level.zoom == 0 {
             break;
         }
-        let next = level.coarser(TILE_SIDE);
+        let next = level.coarser_in_world(TILE_SIDE, fill);
         levels.push(next);
     }
     // Clients ask for every root tile (CesiumJS requests both geodetic ones): give zoom 0
@@ -803,6 +803,41 @@ mod tests {
         let w = p(361).build(Scheme::Geodetic, 1);
         assert_eq!(w.bounds, [-180.0, 8.0, 180.0, 10.0]);
         check_world(&w, Scheme::Geodetic, p(361));
+    }
+
+    /// A source whose north edge lies on a tile boundary (45°N, from zoom 2 down) stays
+    /// where it is at every zoom: the coarser levels hold the fill north of it. Their
+    /// padding repeated the edge row, and N44W072's 45°N row ran to the pole at zooms 0–1.
+    #[test]
+    fn a_data_edge_on_a_tile_boundary_does_not_run_outwards() {
+        // Lon 10..12, lat 45..43, 1° apart.
+        let g = grid(3, 3, |r, c| 500.0 + (r * 3 + c) as f64);
+        let georef = Georef::north_up(Crs::Geographic, 10.0, 45.0, 1.0, 1.0);
+        let source = Source::new(g, &georef, 7.0).unwrap();
+        let w = build(source, Scheme::Geodetic, Some(4)).unwrap();
+        let tiling = Tiling::new(Scheme::Geodetic, TILE_SIDE as u32).unwrap();
+        let mut checked = 0;
+        for level in &w.levels {
+            let (_, ny) = tiling.tiles_per_axis(level.zoom).unwrap();
+            let per_degree = (ny as usize * (TILE_SIDE - 1)) as f64 / 180.0;
+            // Lattice row of a latitude, counted from the level's own first row.
+            let row0 = level.tile_y0 as usize * (TILE_SIDE - 1);
+            let h = &level.heights;
+            for r in 0..h.rows() {
+                let lat = 90.0 - (row0 + r) as f64 / per_degree;
+                if lat > 45.0 + 2.0 / per_degree {
+                    let row = h.row(r);
+                    assert!(
+                        row.iter().all(|&v| v == 7.0),
+                        "zoom {}: {lat}°N holds {:?}",
+                        level.zoom,
+                        row.iter().find(|&&v| v != 7.0)
+                    );
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 0);
     }
 
     /// Zoom 0 covers the whole world: the root tile away from the source is all fill.
