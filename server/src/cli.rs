@@ -177,7 +177,7 @@ pub struct IngestArgs {
     #[arg(long, value_name = "METRES", allow_negative_numbers = true)]
     pub fill: Option<f64>,
     /// What the heights are measured from: egm96 (mean sea level, as SRTM's) or ellipsoid
-    /// (WGS84). Quantized-mesh tiles and `frame=enu` meshes of egm96 heights are raised by
+    /// (WGS84; `wgs84` says the same; either in any case). Quantized-mesh tiles and `frame=enu` meshes of egm96 heights are raised by
     /// the geoid's undulation to the ellipsoid, which Cesium draws on. Default: egm96 for
     /// `.hgt` and for a GeoTIFF whose VerticalCSTypeGeoKey is EGM96 (EPSG:5773), otherwise
     /// served as they are.

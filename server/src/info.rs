@@ -461,10 +461,12 @@ pub fn render(r: &Report) -> String {
         Some([lo, hi]) if [lo, hi] != m.height_range => format!(" (the source's {lo} … {hi} m)"),
         _ => String::new(),
     };
-    let datum = match m.vertical_datum {
-        Some(VerticalDatum::Egm96) => " above EGM96 (raised to the ellipsoid for Cesium, ENU)",
-        Some(VerticalDatum::Ellipsoid) => " above the WGS84 ellipsoid",
-        None => "",
+    // A local grid serves neither quantized-mesh nor ENU: nothing is raised there.
+    let datum = match (m.vertical_datum, m.scheme.as_str()) {
+        (Some(VerticalDatum::Egm96), "local") => " above EGM96",
+        (Some(VerticalDatum::Egm96), _) => " above EGM96 (raised to the ellipsoid for Cesium, ENU)",
+        (Some(VerticalDatum::Ellipsoid), _) => " above the WGS84 ellipsoid",
+        (None, _) => "",
     };
     let _ = writeln!(
         s,
@@ -962,6 +964,27 @@ mod tests {
             line(Some([115.0, 512.0]))
         );
         assert!(line(Some([0.0, 512.0])).starts_with("heights 0 … 512 m, fill"));
+        assert!(line(None).starts_with("heights 0 … 512 m, fill"));
+    }
+
+    /// The datum is said beside the heights; that they are raised for Cesium and ENU only
+    /// where the scheme serves those (not on a local grid).
+    #[test]
+    fn the_vertical_datum_is_said_as_the_scheme_serves_it() {
+        let line = |datum: Option<VerticalDatum>| {
+            let mut m = local_257(16);
+            m.vertical_datum = datum;
+            let mut w = Writer::new();
+            w.add(TileId { z: 0, x: 0, y: 0 }, [0.0; 4], b"not decoded here");
+            let text = render(&report_on("a", w.finish(&m).unwrap(), false));
+            text.lines()
+                .find(|l| l.starts_with("heights"))
+                .unwrap()
+                .to_string()
+        };
+        assert!(line(Some(VerticalDatum::Egm96)).starts_with("heights 0 … 512 m above EGM96, fill"));
+        assert!(line(Some(VerticalDatum::Ellipsoid))
+            .starts_with("heights 0 … 512 m above the WGS84 ellipsoid, fill"));
         assert!(line(None).starts_with("heights 0 … 512 m, fill"));
     }
 

@@ -41,8 +41,13 @@ pub struct Metadata {
     /// What the heights are measured from. `Egm96` ones are offset by the geoid's
     /// undulation where heights above the ellipsoid are due (quantized-mesh, ENU). `None`
     /// (not recorded: a source that does not say, or a dataset ingested before it was
-    /// recorded, whose bytes stay the same) serves them as they are.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    /// recorded, whose bytes stay the same) serves them as they are, as does a datum this
+    /// build does not model (a newer writer's): the dataset stays servable.
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "datum_or_unknown"
+    )]
     pub vertical_datum: Option<VerticalDatum>,
     /// Eq. 4 of the paper: T = a·(A_v / A_t) + b.
     pub view: ViewParams,
@@ -56,6 +61,20 @@ pub struct Metadata {
     pub stream_bytes: u64,
     /// RFC 3339 time of the ingest.
     pub created: String,
+}
+
+/// `vertical_datum` as read: a name this build knows, `None` for null or another name; a
+/// value that is no name at all is refused, named.
+fn datum_or_unknown<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> Result<Option<VerticalDatum>, D::Error> {
+    match Option::<serde_json::Value>::deserialize(d)? {
+        None | Some(serde_json::Value::Null) => Ok(None),
+        Some(serde_json::Value::String(s)) => Ok(s.parse().ok()),
+        Some(other) => Err(serde::de::Error::custom(format!(
+            "vertical_datum {other}: not a datum's name (egm96, ellipsoid)"
+        ))),
+    }
 }
 
 impl Metadata {

@@ -421,3 +421,44 @@ fn a_local_source_size_that_disagrees_with_the_dataset_is_refused() {
         other => panic!("{other:?}"),
     }
 }
+
+/// `vertical_datum` reads back; absent, null or a datum this build does not model (a newer
+/// writer's) is "not recorded", so the dataset stays servable; a value that is no name is
+/// refused, naming the field.
+#[test]
+fn vertical_datums_read_back_and_unknown_ones_are_not_recorded() {
+    use crate::geo::VerticalDatum;
+    let mut m = metadata();
+    m.vertical_datum = Some(VerticalDatum::Egm96);
+    let json = serde_json::to_value(&m).unwrap();
+    assert_eq!(json["vertical_datum"], "egm96");
+    let read: Metadata = serde_json::from_value(json.clone()).unwrap();
+    assert_eq!(read, m);
+    for (value, want) in [
+        (
+            serde_json::json!("ellipsoid"),
+            Some(VerticalDatum::Ellipsoid),
+        ),
+        (serde_json::json!("egm2008"), None),
+        (serde_json::Value::Null, None),
+    ] {
+        let mut j = json.clone();
+        j["vertical_datum"] = value.clone();
+        let read: Metadata = serde_json::from_value(j).unwrap();
+        assert_eq!(read.vertical_datum, want, "{value}");
+    }
+    let mut j = json.clone();
+    j.as_object_mut().unwrap().remove("vertical_datum");
+    assert_eq!(
+        serde_json::from_value::<Metadata>(j)
+            .unwrap()
+            .vertical_datum,
+        None
+    );
+    let mut j = json;
+    j["vertical_datum"] = serde_json::json!(96);
+    let e = serde_json::from_value::<Metadata>(j)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("vertical_datum 96"), "{e}");
+}
