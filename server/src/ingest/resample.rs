@@ -11,6 +11,10 @@ use anyhow::{bail, Result};
 use zerotile_codec::raster::{Crs, Georef};
 use zerotile_codec::Grid;
 
+/// Samples past the half-sample border still read as on it: far below any spacing a source
+/// has, far above the rounding of its georeference's arithmetic.
+const EDGE_SLACK: f64 = 1e-6;
+
 /// A source grid and the inverse of its georeference. It owns the grid, so the world pyramid
 /// can free the source's samples once its deepest lattice is sampled.
 #[derive(Clone)]
@@ -77,7 +81,12 @@ impl Source {
         let (dx, dy) = (x - x0, y - y0);
         let (col, row) = (a * dx + b * dy, c * dx + d * dy);
         let (rows, cols) = (self.heights.rows() as f64, self.heights.cols() as f64);
-        let inside = row >= -0.5 && col >= -0.5 && row <= rows - 0.5 && col <= cols - 0.5;
+        // Half a sample out, give or take the rounding of the georeference's arithmetic: a
+        // pole exactly there (a cap's outer edge) came out a hair inside on one cap and a
+        // hair outside on the other.
+        let edge = 0.5 + EDGE_SLACK;
+        let inside =
+            row >= -edge && col >= -edge && row <= rows - 1.0 + edge && col <= cols - 1.0 + edge;
         (row, col, inside)
     }
 
@@ -150,6 +159,24 @@ mod tests {
         .unwrap();
         *g.get_mut(3, 4) = f64::NAN;
         g
+    }
+
+    /// A cap whose outer cells end on a pole reaches it whichever way the arithmetic rounds:
+    /// the pole lies exactly half a sample past the last centre, and was the fill on the
+    /// south cap (its row came out a hair past `rows − 0.5`) but the edge on the north one.
+    #[test]
+    fn a_cap_ending_on_a_pole_reaches_it() {
+        for (north, pole) in [(-80.025, -90.0), (89.975, 90.0)] {
+            let g = Grid::new(200, 3, vec![2800.0; 600]).unwrap();
+            let geo = Georef::north_up(Crs::Geographic, 10.0, north, 0.05, 0.05);
+            let s = Source::new(g, &geo, 0.0).unwrap();
+            assert_eq!(s.height_at(10.05, pole), 2800.0, "pole {pole}");
+            // Farther out is still the fill.
+            assert_eq!(
+                s.height_at(10.05, pole + (pole - north).signum() * 0.03),
+                0.0
+            );
+        }
     }
 
     #[test]
