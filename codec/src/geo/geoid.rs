@@ -2,10 +2,10 @@
 //!
 //! SRTM and most national elevation models give orthometric heights H, above mean sea level
 //! as the EGM96 geoid models it. Cesium's quantized-mesh and an ENU frame take heights above
-//! the WGS84 ellipsoid; served as they are, SRTM terrain sits N too high or too low: −28 m
-//! in New Hampshire, +41 m at Mount Fuji, −106 m south of India. N is the undulation of the
-//! EGM96 geoid, evaluated from its degree-360 spherical harmonics (NGA's F477 program, as
-//! the `egm96` crate ports it).
+//! the WGS84 ellipsoid; served as they are, SRTM terrain is off by N, the undulation of the
+//! EGM96 geoid: −28 m in New Hampshire (the terrain 28 m too high), +41 m at Mount Fuji,
+//! −107 m south of India. N is evaluated from the geoid's degree-360 spherical harmonics
+//! (NGA's F477 program, as the `egm96` crate ports it).
 //!
 //! One evaluation costs about a millisecond, too slow for every vertex. N is smooth, so it
 //! is evaluated at the nodes of a lattice, once each (kept), and interpolated bilinearly
