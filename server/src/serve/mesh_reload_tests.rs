@@ -8,7 +8,7 @@ use zerotile_codec::mesh::io::Format;
 
 use super::catalog::Changes;
 use super::meshes::tests::{QUAD_PLY, TRI};
-use super::meshes::{MeshCatalog, Put, UploadError, MESH_DIR};
+use super::meshes::{MeshCatalog, MeshEntry, Put, Refuses, UploadError, MESH_DIR};
 use crate::fixtures::{mkfifo, within};
 
 const QUAD: &[u8] = b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3\nf 1 3 4\n";
@@ -237,6 +237,46 @@ fn a_replace_after_the_rescan_removed_the_mesh_creates_nothing() {
         .upload("c", TRI, Some(Format::Obj), Put::Create)
         .unwrap();
     assert!(!replaced);
+
+    // An If-None-Match of tags is judged on the mesh served when the upload is stored:
+    // refused over one it names (placed after the route's first look, say), taken where
+    // none is served or the one served is another.
+    let names_one_face = || -> Refuses { Box::new(|e: &MeshEntry| e.mesh.face_count() == 1) };
+    assert!(matches!(
+        cat.upload_unless(
+            "c",
+            QUAD_PLY,
+            Some(Format::Ply),
+            Put::Any,
+            Some(names_one_face())
+        ),
+        Err(UploadError::Matched)
+    ));
+    assert_eq!(cat.get("c").unwrap().mesh.face_count(), 1);
+    assert!(!dir.join(MESH_DIR).join("c.ply").exists());
+    let (_, replaced) = cat
+        .upload_unless(
+            "d",
+            TRI,
+            Some(Format::Obj),
+            Put::Any,
+            Some(names_one_face()),
+        )
+        .unwrap();
+    assert!(!replaced);
+    cat.upload("e", QUAD_PLY, Some(Format::Ply), Put::Any)
+        .unwrap();
+    assert_ne!(cat.get("e").unwrap().mesh.face_count(), 1);
+    let (_, replaced) = cat
+        .upload_unless(
+            "e",
+            TRI,
+            Some(Format::Obj),
+            Put::Replace,
+            Some(names_one_face()),
+        )
+        .unwrap();
+    assert!(replaced);
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -300,6 +300,21 @@ impl MeshCatalog {
         format: Option<Format>,
         put: Put,
     ) -> Result<(Arc<MeshEntry>, bool), UploadError> {
+        self.upload_unless(name, bytes, format, put, None)
+    }
+
+    /// [`MeshCatalog::upload`], refused too where `refuses` says so of the mesh served under
+    /// the name, judged under the same lock (an `If-None-Match` of tags, which only the
+    /// route can compare: a mesh placed while the body was read is judged, not only the one
+    /// there before).
+    pub fn upload_unless(
+        &self,
+        name: &str,
+        bytes: &[u8],
+        format: Option<Format>,
+        put: Put,
+        refuses: Option<Refuses>,
+    ) -> Result<(Arc<MeshEntry>, bool), UploadError> {
         self.takes_uploads()?;
         let read = io::read_bytes(bytes, format, &limits()).map_err(anyhow::Error::from);
         let served = read
@@ -313,9 +328,12 @@ impl MeshCatalog {
         let path = self.dir.join(format!("{name}.{}", format.extension()));
         // A poisoned lock (a rescan's reader that panicked) guards only a cache of stamps.
         let mut seen = self.store.lock().unwrap_or_else(PoisonError::into_inner);
-        match (put, self.get(name).is_some()) {
-            (Put::Replace, false) => return Err(UploadError::Gone),
-            (Put::Create, true) => return Err(UploadError::Exists),
+        match (put, self.get(name)) {
+            (Put::Replace, None) => return Err(UploadError::Gone),
+            (Put::Create, Some(_)) => return Err(UploadError::Exists),
+            (_, Some(e)) if refuses.as_ref().is_some_and(|f| f(&e)) => {
+                return Err(UploadError::Matched)
+            }
             _ => {}
         }
         // Under the store lock, so two uploads cannot both take the last room. A mesh
@@ -347,6 +365,9 @@ impl MeshCatalog {
         Ok((entry, replaced))
     }
 }
+
+/// Whether an upload may not go over the mesh served now; see [`MeshCatalog::upload_unless`].
+pub type Refuses = Box<dyn Fn(&MeshEntry) -> bool + Send>;
 
 /// What an upload may do to a mesh of its name: HTTP's `If-Match: *` and `If-None-Match: *`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -385,6 +406,12 @@ pub enum UploadError {
     /// A [`Put::Create`] found a mesh of its name (one placed meanwhile, or there all along).
     #[error("a mesh of this name is served, and If-None-Match: * creates only")]
     Exists,
+    /// The mesh served is one the upload's `If-None-Match` names (placed meanwhile, or there
+    /// all along).
+    #[error(
+        "If-None-Match names the mesh served under this name, and the upload would replace it"
+    )]
+    Matched,
     /// The mesh was fine; writing it was not.
     #[error("storing the mesh: {0:#}")]
     Store(anyhow::Error),

@@ -35,7 +35,9 @@ use zerotile_codec::mesh::{qem, QemOptions, TriMesh};
 use crate::serve::built_once::BuildError;
 use crate::serve::codings;
 use crate::serve::error::{echo, ApiError, ApiResult};
-use crate::serve::meshes::{MeshAnswer, MeshEntry, Put, Structure, UploadError, MAX_UPLOAD_BYTES};
+use crate::serve::meshes::{
+    MeshAnswer, MeshEntry, Put, Refuses, Structure, UploadError, MAX_UPLOAD_BYTES,
+};
 use crate::serve::negotiate;
 use crate::serve::revalidate::{self, REVALIDATE};
 use crate::serve::state::AppState;
@@ -680,7 +682,7 @@ pub async fn upload(
             None => (None, None),
         };
         revalidate::if_match(&headers, tag.as_deref())?;
-        // A tag is judged here only; `*` again under the catalog's lock.
+        // Judged again under the catalog's lock, `*` by `put`, a tag by `refuses`.
         revalidate::if_none_match_on_write(&headers, tags.as_deref())?;
         Ok(t)
     });
@@ -702,10 +704,23 @@ pub async fn upload(
     }
     let format = label.format(&body);
     let job_state = state.clone();
+    // If-None-Match's tags against the mesh served when the catalog stores this one.
+    let refuses = (put != Put::Create && headers.contains_key(IF_NONE_MATCH)).then(|| {
+        let headers = headers.clone();
+        Box::new(move |e: &MeshEntry| {
+            revalidate::tags(&headers, &description(e)).is_ok_and(|(_, every)| {
+                revalidate::if_none_match_on_write(&headers, Some(&every)).is_err()
+            })
+        }) as Refuses
+    });
     let (entry, replaced) = tokio::task::spawn_blocking(move || {
-        // The catalog judges `*` again, under its lock: the mesh may have come or gone
-        // while the body was read.
-        ticket.run(|| job_state.meshes.upload(&name, &body, format, put))
+        // The catalog judges the preconditions again, under its lock: the mesh may have
+        // come or gone while the body was read.
+        ticket.run(|| {
+            job_state
+                .meshes
+                .upload_unless(&name, &body, format, put, refuses)
+        })
     })
     .await
     .map_err(ApiError::internal)?
@@ -754,7 +769,7 @@ fn upload_error(e: UploadError) -> ApiError {
             "mesh_quota",
             e.to_string(),
         ),
-        UploadError::Gone | UploadError::Exists => ApiError::new(
+        UploadError::Gone | UploadError::Exists | UploadError::Matched => ApiError::new(
             StatusCode::PRECONDITION_FAILED,
             "precondition_failed",
             format!(
