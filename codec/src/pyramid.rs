@@ -120,15 +120,17 @@ impl Level {
         let mut scratch = vec![0.0; cols];
         let cols_of: Vec<Option<usize>> =
             (0..cols).map(|c| pad.source_col(c, src.cols())).collect();
+        // Taken only where the padding is `outside`'s (source_row/col give `None`).
+        let outside = pad.outside.unwrap_or_default();
         for r in 0..rows {
             match pad.source_row(r, src.rows()) {
                 Some(r) => {
                     let from = src.row(r);
                     for (v, &c) in line.iter_mut().zip(&cols_of) {
-                        *v = c.map_or(pad.outside.unwrap_or(0.0), |c| from[c]);
+                        *v = c.map_or(outside, |c| from[c]);
                     }
                 }
-                None => line.fill(pad.outside.unwrap_or(0.0)),
+                None => line.fill(outside),
             }
             if lift_rows {
                 wavelet::analyze_53_line(&mut line, &mut scratch);

@@ -944,19 +944,22 @@ mod tests {
         report_on("a", w.finish(&m).unwrap(), false)
     }
 
+    /// The `heights` line of `info` on a one-tile local dataset whose metadata `edit` sets.
+    fn heights_line(edit: impl FnOnce(&mut zerotile_codec::container::Metadata)) -> String {
+        let mut m = local_257(16);
+        edit(&mut m);
+        let mut w = Writer::new();
+        w.add(TileId { z: 0, x: 0, y: 0 }, [0.0; 4], b"not decoded here");
+        let text = render(&report_on("a", w.finish(&m).unwrap(), false));
+        let heights = text.lines().find(|l| l.starts_with("heights")).unwrap();
+        heights.to_string()
+    }
+
     /// The source's own heights are shown where the fill widens the dataset's range, and not
     /// where they are the same or were not recorded.
     #[test]
     fn the_sources_height_range_is_shown_beside_the_datasets() {
-        let line = |source: Option<[f64; 2]>| {
-            let mut m = local_257(16);
-            m.source_height_range = source;
-            let mut w = Writer::new();
-            w.add(TileId { z: 0, x: 0, y: 0 }, [0.0; 4], b"not decoded here");
-            let text = render(&report_on("a", w.finish(&m).unwrap(), false));
-            let heights = text.lines().find(|l| l.starts_with("heights")).unwrap();
-            heights.to_string()
-        };
+        let line = |source| heights_line(|m| m.source_height_range = source);
         assert!(
             line(Some([115.0, 512.0]))
                 .starts_with("heights 0 … 512 m (the source's 115 … 512 m), fill"),
@@ -971,17 +974,7 @@ mod tests {
     /// where the scheme serves those (not on a local grid).
     #[test]
     fn the_vertical_datum_is_said_as_the_scheme_serves_it() {
-        let line = |datum: Option<VerticalDatum>| {
-            let mut m = local_257(16);
-            m.vertical_datum = datum;
-            let mut w = Writer::new();
-            w.add(TileId { z: 0, x: 0, y: 0 }, [0.0; 4], b"not decoded here");
-            let text = render(&report_on("a", w.finish(&m).unwrap(), false));
-            text.lines()
-                .find(|l| l.starts_with("heights"))
-                .unwrap()
-                .to_string()
-        };
+        let line = |datum| heights_line(|m| m.vertical_datum = datum);
         assert!(line(Some(VerticalDatum::Egm96)).starts_with("heights 0 … 512 m above EGM96, fill"));
         assert!(line(Some(VerticalDatum::Ellipsoid))
             .starts_with("heights 0 … 512 m above the WGS84 ellipsoid, fill"));

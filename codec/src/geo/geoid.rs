@@ -28,7 +28,7 @@ use std::sync::{LazyLock, Mutex, PoisonError};
 
 use serde::{Deserialize, Serialize};
 
-use super::TileGeo;
+use super::{Bounds, TileGeo};
 use crate::zerotree::TerrainMesh;
 
 /// What a dataset's heights are measured from.
@@ -40,15 +40,6 @@ pub enum VerticalDatum {
     Egm96,
     /// The WGS84 ellipsoid itself: served as they are everywhere.
     Ellipsoid,
-}
-
-impl VerticalDatum {
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Egm96 => "egm96",
-            Self::Ellipsoid => "ellipsoid",
-        }
-    }
 }
 
 impl FromStr for VerticalDatum {
@@ -88,6 +79,15 @@ pub fn lattice_for(span: f64) -> Lattice {
     Lattice { level: level as u8 }
 }
 
+/// The nodes over the box `west`, `south`, `east`, `north` (degrees; west past east crosses
+/// the antimeridian) on the lattice of its larger side. A tile's is its width (no tile is
+/// taller than wide), so the tiles of a zoom share a lattice; a tall, thin box's is its
+/// height, so it fetches a few dozen nodes, not a column of thousands.
+pub fn patch_over(west: f64, south: f64, east: f64, north: f64) -> Patch {
+    let wide = Bounds::from([west, south, east, north]).lon_width();
+    lattice_for(wide.max((north - south).abs())).patch(west, south, east, north)
+}
+
 /// One of the [`STEPS`] lattices; see [`lattice_for`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Lattice {
@@ -120,23 +120,14 @@ impl Lattice {
     /// [`Lattice::undulation`] without a lock on the shared nodes for each of a mesh's
     /// vertices.
     pub fn patch(self, west: f64, south: f64, east: f64, north: f64) -> Patch {
-        let step = self.step();
-        let (rows, cols) = self.cells();
-        let row = |lat: f64| {
-            let y = ((lat.clamp(-90.0, 90.0) + 90.0) / step).floor();
-            (y as i32).clamp(0, rows - 1)
-        };
-        let i0 = row(south.min(north));
-        let n_rows = row(south.max(north)) + 2 - i0;
-        let j0 = (((west + 180.0).rem_euclid(360.0) / step).floor() as i32).clamp(0, cols - 1);
-        let width = if east >= west {
-            east - west
-        } else {
-            east + 360.0 - west
-        };
+        let (_, cols) = self.cells();
+        let i0 = self.row_of(south.min(north)).0;
+        let n_rows = self.row_of(south.max(north)).0 + 2 - i0;
+        let j0 = self.column_of(west).0;
+        let width = Bounds::from([west, south, east, north]).lon_width();
         // A NaN width casts to 0: the patch then holds two columns, and the rest come from
         // the shared nodes.
-        let n_cols = ((width / step).ceil() as i32)
+        let n_cols = ((width / self.step()).ceil() as i32)
             .saturating_add(2)
             .clamp(1, cols);
         let values = (i0..i0 + n_rows)
@@ -272,10 +263,10 @@ impl Patch {
 pub fn raise(mesh: &mut TerrainMesh, tile: &TileGeo, patch: &Patch) {
     let last = mesh.cols.max(2) - 1;
     let at = |k: usize| k as f64 / last as f64;
+    // Exact at both edges, as the neighbour's own edge is.
+    let lon_at = |t: f64| tile.west * (1.0 - t) + tile.east * t;
     // The sample lattice's longitudes and latitudes, exact on the edges.
-    let lons: Vec<f64> = (0..=last)
-        .map(|k| tile.west * (1.0 - at(k)) + tile.east * at(k))
-        .collect();
+    let lons: Vec<f64> = (0..=last).map(|k| lon_at(at(k))).collect();
     let lats: Vec<f64> = (0..=last)
         .map(|k| match k {
             0 => tile.north,
@@ -290,11 +281,7 @@ pub fn raise(mesh: &mut TerrainMesh, tile: &TileGeo, patch: &Patch) {
         // Vertices sit on samples; one that did not would be placed on its own.
         *h += match (sample(*c), sample(*r)) {
             (Some(col), Some(row)) => grid.at(col, row),
-            _ => {
-                let t = *c / last as f64;
-                let lon = tile.west * (1.0 - t) + tile.east * t;
-                patch.undulation(lon, tile.latitude_at(*r / last as f64))
-            }
+            _ => patch.undulation(lon_at(*c / last as f64), tile.latitude_at(*r / last as f64)),
         };
     }
 }
@@ -527,12 +514,12 @@ mod tests {
 
     #[test]
     fn datum_names_read_back() {
-        for d in [VerticalDatum::Egm96, VerticalDatum::Ellipsoid] {
-            assert_eq!(d.name().parse::<VerticalDatum>(), Ok(d));
-            assert_eq!(
-                serde_json::to_string(&d).unwrap(),
-                format!("\"{}\"", d.name())
-            );
+        for (d, name) in [
+            (VerticalDatum::Egm96, "egm96"),
+            (VerticalDatum::Ellipsoid, "ellipsoid"),
+        ] {
+            assert_eq!(name.parse::<VerticalDatum>(), Ok(d));
+            assert_eq!(serde_json::to_string(&d).unwrap(), format!("\"{name}\""));
         }
         assert!("navd88"
             .parse::<VerticalDatum>()

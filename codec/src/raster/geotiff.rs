@@ -75,8 +75,9 @@ pub(super) fn read(path: &Path, opts: &ReadOptions) -> Result<Heightmap, RasterE
     // The GeoTIFF and GDAL tags.
     let nodata = gdal_nodata(&mut decoder, path)?;
     let scaling = gdal_scaling(&mut decoder, path)?;
-    let georef = georef(&mut decoder).map_err(tiff_err)?;
-    let vertical_datum = vertical_datum(&mut decoder).map_err(tiff_err)?;
+    let keys = geo_keys(&mut decoder).map_err(tiff_err)?;
+    let georef = georef(&mut decoder, &keys).map_err(tiff_err)?;
+    let vertical_datum = vertical_datum(&keys);
 
     // Decode, and turn samples into heights with no-data as NaN.
     let (mut samples, step) = match decoder.read_image().map_err(tiff_err)? {
@@ -228,17 +229,20 @@ fn int_nodata<T: TryFrom<i64>>(nodata: Option<f64>) -> Option<T> {
 }
 
 /// The centre-based georeference from the GeoTIFF tags, `None` when there is none.
-fn georef<R: Read + Seek>(decoder: &mut Decoder<R>) -> Result<Option<Georef>, TiffError> {
-    let keys = geo_keys(decoder)?;
-    let key = |id: u16| keys.iter().find(|k| k.0 == id).map(|k| k.1);
-
+fn georef<R: Read + Seek>(
+    decoder: &mut Decoder<R>,
+    keys: &[(u16, u16)],
+) -> Result<Option<Georef>, TiffError> {
     // Raster space (0, 0): the first pixel's outer corner ("area") or its centre ("point").
-    let centre_offset = if key(GT_RASTER_TYPE_GEO_KEY) == Some(RASTER_PIXEL_IS_POINT) {
+    let centre_offset = if key(keys, GT_RASTER_TYPE_GEO_KEY) == Some(RASTER_PIXEL_IS_POINT) {
         0.0
     } else {
         0.5
     };
-    let crs = match (key(PROJECTED_CS_TYPE_GEO_KEY), key(GEOGRAPHIC_TYPE_GEO_KEY)) {
+    let crs = match (
+        key(keys, PROJECTED_CS_TYPE_GEO_KEY),
+        key(keys, GEOGRAPHIC_TYPE_GEO_KEY),
+    ) {
         (Some(code), _) | (None, Some(code)) if code != USER_DEFINED && code != 0 => {
             Crs::from_epsg(code)
         }
@@ -280,14 +284,13 @@ fn georef<R: Read + Seek>(decoder: &mut Decoder<R>) -> Result<Option<Georef>, Ti
 
 /// The heights' datum, where VerticalCSTypeGeoKey names EGM96's; another (EGM2008, a
 /// national datum) is not one zerotile models, and is served as it is.
-fn vertical_datum<R: Read + Seek>(
-    decoder: &mut Decoder<R>,
-) -> Result<Option<VerticalDatum>, TiffError> {
-    let keys = geo_keys(decoder)?;
-    let key = keys.iter().find(|k| k.0 == VERTICAL_CS_TYPE_GEO_KEY);
-    Ok(key
-        .filter(|k| k.1 == EGM96_HEIGHT)
-        .map(|_| VerticalDatum::Egm96))
+fn vertical_datum(keys: &[(u16, u16)]) -> Option<VerticalDatum> {
+    (key(keys, VERTICAL_CS_TYPE_GEO_KEY) == Some(EGM96_HEIGHT)).then_some(VerticalDatum::Egm96)
+}
+
+/// The value of GeoKey `id`, if the directory holds it.
+fn key(keys: &[(u16, u16)], id: u16) -> Option<u16> {
+    keys.iter().find(|k| k.0 == id).map(|k| k.1)
 }
 
 /// The GeoKeyDirectory's short-valued keys as (id, value); others live in the double and

@@ -10,7 +10,7 @@ use std::collections::HashMap;
 use anyhow::Result;
 use axum::http::HeaderValue;
 use zerotile_codec::container::TileId;
-use zerotile_codec::geo::geoid::{lattice_for, Patch};
+use zerotile_codec::geo::geoid::{self, Patch};
 use zerotile_codec::geo::{self, mercator_to_lonlat, Ellipsoid, EnuFrame, Scheme, VerticalDatum};
 use zerotile_codec::mesh::TriMesh;
 
@@ -93,21 +93,10 @@ pub fn to_enu(mesh: &mut TriMesh, scheme: Scheme, frame: &EnuFrame, geoid: Optio
 
 /// The geoid's undulation over a mesh's box, `[west, south, east, north]` in degrees (west
 /// past east crosses the antimeridian), where the dataset's heights are above EGM96; `None`
-/// where they go as they are (above the ellipsoid, or a datum not recorded). The lattice is
-/// the one for the box's larger side: a tile's is its width (no tile is taller than wide),
-/// so the tiles of a zoom share it; a tall, thin view's is its height, so it fetches a few
-/// dozen nodes, not a column of thousands.
+/// where they go as they are (above the ellipsoid, or a datum not recorded).
 pub fn geoid(d: &Dataset, [west, south, east, north]: [f64; 4]) -> Option<Patch> {
-    if d.metadata().vertical_datum != Some(VerticalDatum::Egm96) {
-        return None;
-    }
-    let wide = if east >= west {
-        east - west
-    } else {
-        east + 360.0 - west
-    };
-    let span = wide.max((north - south).abs());
-    Some(lattice_for(span).patch(west, south, east, north))
+    (d.metadata().vertical_datum == Some(VerticalDatum::Egm96))
+        .then(|| geoid::patch_over(west, south, east, north))
 }
 
 /// A box `[west, south, east, north]` in the scheme's CRS, in degrees.

@@ -175,12 +175,8 @@ pub fn mesh_file(
 ) -> Result<Vec<u8>> {
     let mut m = tri_mesh(d, id, mesh)?;
     if let Some(f) = enu {
-        let b = d.tiling.tile_bounds(geo_id(id))?;
-        let scheme = d.tiling.scheme();
-        let geoid = frame::geoid(
-            d,
-            frame::degrees(scheme, [b.min_x, b.min_y, b.max_x, b.max_y]),
-        );
+        let g = d.tiling.tile_geo(geo_id(id))?;
+        let geoid = frame::geoid(d, [g.west, g.south, g.east, g.north]);
         frame::to_enu(&mut m, d.tiling.scheme(), f, geoid.as_ref());
     }
     io::write_z_up_bytes(&m, format)

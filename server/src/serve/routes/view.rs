@@ -20,7 +20,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 use zerotile_codec::container::TileId;
 use zerotile_codec::geo::{lonlat_to_mercator, Bounds, EnuFrame, Scheme};
-use zerotile_codec::mesh::{io, Format, TriMesh};
+use zerotile_codec::mesh::{io, Aabb, Format, TriMesh};
 
 use super::meta::dataset;
 use crate::serve::codings;
@@ -303,16 +303,12 @@ fn on_globe(lo: f64, hi: f64) -> Vec<(f64, f64)> {
 
 /// The view's mesh in `enu`, the geoid's undulation over the mesh's own box.
 fn to_enu(d: &Dataset, mesh: &mut TriMesh, enu: &EnuFrame) {
-    let lo = mesh
-        .positions
-        .iter()
-        .fold(DVec3::INFINITY, |a, &p| a.min(p));
-    let hi = mesh
-        .positions
-        .iter()
-        .fold(DVec3::NEG_INFINITY, |a, &p| a.max(p));
+    let b = Aabb::from_points(&mesh.positions);
     let scheme = d.tiling.scheme();
-    let geoid = frame::geoid(d, frame::degrees(scheme, [lo.x, lo.y, hi.x, hi.y]));
+    let geoid = frame::geoid(
+        d,
+        frame::degrees(scheme, [b.min.x, b.min.y, b.max.x, b.max.y]),
+    );
     frame::to_enu(mesh, scheme, enu, geoid.as_ref());
 }
 
