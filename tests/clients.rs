@@ -2,7 +2,9 @@
 //! dataset's `layer.json`, MapLibre GL JS `raster-dem` on a mercator dataset's terrain-RGB
 //! tiles, the viewer page at `/`, CesiumJS on a `zerotile export --format terrain` tree, and
 //! MapLibre on a `zerotile export --format png --base-url URL` tree through its `tiles.json`
-//! alone (URL a placeholder the page's `transformRequest` maps to the real host), each tree
+//! alone (URL a placeholder the page's `transformRequest` maps to the real host), CesiumJS's
+//! `Cesium3DTileset` on a `zerotile export --format 3dtiles` tree of the terrain tree's
+//! dataset (its heights must be the terrain tree's), each tree
 //! served by a plain file server on another origin, as a CDN would. Both static checks
 //! sample the SRTM source's heights from the tree, CesiumJS's raised to the ellipsoid by
 //! EGM96's undulation (the browser side is
@@ -66,6 +68,9 @@ fn cesium_maplibre_and_the_viewer_render_in_headless_chromium() {
         out
     };
     let exported = export("static", "n44g", &["--format", "terrain"]);
+    // The same dataset as a 3D Tiles tree: CesiumJS must sample the terrain tree's heights
+    // from it.
+    let tiles3d = export("3dtiles", "n44g", &["--format", "3dtiles"]);
     // The mercator ingest as a static terrain-RGB tree with its tiles.json, which names the
     // tiles under a placeholder origin: the MapLibre page maps it to the real host (its
     // transformRequest), as a page does for a tileset that moved. Every zoom: 41 tiles.
@@ -89,6 +94,8 @@ fn cesium_maplibre_and_the_viewer_render_in_headless_chromium() {
         .arg(&exported)
         .arg("--static-png")
         .arg(&png)
+        .arg("--static-3dtiles")
+        .arg(&tiles3d)
         .args([
             "--expect",
             &expect,
@@ -109,6 +116,7 @@ fn cesium_maplibre_and_the_viewer_render_in_headless_chromium() {
     let _ = std::fs::remove_dir_all(&data);
     let _ = std::fs::remove_dir_all(&exported);
     let _ = std::fs::remove_dir_all(&png);
+    let _ = std::fs::remove_dir_all(&tiles3d);
     assert!(
         status.success(),
         "a browser client failed (its output is above)"

@@ -550,10 +550,11 @@ fn a_png_export_with_a_base_url_writes_tilejson() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// A local grid has no place on the globe: quantized-mesh is refused before any work, while
-/// meshes export as one file per stored tile and no layer.json (a CesiumJS manifest).
+/// A local grid has no place on the globe: quantized-mesh and 3D Tiles are refused before any
+/// work, while meshes export as one file per stored tile and no layer.json (a CesiumJS
+/// manifest).
 #[test]
-fn a_local_dataset_exports_meshes_and_refuses_quantized_mesh() {
+fn a_local_dataset_exports_meshes_and_refuses_quantized_mesh_and_3d_tiles() {
     let dir = fresh_dir("export-local");
     let tif = shared_data().join("dem/terra_elev.tif");
     let tif = tif.to_str().unwrap();
@@ -584,6 +585,32 @@ fn a_local_dataset_exports_meshes_and_refuses_quantized_mesh() {
     assert_eq!(files(&dir.join("mesh"), "json"), want);
     assert!(!dir.join("mesh/layer.json").exists());
     assert!(dir.join("mesh/.zerotile-export").is_file());
+
+    // 3D Tiles places tiles on the Earth: refused, nothing written. The other mesh formats
+    // go as json does, each tile once; a later export of another format replaces the tree.
+    let out = zerotile(
+        &[
+            "export", "lux", "--format", "3dtiles", "--out", "3d", "--quiet",
+        ],
+        &dir,
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("local grid") && err.contains("3D Tiles"),
+        "{err}"
+    );
+    assert!(!dir.join("3d").exists());
+    for ext in ["glb", "obj", "bin"] {
+        let out = zerotile(
+            &["export", "lux", "--format", ext, "--out", "mesh", "--quiet"],
+            &dir,
+        );
+        assert_success(&out);
+        let names = |e: &str| want.iter().map(|p| p.with_extension(e)).collect::<Vec<_>>();
+        assert_eq!(files(&dir.join("mesh"), ext), names(ext), "{ext}");
+        assert!(files(&dir.join("mesh"), "json").is_empty(), "{ext}");
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -63,7 +63,10 @@ pub struct ExportArgs {
     /// Folder of datasets.
     #[arg(long, default_value = "data")]
     pub data: PathBuf,
-    /// Tile format: terrain (Cesium quantized-mesh), png (terrain-RGB, 512²) or json (mesh).
+    /// Tile format: terrain (Cesium quantized-mesh, with layer.json), png (terrain-RGB, 512²),
+    /// a mesh in the scheme's coordinates (json, bin, obj, glb), or 3dtiles (glb tiles in
+    /// metres about each tile's centre under a 3D Tiles tileset.json, for CesiumJS's
+    /// Cesium3DTileset and the Cesium engine plugins; geodetic and mercator datasets).
     #[arg(long, default_value = "terrain")]
     pub format: String,
     /// Output folder: new, empty or an earlier export holding only its own files (any other

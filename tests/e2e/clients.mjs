@@ -14,11 +14,17 @@
 //            must come by the TileJSON's ?v= template, and queryTerrainElevation at --expect
 //            (from the deepest zoom's tiles) must be within that zoom's default threshold plus
 //            the PNG's resampling slack
+//   static-3dtiles  CesiumJS's Cesium3DTileset on a `zerotile export --format 3dtiles` tree
+//            of the same dataset (--static-3dtiles DIR, beside --static's), served the same
+//            way: heights sampled from the tileset's most detailed tiles at --expect must be
+//            those sampled from the --static tree's deepest level (the same meshes, one drawn
+//            on the ellipsoid by quantized-mesh, the other placed in ENU by the tile
+//            transforms) within 1 m; --static checks those against --expect
 // Each saves a screenshot under --out and fails if it is blank or the client logged errors.
 //
 //   node tests/e2e/clients.mjs --base http://127.0.0.1:8080 --geodetic demo-ridges \
 //        --mercator n44m --out target/e2e [--only cesium,maplibre,viewer] \
-//        [--static DIR] [--static-png DIR] [--expect '[[-71.3,44.27,1822]]']
+//        [--static DIR] [--static-png DIR] [--static-3dtiles DIR] [--expect '[[-71.3,44.27,1822]]']
 //        [--expect-png '[[-71.3,44.27,1850]]']  (static-png's points; default --expect's)
 //
 // CesiumJS and MapLibre are served from web/node_modules by a small static server started
@@ -40,7 +46,8 @@ const args = Object.fromEntries(
 );
 const base = (args.base || "http://127.0.0.1:8080").replace(/\/$/, "");
 const out = args.out || "target/e2e";
-const only = (args.only || ["cesium,maplibre,viewer", args.static && "static", args["static-png"] && "static-png"]
+const only = (args.only || ["cesium,maplibre,viewer", args.static && "static", args["static-png"] && "static-png",
+  args["static-3dtiles"] && "static-3dtiles"]
   .filter(Boolean).join(",")).split(",");
 mkdirSync(out, { recursive: true });
 
@@ -390,17 +397,20 @@ async function viewer() {
 
 // ---- (d) CesiumJS on a static export ------------------------------------------------------
 
-async function staticExport() {
-  const cdn = await host(args.static);
-  const tiles = `${cdn.origin}/`;
-  const expect = JSON.parse(args.expect || "[]");
-  check(expect.length > 0, "static: no --expect points to compare");
-  pages["/static.html"] = `<!doctype html><html><head>
+// An empty page with CesiumJS loaded and a #c for a viewer: the static checks script it.
+const CESIUM_PAGE = `<!doctype html><html><head>
 <link rel="icon" href="data:,">
 <script>window.CESIUM_BASE_URL = "/node_modules/cesium/Build/Cesium/";</script>
 <link rel="stylesheet" href="/node_modules/cesium/Build/Cesium/Widgets/widgets.css">
 <style>html,body,#c{margin:0;width:100%;height:100%;overflow:hidden}</style>
 <script src="/node_modules/cesium/Build/Cesium/Cesium.js"></script></head><body><div id="c"></div></body></html>`;
+
+async function staticExport() {
+  const cdn = await host(args.static);
+  const tiles = `${cdn.origin}/`;
+  const expect = JSON.parse(args.expect || "[]");
+  check(expect.length > 0, "static: no --expect points to compare");
+  pages["/static.html"] = CESIUM_PAGE;
   const c = await open("static");
   await c.page.goto(`${local}/static.html`);
   const r = await c.page.evaluate(async ([url, points]) => {
@@ -465,6 +475,83 @@ async function staticExport() {
   for (const t of r.tileErrors) c.problems.push(`terrain provider: ${t}`);
   noProblems(c);
   await c.page.close();
+}
+
+// ---- (f) CesiumJS on a static 3D Tiles export ---------------------------------------------
+
+// Heights the two trees give at the same points differ by the quantized-mesh's 16-bit height
+// steps (centimetres), the chord of a planar triangle under the curved one (L²/8R: 2 cm for
+// 1 km) and the depth picking sampleHeight reads: a metre holds them, and a tile misplaced
+// by its transform or the geoid (28 m here) is far outside.
+const SAME_SURFACE = 1.0;
+
+async function static3d() {
+  check(!!args.static, "static-3dtiles: needs --static, the terrain tree it is compared with");
+  const cdn = await host(args["static-3dtiles"]);
+  const terrain = await host(args.static);
+  const expect = JSON.parse(args.expect || "[]");
+  check(expect.length > 0, "static-3dtiles: no --expect points to compare");
+  pages["/static-3dtiles.html"] = CESIUM_PAGE;
+  const c = await open("static-3dtiles");
+  await c.page.goto(`${local}/static-3dtiles.html`);
+  const r = await c.page.evaluate(async ([url, terrainUrl, points]) => {
+    const at = () => points.map(([lon, lat]) => Cesium.Cartographic.fromDegrees(lon, lat));
+    const provider = await Cesium.CesiumTerrainProvider.fromUrl(terrainUrl);
+    const terrain = (await Cesium.sampleTerrainMostDetailed(provider, at())).map((p) => p.height);
+    // No globe: the heights sampled come from the tileset alone.
+    const viewer = new Cesium.Viewer("c", {
+      globe: false, baseLayer: false, baseLayerPicker: false, geocoder: false, animation: false,
+      timeline: false, homeButton: false, sceneModePicker: false, navigationHelpButton: false,
+      fullscreenButton: false, infoBox: false, selectionIndicator: false, skyBox: false,
+      skyAtmosphere: false });
+    const tileErrors = [];
+    const tileset = await Cesium.Cesium3DTileset.fromUrl(url);
+    tileset.tileFailed.addEventListener((e) => tileErrors.push(`${e.url}: ${e.message}`));
+    const contents = [];
+    tileset.tileLoad.addEventListener((t) => contents.push(t.content.url));
+    viewer.scene.primitives.add(tileset);
+    viewer.scene.light = new Cesium.DirectionalLight({ direction: new Cesium.Cartesian3(0.6, -0.2, -0.5) });
+    window.viewer = viewer;
+    window.ztFrames = 0;
+    viewer.scene.postRender.addEventListener(() => { window.ztFrames += 1; });
+    const [lon, lat] = points[0];
+    viewer.camera.setView({ destination: Cesium.Cartesian3.fromDegrees(lon, lat - 0.25, 12000),
+      orientation: { heading: 0, pitch: Cesium.Math.toRadians(-25), roll: 0 } });
+    const sampled = (await viewer.scene.sampleHeightMostDetailed(at())).map((p) => p.height);
+    return { terrain, sampled, tileErrors, contents, supported: viewer.scene.sampleHeightSupported,
+      version: tileset.asset.version };
+  }, [`${cdn.origin}/tileset.json`, `${terrain.origin}/`, expect]);
+  check(r.supported, "static-3dtiles: this browser cannot sample heights (no depth texture)");
+  const leaves = r.contents.filter((u) => u).length;
+  console.log(`static-3dtiles: tileset ${r.version} read; ${leaves} tile content(s) loaded while sampling`);
+  let worst = 0, worstSource = 0, missing = 0;
+  expect.forEach(([lon, lat, want], i) => {
+    const got = r.sampled[i], same = r.terrain[i];
+    if (!Number.isFinite(got)) { missing += 1; return; }
+    const off = Math.abs(got - same);
+    worst = Math.max(worst, off);
+    worstSource = Math.max(worstSource, Math.abs(got - want));
+    if (!(off <= SAME_SURFACE)) console.error(`  static-3dtiles: ${lon}, ${lat}: ${got} m, terrain tree ${same} m`);
+  });
+  console.log(`static-3dtiles: ${expect.length - missing} heights sampled, worst ${worst.toFixed(2)} m from the ` +
+    `terrain tree's (allowed ${SAME_SURFACE} m), ${worstSource.toFixed(1)} m from the source`);
+  check(missing === 0, `static-3dtiles: ${missing} point(s) sampled no tile`);
+  check(worst <= SAME_SURFACE, `static-3dtiles: a height is ${worst.toFixed(2)} m from the terrain tree's`);
+  await settle3d(c.page);
+  await shoot(c, "static-3dtiles.png");
+  const asked = cdn.log.filter((u) => /\.glb(\?|$)/.test(u));
+  console.log(`static-3dtiles: ${asked.length} .glb request(s), e.g. ${asked[0]}`);
+  check(asked.length > 0 && asked.every((u) => /\?v=/.test(u)), "static-3dtiles: tiles not requested with the tileset's ?v=");
+  for (const t of r.tileErrors) c.problems.push(`tileset: ${t}`);
+  noProblems(c);
+  await c.page.close();
+}
+
+/// As `settle`, for a page whose scene has no globe: its tileset has loaded what it shows.
+async function settle3d(page) {
+  const from = await page.evaluate(() => window.ztFrames);
+  await page.waitForFunction((f) => window.ztFrames >= f + 3, from, { timeout: 60000, polling: 100 });
+  await page.waitForFunction(() => window.viewer.scene.primitives.get(0).tilesLoaded, null, { timeout: 60000, polling: 250 });
 }
 
 // ---- (e) MapLibre GL JS on a static PNG export ------------------------------------------
@@ -596,7 +683,7 @@ window.overview = async () => {
   await c.page.close();
 }
 
-const clients = { cesium, maplibre, viewer, static: staticExport, "static-png": staticPng };
+const clients = { cesium, maplibre, viewer, static: staticExport, "static-png": staticPng, "static-3dtiles": static3d };
 try {
   for (const name of only) {
     const t0 = Date.now();

@@ -17,7 +17,7 @@
 //! assert!((up.z - 100.0).abs() < 1e-6 && up.x.abs() < 1e-6 && up.y.abs() < 1e-6);
 //! ```
 
-use glam::{DMat3, DVec3};
+use glam::{DMat3, DMat4, DVec3};
 
 use super::Ellipsoid;
 
@@ -61,6 +61,13 @@ impl EnuFrame {
         // Differences of ECEF coordinates near each other: the subtraction is exact to the
         // f64 rounding of each (~1 nm at the Earth's radius), before the rotation.
         self.to_local * (p - self.origin_ecef)
+    }
+
+    /// The frame's points → ECEF (metres): the inverse of [`Self::from_ecef`], as one
+    /// rigid matrix, for a client that places the frame itself (a 3D Tiles `transform`).
+    pub fn to_ecef_matrix(&self) -> DMat4 {
+        // The rotation's inverse is its transpose: its columns are east, north and up.
+        DMat4::from_mat3_translation(self.to_local.transpose(), self.origin_ecef)
     }
 
     /// Longitude `lon`, latitude `lat` (degrees) and `height` (metres) in the frame.
@@ -147,6 +154,27 @@ mod tests {
                     .distance(f.from_geodetic(b.0, b.1, b.2));
                 assert!((ecef - local).abs() < 1e-6, "{ecef} vs {local}");
             }
+        }
+    }
+
+    /// The matrix takes a frame's points back to ECEF: a CesiumJS `transform` made from it
+    /// puts the frame's vertices where their longitude, latitude and height say.
+    #[test]
+    fn the_ecef_matrix_undoes_the_frame() {
+        for (o, p) in [
+            ([-71.5, 44.5, 0.0], [-71.4, 44.6, 500.0]),
+            ([179.9, -89.0, 20.0], [-179.8, -88.9, -30.0]),
+            ([0.0, 0.0, 0.0], [0.5, -0.5, 8000.0]),
+        ] {
+            let f = EnuFrame::at(W, o[0], o[1], o[2]);
+            let m = f.to_ecef_matrix();
+            let local = f.from_geodetic(p[0], p[1], p[2]);
+            let back = m.transform_point3(local);
+            let want = W.to_ecef(p[0], p[1], p[2]);
+            assert!(back.distance(want) < 1e-6, "{back} vs {want}");
+            // Rigid: its inverse is the frame's own move.
+            let again = m.inverse().transform_point3(want);
+            assert!(again.distance(local) < 1e-6, "{again} vs {local}");
         }
     }
 }

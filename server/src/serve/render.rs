@@ -173,12 +173,36 @@ pub fn mesh_file(
     format: Format,
     enu: Option<&EnuFrame>,
 ) -> Result<Vec<u8>> {
+    mesh_bytes(id, &mesh_in_frame(d, id, mesh, enu)?, format)
+}
+
+/// The tile's mesh in the scheme's coordinates or in `enu` (raised by the geoid there, see
+/// [`into_enu`]): what [`mesh_file`] writes.
+pub fn mesh_in_frame(
+    d: &Dataset,
+    id: TileId,
+    mesh: &TerrainMesh,
+    enu: Option<&EnuFrame>,
+) -> Result<TriMesh> {
     let mut m = tri_mesh(d, id, mesh)?;
     if let Some(f) = enu {
-        let g = d.tiling.tile_geo(geo_id(id))?;
-        let geoid = frame::geoid(d, [g.west, g.south, g.east, g.north]);
-        frame::to_enu(&mut m, d.tiling.scheme(), f, geoid.as_ref());
+        into_enu(d, id, &mut m, f)?;
     }
-    io::write_z_up_bytes(&m, format)
+    Ok(m)
+}
+
+/// Moves `m`, tile `id`'s mesh in the scheme's coordinates ([`tri_mesh`]), into `enu`,
+/// raised by the geoid there (see [`frame::to_enu`]) with the tile's lattice, as every
+/// ENU tile is.
+pub fn into_enu(d: &Dataset, id: TileId, m: &mut TriMesh, enu: &EnuFrame) -> Result<()> {
+    let g = d.tiling.tile_geo(geo_id(id))?;
+    let geoid = frame::geoid(d, [g.west, g.south, g.east, g.north]);
+    frame::to_enu(m, d.tiling.scheme(), enu, geoid.as_ref());
+    Ok(())
+}
+
+/// `m`, tile `id`'s mesh from [`mesh_in_frame`], as a file in `format`.
+pub fn mesh_bytes(id: TileId, m: &TriMesh, format: Format) -> Result<Vec<u8>> {
+    io::write_z_up_bytes(m, format)
         .with_context(|| format!("writing tile {id} as {}", format.name()))
 }

@@ -61,9 +61,23 @@ const Z_UP_TO_Y_UP: [f64; 4] = [
     std::f64::consts::FRAC_1_SQRT_2,
 ];
 
-pub(super) fn write(mesh: &TriMesh, up: Up, out: &mut impl Write) -> Result<(), MeshError> {
+/// Writes `mesh`, its normals `normals` (unit, one a vertex) or, without, its own
+/// ([`TriMesh::vertex_normals`]).
+pub(super) fn write(
+    mesh: &TriMesh,
+    up: Up,
+    normals: Option<&[DVec3]>,
+    out: &mut impl Write,
+) -> Result<(), MeshError> {
     // Indices in range and finite coordinates, or the accessors would point past their data.
     mesh.check()?;
+    if let Some(n) = normals.filter(|n| n.len() != mesh.positions.len()) {
+        return Err(encode_error(format!(
+            "{} normals for {} vertices",
+            n.len(),
+            mesh.positions.len()
+        )));
+    }
     if mesh.faces.is_empty() {
         let doc = json!({
             "asset": {"version": "2.0", "generator": "zerotile"},
@@ -91,7 +105,10 @@ pub(super) fn write(mesh: &TriMesh, up: Up, out: &mut impl Write) -> Result<(), 
             "vertex {i} at {p} is beyond f32's range"
         )));
     }
-    let normals: Vec<Vec3> = mesh.vertex_normals().iter().map(|n| n.as_vec3()).collect();
+    let normals: Vec<Vec3> = match normals {
+        Some(n) => n.iter().map(|n| n.as_vec3()).collect(),
+        None => mesh.vertex_normals().iter().map(|n| n.as_vec3()).collect(),
+    };
     let mut bin = Vec::with_capacity(24 * positions.len() + 12 * mesh.faces.len());
     for v in positions.iter().chain(&normals) {
         for c in v.to_array() {

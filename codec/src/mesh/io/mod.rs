@@ -18,6 +18,8 @@ use std::borrow::Cow;
 use std::io::Write;
 use std::path::Path;
 
+use glam::DVec3;
+
 use super::error::{InvalidMesh, MeshError};
 use super::indexed::TriMesh;
 
@@ -295,9 +297,21 @@ pub fn write_bytes(mesh: &TriMesh, format: Format) -> Result<Vec<u8>, MeshError>
 pub fn write_z_up_bytes(mesh: &TriMesh, format: Format) -> Result<Vec<u8>, MeshError> {
     let mut out = Vec::new();
     match format {
-        Format::Glb => glb::write(mesh, glb::Up::Z, &mut out)?,
+        Format::Glb => glb::write(mesh, glb::Up::Z, None, &mut out)?,
         _ => write_to(mesh, format, &mut out)?,
     }
+    Ok(out)
+}
+
+/// GLB of a z-up `mesh` (as [`write_z_up_bytes`]) with the vertex normals given, one a
+/// vertex: for a mesh whose own would be wrong for shading, such as a terrain tile whose
+/// skirts should shade as the edge they hang from.
+pub fn write_z_up_glb_with_normals(
+    mesh: &TriMesh,
+    normals: &[DVec3],
+) -> Result<Vec<u8>, MeshError> {
+    let mut out = Vec::new();
+    glb::write(mesh, glb::Up::Z, Some(normals), &mut out)?;
     Ok(out)
 }
 
@@ -306,7 +320,7 @@ pub fn write_to(mesh: &TriMesh, format: Format, out: &mut impl Write) -> Result<
     match format {
         Format::Obj => obj::write(mesh, out),
         Format::Ply => ply::write(mesh, out),
-        Format::Glb => glb::write(mesh, glb::Up::Y, out),
+        Format::Glb => glb::write(mesh, glb::Up::Y, None, out),
         Format::Json => json::write(mesh, out),
         Format::Stl => Err(MeshError::Unsupported(
             "writing STL is not supported; use OBJ, PLY, GLB or JSON".into(),

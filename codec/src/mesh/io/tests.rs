@@ -471,6 +471,36 @@ fn glb_views_are_aligned_and_normals_unit() {
     );
 }
 
+/// Normals given are the ones stored, in place of the mesh's own; a count other than the
+/// vertices' is refused rather than written past or short of the positions.
+#[test]
+fn glb_takes_the_normals_it_is_given() {
+    let m = quad();
+    let n = m.positions.len();
+    let given: Vec<DVec3> = (0..n)
+        .map(|i| DVec3::new(i as f64, 1.0, 0.0).normalize())
+        .collect();
+    let bytes = write_z_up_glb_with_normals(&m, &given).expect("glb");
+    let (_, bin) = glb_chunks(&bytes);
+    let stored: Vec<f32> = bin[12 * n..24 * n]
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes(b.try_into().expect("4 bytes")))
+        .collect();
+    let want: Vec<f32> = given.iter().flat_map(|v| v.as_vec3().to_array()).collect();
+    assert_eq!(stored, want);
+    // Without them, the mesh's own: the same file as write_z_up_bytes.
+    let own = m.vertex_normals();
+    assert_eq!(
+        write_z_up_glb_with_normals(&m, &own).expect("glb"),
+        write_z_up_bytes(&m, Format::Glb).expect("glb")
+    );
+    let err = write_z_up_glb_with_normals(&m, &given[1..]).unwrap_err();
+    assert!(
+        err.to_string().contains("3 normals for 4 vertices"),
+        "{err}"
+    );
+}
+
 /// A zoom-15 web-mercator tile (EPSG:3857 metres, a 4.777 m grid near x = −8·10⁶): stored
 /// as f32 as they are, its columns came out 4 or 5 m apart. Relative to the node's
 /// translation every vertex reads back within a millimetre; a mesh about the origin gets no

@@ -1,26 +1,34 @@
 //! `zerotile export`: a dataset as a static tile tree (`{z}/{x}/{y}.EXT`; `layer.json` for
-//! quantized-mesh, and for MapLibre a `tiles.json` once the tree's URL is known) for a CDN or
-//! any file server, rendered exactly as `zerotile serve` renders it at each zoom's default
-//! threshold.
+//! quantized-mesh, for MapLibre a `tiles.json` once the tree's URL is known, and for 3D Tiles
+//! a `tileset.json` over glTF tiles in ENU, [`tileset`]) for a CDN or any file server,
+//! rendered exactly as `zerotile serve` renders it at each zoom's default threshold.
 //!
 //! Written into a temporary folder beside `--out` and swapped in at the end: a failed export
 //! leaves an existing `--out` as it was. Only an empty folder or an earlier export (which
 //! holds [`MARKER`]) holding nothing but what an export writes is replaced: the swap deletes
 //! what `--out` held, so anything else there is the user's and is refused.
 
+mod over_data;
+mod skirts;
+mod tileset;
+
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
+use std::sync::Mutex;
 
 use anyhow::{bail, Context, Result};
 use rayon::prelude::*;
 use zerotile_codec::container::TileId;
 use zerotile_codec::formats::terrain_rgb::{self, PngCompression};
 use zerotile_codec::geo::{Scheme, MAX_ZOOM};
+use zerotile_codec::mesh::{io, Aabb};
 
 use crate::serve::codings::Coding;
 use crate::serve::dataset::Dataset;
+use crate::serve::frame::{self, Frame};
 use crate::serve::negotiate::Extensions;
-use crate::serve::pipeline::Cancel;
+use crate::serve::pipeline::{self, Cancel};
+use crate::serve::render;
 use crate::serve::routes::meta::{layer, raster_dem};
 use crate::serve::routes::tiles::{png_encoding, render_tile, TileFormat, Variant};
 use crate::serve::{public_url, threshold, AppState, Catalog, Config};
@@ -57,6 +65,9 @@ pub struct Exported {
     /// tiles to [`terrain_rgb::height_range`].
     pub clamped: Option<[f64; 2]>,
 }
+
+/// The extensions of the tiles an export writes.
+const TILE_EXTENSIONS: [&str; 6] = ["terrain", "png", "json", "bin", "obj", "glb"];
 
 /// The PNG tiles an export writes (and its tiles.json lists): terrain-RGB, 512 pixels a side.
 const PNG_TERRARIUM: bool = false;
@@ -180,13 +191,14 @@ fn name_entries(entries: &[PathBuf]) -> Option<(String, String)> {
 }
 
 /// What in the export `out` no export writes, relative to `out`, sorted: anything but
-/// [`MARKER`], `layer.json`, `tiles.json` and `{z}/{x}/{y}.{terrain,png,json}`. A folder
-/// that is not the export's is one entry, not walked; a symbolic link is never its own.
+/// [`MARKER`], `layer.json`, `tiles.json`, `tileset.json` and `{z}/{x}/{y}.EXT` of a tile
+/// format. A folder that is not the export's is one entry, not walked; a symbolic link is
+/// never its own.
 fn foreign_entries(out: &Path) -> std::io::Result<Vec<PathBuf>> {
     let digits = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit());
     let tile = |s: &str| {
         s.split_once('.')
-            .is_some_and(|(y, ext)| digits(y) && ["terrain", "png", "json"].contains(&ext))
+            .is_some_and(|(y, ext)| digits(y) && TILE_EXTENSIONS.contains(&ext))
     };
     let mut foreign = Vec::new();
     // (folder relative to `out`, its depth: 0 the root, 1 a zoom, 2 a column)
@@ -199,7 +211,9 @@ fn foreign_entries(out: &Path) -> std::io::Result<Vec<PathBuf>> {
             let path = rel.join(&name);
             let name = name.to_str().unwrap_or("");
             let own = match depth {
-                0 if kind.is_file() => [MARKER, "layer.json", "tiles.json"].contains(&name),
+                0 if kind.is_file() => {
+                    [MARKER, "layer.json", "tiles.json", "tileset.json"].contains(&name)
+                }
                 0 | 1 => kind.is_dir() && digits(name),
                 _ => kind.is_file() && tile(name),
             };
@@ -220,8 +234,15 @@ pub fn run(job: &Export) -> Result<Exported> {
         "terrain" => (TileFormat::Terrain, "terrain"),
         "png" => (TileFormat::Png, "png"),
         "json" => (TileFormat::Json, "json"),
-        other => crate::bail_usage!("--format {other}: use terrain, png or json"),
+        "bin" => (TileFormat::Bin, "bin"),
+        "obj" => (TileFormat::Obj, "obj"),
+        "glb" | "3dtiles" => (TileFormat::Glb, "glb"),
+        other => {
+            crate::bail_usage!("--format {other}: use terrain, png, json, bin, obj, glb or 3dtiles")
+        }
     };
+    // glTF tiles in ENU under a tileset.json, where a plain glb tree is in the scheme's CRS.
+    let tiles3d = job.format == "3dtiles";
     // The flags alone rule this out, whatever the dataset.
     if job.base_url.is_some() && format != TileFormat::Png {
         crate::bail_usage!(
@@ -246,9 +267,12 @@ pub fn run(job: &Export) -> Result<Exported> {
             terrarium: PNG_TERRARIUM,
             size: PNG_SIZE,
         },
+        TileFormat::Glb => Variant::Glb {
+            frame: if tiles3d { Frame::Enu } else { Frame::Scheme },
+        },
         _ => Variant::Mesh {
             coding: Coding::Identity,
-            frame: crate::serve::frame::Frame::Scheme,
+            frame: Frame::Scheme,
         },
     };
 
@@ -258,6 +282,9 @@ pub fn run(job: &Export) -> Result<Exported> {
     let world = !matches!(d.tiling.scheme(), Scheme::Local { .. });
     if format == TileFormat::Terrain && !world {
         bail!("{}: a local grid has no georeference; quantized-mesh needs a geodetic or mercator dataset (export png or json)", d.name);
+    }
+    if tiles3d && !world {
+        bail!("{}: a local grid has no georeference; 3D Tiles places tiles on the Earth, so it needs a geodetic or mercator dataset (export glb for the meshes in grid coordinates)", d.name);
     }
     // What MapLibre's raster-dem reads: terrain-RGB PNG on the Web Mercator grid.
     let maplibre = format == TileFormat::Png && matches!(d.tiling.scheme(), Scheme::Mercator);
@@ -353,13 +380,12 @@ pub fn run(job: &Export) -> Result<Exported> {
     let result = render_all(
         (&state, &d),
         &tiles,
-        format,
-        variant,
+        (format, variant, tiles3d),
         ext,
         &tmp,
         job.progress,
     )
-    .and_then(|n| {
+    .and_then(|(n, nodes)| {
         // layer.json is CesiumJS's quantized-mesh manifest: other trees would only mislead it.
         if format == TileFormat::Terrain {
             // Only the exported zooms: CesiumJS asks for every level layer.json makes
@@ -381,9 +407,18 @@ pub fn run(job: &Export) -> Result<Exported> {
         if let Some(doc) = &tilejson {
             std::fs::write(tmp.join("tiles.json"), serde_json::to_vec_pretty(doc)?)?;
         }
+        if tiles3d {
+            // Above the coarsest level's error and twice the top tiles', so the content-less
+            // root refines into them from any view in which they show.
+            let tops = nodes.iter().map(|n| n.error).fold(0.0, f64::max);
+            let root_error = (2.0 * tops).max(d.tiling.level_geometric_error(0));
+            let uri = |id: TileId| format!("{}/{}/{}.{ext}", id.z, id.x, id.y);
+            let doc = tileset::tileset(&nodes, &uri, &d.version_tag(), root_error)?;
+            std::fs::write(tmp.join("tileset.json"), serde_json::to_vec(&doc)?)?;
+        }
         std::fs::write(
             tmp.join(MARKER),
-            format!("zerotile export of {} as {ext}\n", d.name),
+            format!("zerotile export of {} as {}\n", d.name, job.format),
         )?;
         Ok(n)
     });
@@ -415,18 +450,19 @@ pub fn run(job: &Export) -> Result<Exported> {
 }
 
 /// Renders `tiles` of `d` (held by `state`, whose caches it uses) into `dir`; returns the
-/// tiles and bytes written.
+/// tile files and bytes written, and for 3D Tiles (`tiles3d`) each tile's place and bounds.
 fn render_all(
     (state, d): (&AppState, &Dataset),
     tiles: &[TileId],
-    format: TileFormat,
-    variant: Variant,
+    (format, variant, tiles3d): (TileFormat, Variant, bool),
     ext: &str,
     dir: &Path,
     progress: bool,
-) -> Result<(u64, u64)> {
+) -> Result<((u64, u64), Vec<tileset::Node>)> {
     let bar = crate::ingest::tile_bar("exporting", progress, tiles.len() as u64);
     let bytes = AtomicU64::new(0);
+    let files = AtomicU64::new(0);
+    let nodes = Mutex::new(Vec::new());
     // Neighbouring tiles share decodes: go zoom by zoom, row by row.
     let mut order = tiles.to_vec();
     order.sort_by_key(|t| (t.z, t.y, t.x));
@@ -434,23 +470,115 @@ fn render_all(
     state.pool.install(|| {
         order.par_iter().try_for_each(|&id| -> Result<()> {
             let t = threshold::default_threshold(d, id.z);
-            let enc = render_tile(state, d, id, t, format, variant, false, &Cancel::default())
-                .with_context(|| format!("{}: tile {}/{}/{}", d.location, id.z, id.x, id.y))?;
+            let what = || format!("{}: tile {}/{}/{}", d.location, id.z, id.x, id.y);
+            let body = if tiles3d {
+                let (body, node) = enu_glb(state, d, id, t).with_context(what)?;
+                nodes
+                    .lock()
+                    .map_err(|_| anyhow::anyhow!("a render failed"))?
+                    .push(node);
+                body.map(bytes::Bytes::from)
+            } else {
+                let enc = render_tile(state, d, id, t, format, variant, false, &Cancel::default())
+                    .with_context(what)?;
+                Some(enc.bytes)
+            };
+            // A 3D Tiles tile with nothing over the data is only a node of the tree.
+            let Some(body) = body else {
+                bar.inc(1);
+                return Ok(());
+            };
             // Paths follow the serving URLs, which use the stored y: TMS rows for geodetic
             // (layer.json scheme "tms"), XYZ rows for mercator ("slippyMap").
             let y = id.y;
             let folder = dir.join(id.z.to_string()).join(id.x.to_string());
             let file = folder.join(format!("{y}.{ext}"));
             std::fs::create_dir_all(&folder)
-                .and_then(|()| std::fs::write(&file, &enc.bytes))
+                .and_then(|()| std::fs::write(&file, &body))
                 .with_context(|| format!("writing {}", file.display()))?;
-            bytes.fetch_add(enc.bytes.len() as u64, Relaxed);
+            bytes.fetch_add(body.len() as u64, Relaxed);
+            files.fetch_add(1, Relaxed);
             bar.inc(1);
             Ok(())
         })
     })?;
     bar.finish_and_clear();
-    Ok((tiles.len() as u64, bytes.into_inner()))
+    let nodes = nodes
+        .into_inner()
+        .map_err(|_| anyhow::anyhow!("a render failed"))?;
+    Ok(((files.into_inner(), bytes.into_inner()), nodes))
+}
+
+/// The geometric error of a 3D Tiles tile at zoom `z` meshed within `t` whose flat faces dip
+/// `dip` below the curved ground: `t` bounds the heights on the grid, not the chords between
+/// them, and a zoom-0 face spans tens of degrees. At least the level's error as CesiumJS
+/// reckons it for terrain (halving each zoom; `t` stops halving at the relief, and a chain
+/// of tiles of one error would be loaded all at once).
+fn tile_error(d: &Dataset, z: u8, t: f64, dip: f64) -> f64 {
+    d.tiling.level_geometric_error(z).max(t + dip)
+}
+
+/// The deepest a flat face of `faces` (over `positions`, metres) sinks below a sphere of the
+/// Earth's mean radius through its corners: the sagitta of its longest edge,
+/// R − √(R² − L²/4).
+fn chord_dip(faces: &[[u32; 3]], positions: &[glam::DVec3]) -> f64 {
+    const R: f64 = 6_371_008.8;
+    let longest = faces
+        .iter()
+        .map(|f| {
+            let p = f.map(|i| positions.get(i as usize).copied().unwrap_or_default());
+            let [a, b, c] = p;
+            a.distance(b).max(b.distance(c)).max(c.distance(a))
+        })
+        .fold(0.0, f64::max);
+    let half = (longest / 2.0).min(R);
+    R - (R * R - half * half).sqrt()
+}
+
+/// How deep a tile meshed within `t` hangs its skirts: the gap beside a neighbour some levels
+/// coarser is up to both meshes' errors, several times `t`; 5 t, as CesiumJS hangs its
+/// quantized-mesh skirts (5 × the level's error), and never past the relief, which no gap
+/// exceeds.
+fn skirt_depth(d: &Dataset, t: f64) -> f64 {
+    let [lo, hi] = d.metadata().height_range;
+    (5.0 * t).min((hi - lo).max(1.0))
+}
+
+/// Tile `id` as `serve` sends `.glb?frame=enu` at threshold `t`, less the faces off the
+/// data ([`over_data`]) and with skirts ([`skirts`]), and its node of the tileset: its ENU frame and the box of its
+/// vertices there. `None` for the file where no face is over the data.
+fn enu_glb(
+    state: &AppState,
+    d: &Dataset,
+    id: TileId,
+    t: f64,
+) -> Result<(Option<Vec<u8>>, tileset::Node)> {
+    let stitched = pipeline::stitched(state, d, id, t, &Cancel::default())?;
+    let enu = frame::at_tile(d, id)?;
+    let mut m = render::tri_mesh(d, id, &stitched.mesh)?;
+    over_data::over_data(&mut m, d.tiling.scheme(), d.metadata().bounds);
+    let surface = m.faces.len();
+    let skirts = (!m.faces.is_empty()).then(|| skirts::add_skirts(&mut m, skirt_depth(d, t)));
+    render::into_enu(d, id, &mut m, &enu)?;
+    let dip = chord_dip(m.faces.get(..surface).unwrap_or_default(), &m.positions);
+    let content = (!m.faces.is_empty()).then(|| {
+        let b = Aabb::from_points(&m.positions);
+        [b.min, b.max]
+    });
+    let node = tileset::Node {
+        id,
+        frame: enu.to_ecef_matrix(),
+        content,
+        error: tile_error(d, id.z, t, dip),
+    };
+    let body = match skirts {
+        Some(skirts) => Some(
+            io::write_z_up_glb_with_normals(&m, &skirts.normals(&m))
+                .with_context(|| format!("writing tile {id} as GLB"))?,
+        ),
+        None => None,
+    };
+    Ok((body, node))
 }
 
 #[cfg(test)]
@@ -502,6 +630,258 @@ mod tests {
                 assert_eq!(done.clamped, want, "{name} {format}");
             }
         }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// Reads the exported tileset and walks it: each tile's frame → ECEF is the product of
+    /// the transforms from the root down, as a 3D Tiles runtime composes them.
+    fn walk(
+        t: &serde_json::Value,
+        parent: glam::DMat4,
+        parent_error: f64,
+        visit: &mut dyn FnMut(&serde_json::Value, glam::DMat4, f64),
+    ) {
+        let m: Vec<f64> = serde_json::from_value(t["transform"].clone()).unwrap();
+        let frame = parent * glam::DMat4::from_cols_slice(&m);
+        visit(t, frame, parent_error);
+        let error = t["geometricError"].as_f64().unwrap();
+        for c in t["children"].as_array().into_iter().flatten() {
+            walk(c, frame, error, visit);
+        }
+    }
+
+    /// The vertices of a tile's GLB in the tile's frame, as a 3D Tiles runtime places them
+    /// (the node's rotation and translation, then glTF's y-up turned back to z-up), and its
+    /// faces.
+    fn read_glb(bytes: &[u8]) -> (Vec<glam::DVec3>, Vec<[u32; 3]>) {
+        let word = |i: usize| u32::from_le_bytes(bytes[i..i + 4].try_into().unwrap()) as usize;
+        assert_eq!(&bytes[..4], b"glTF");
+        let json_len = word(12);
+        let doc: serde_json::Value = serde_json::from_slice(&bytes[20..20 + json_len]).unwrap();
+        let bin = &bytes[20 + json_len + 8..];
+        let view = |accessor: &serde_json::Value| {
+            let v = &doc["bufferViews"][accessor["bufferView"].as_u64().unwrap() as usize];
+            let at = v["byteOffset"].as_u64().unwrap_or(0) as usize;
+            &bin[at..at + v["byteLength"].as_u64().unwrap() as usize]
+        };
+        let prim = &doc["meshes"][0]["primitives"][0];
+        let positions =
+            &doc["accessors"][prim["attributes"]["POSITION"].as_u64().unwrap() as usize];
+        let indices = &doc["accessors"][prim["indices"].as_u64().unwrap() as usize];
+        let floats: Vec<f64> = view(positions)
+            .chunks_exact(4)
+            .map(|b| f64::from(f32::from_le_bytes(b.try_into().unwrap())))
+            .collect();
+        let node = &doc["nodes"][0];
+        let q: Vec<f64> =
+            serde_json::from_value(node["rotation"].clone()).unwrap_or(vec![0.0, 0.0, 0.0, 1.0]);
+        let t: Vec<f64> =
+            serde_json::from_value(node["translation"].clone()).unwrap_or(vec![0.0; 3]);
+        let q = glam::DQuat::from_xyzw(q[0], q[1], q[2], q[3]);
+        let t = glam::DVec3::new(t[0], t[1], t[2]);
+        let points = floats
+            .chunks_exact(3)
+            .map(|c| {
+                let y_up = q * glam::DVec3::new(c[0], c[1], c[2]) + t;
+                glam::DVec3::new(y_up.x, -y_up.z, y_up.y)
+            })
+            .collect();
+        let ints: Vec<u32> = view(indices)
+            .chunks_exact(4)
+            .map(|b| u32::from_le_bytes(b.try_into().unwrap()))
+            .collect();
+        let faces = ints.chunks_exact(3).map(|f| [f[0], f[1], f[2]]).collect();
+        (points, faces)
+    }
+
+    /// `box` of a tile: its least and greatest corners (the half-axes are axis-aligned).
+    fn corners(t: &serde_json::Value) -> [glam::DVec3; 2] {
+        let b: Vec<f64> = serde_json::from_value(t["boundingVolume"]["box"].clone()).unwrap();
+        assert_eq!(b.len(), 12);
+        assert_eq!([b[4], b[5], b[6], b[8], b[9], b[10]], [0.0; 6], "{b:?}");
+        let c = glam::DVec3::new(b[0], b[1], b[2]);
+        let h = glam::DVec3::new(b[3], b[7], b[11]);
+        assert!(h.min_element() > 0.0, "{b:?}");
+        [c - h, c + h]
+    }
+
+    /// A 3D Tiles export of heights above EGM96: every vertex of every tile, read back from
+    /// its GLB and placed by the transforms tileset.json composes from the root, lands at its
+    /// longitude, latitude and height + N on WGS84, within f32's rounding; every
+    /// tile's box holds its vertices and its children's boxes; errors fall from the root to
+    /// the leaves, which have 0; a tile wholly over the data is the server's ENU mesh with
+    /// skirts, coarse ones are cut to the data; and every tile over the data is there once.
+    #[test]
+    fn a_3dtiles_export_places_every_vertex_on_the_ellipsoid() {
+        use zerotile_codec::geo::geoid::undulation_exact;
+        use zerotile_codec::geo::{Ellipsoid, VerticalDatum};
+        use zerotile_codec::raster::{Crs, Georef, Heightmap};
+        use zerotile_codec::Grid;
+        let dir = crate::fixtures::scratch("export-3dtiles");
+        let data = dir.join("data");
+        // Hills over 1° about (10.5° E, 45.5° N), 0.0025° a sample.
+        let n = 401;
+        let h: Vec<f64> = (0..n * n)
+            .map(|k| {
+                let (r, c) = ((k / n) as f64, (k % n) as f64);
+                800.0 + 600.0 * (r / 40.0).sin() * (c / 55.0).cos()
+            })
+            .collect();
+        let georef = Georef::north_up(Crs::Geographic, 10.0, 46.0, 0.0025, 0.0025);
+        let mut map = Heightmap::new(Grid::new(n, n, h).unwrap(), None, Some(georef));
+        map.vertical_datum = Some(VerticalDatum::Egm96);
+        let job = crate::ingest::Ingest {
+            input: PathBuf::from("hill.tif"),
+            ..crate::ingest::Ingest::for_test("hill", "geodetic", &data)
+        };
+        crate::ingest::build(&job, map).unwrap();
+        let out = dir.join("tiles");
+        let done = run(&Export {
+            dataset: "hill".into(),
+            data: data.clone(),
+            format: "3dtiles".into(),
+            out: out.clone(),
+            zooms: None,
+            base_url: None,
+            png_compression: PngCompression::Fast,
+            progress: false,
+        })
+        .unwrap();
+        let doc: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join("tileset.json")).unwrap()).unwrap();
+        assert_eq!(doc["asset"]["version"], "1.1");
+        let root = &doc["root"];
+        assert_eq!(root["refine"], "REPLACE");
+        assert!(root.get("content").is_none() && root.get("transform").is_none());
+
+        // The server's state over the same file, to render each tile as `serve` does.
+        let path =
+            crate::ingest::existing_dataset_path(std::ffi::OsStr::new("hill"), &data).unwrap();
+        let mut catalog = Catalog::default();
+        catalog.insert(Dataset::open(&path).unwrap());
+        let state = AppState::new(catalog, Config::default()).unwrap();
+        let d = state.catalog().iter().next().unwrap().clone();
+        let wgs84 = Ellipsoid::WGS84;
+
+        let root_error = root["geometricError"].as_f64().unwrap();
+        let mut seen = std::collections::BTreeSet::new();
+        let mut worst = [0.0f64; 3];
+        let (mut cut, mut whole) = (0, 0);
+        let mut check = |t: &serde_json::Value, frame: glam::DMat4, parent_error: f64| {
+            let error = t["geometricError"].as_f64().unwrap();
+            assert!(error <= parent_error, "{t}");
+            assert_eq!(t.get("children").is_none(), error == 0.0, "{t}");
+            let [lo, hi] = corners(t);
+            // Children's boxes, moved into this frame, lie within it.
+            for c in t["children"].as_array().into_iter().flatten() {
+                let m: Vec<f64> = serde_json::from_value(c["transform"].clone()).unwrap();
+                let m = glam::DMat4::from_cols_slice(&m);
+                let [clo, chi] = corners(c);
+                for k in 0..8 {
+                    let p = glam::DVec3::new(
+                        if k & 1 == 0 { clo.x } else { chi.x },
+                        if k & 2 == 0 { clo.y } else { chi.y },
+                        if k & 4 == 0 { clo.z } else { chi.z },
+                    );
+                    let q = m.transform_point3(p);
+                    assert!(q.cmpge(lo - 1e-6).all() && q.cmple(hi + 1e-6).all(), "{q}");
+                }
+            }
+            let Some(uri) = t["content"]["uri"].as_str() else {
+                return;
+            };
+            let parts: Vec<u32> = uri
+                .trim_end_matches(".glb")
+                .split('/')
+                .map(|p| p.parse().unwrap())
+                .collect();
+            let id = TileId {
+                z: parts[0] as u8,
+                x: parts[1],
+                y: parts[2],
+            };
+            assert!(seen.insert(id), "{id} twice");
+            let t_id = threshold::default_threshold(&d, id.z);
+            let s = pipeline::stitched(&state, &d, id, t_id, &Cancel::default()).unwrap();
+            let mut plain = render::tri_mesh(&d, id, &s.mesh).unwrap();
+            let faces = plain.faces.len();
+            over_data::over_data(&mut plain, d.tiling.scheme(), d.metadata().bounds);
+            let surface = (plain.positions.len(), plain.faces.len());
+            skirts::add_skirts(&mut plain, skirt_depth(&d, t_id));
+            // What the file holds, in the tile's frame as a runtime reads it.
+            let (stored, stored_faces) = read_glb(&std::fs::read(out.join(uri)).unwrap());
+            assert_eq!(stored_faces, plain.faces, "{uri}");
+            assert_eq!(stored.len(), plain.positions.len(), "{uri}");
+            // f32 keeps 24 bits of each coordinate: slack of twice that at the tile's size.
+            let size = stored
+                .iter()
+                .map(|p| p.abs().max_element())
+                .fold(0.0, f64::max);
+            let slack = 2.0 * size * f64::from(f32::EPSILON) + 1e-3;
+            // The tile's own geoid: coarse zooms take coarse lattices (metres off the full
+            // sum at zoom 0), from zoom 8 on it is the 7.5′ one.
+            let g = d
+                .tiling
+                .tile_geo(zerotile_codec::geo::TileId::new(id.z, id.x, id.y))
+                .unwrap();
+            let patch = frame::geoid(&d, [g.west, g.south, g.east, g.north]).unwrap();
+            for (p, q) in stored.iter().zip(&plain.positions) {
+                assert!(p.cmpge(lo).all() && p.cmple(hi).all(), "{uri}: {p} outside");
+                let placed = frame.transform_point3(*p);
+                let want = wgs84.to_ecef(q.x, q.y, q.z + patch.undulation(q.x, q.y));
+                worst[0] = worst[0].max(placed.distance(want) / slack);
+                let [_, _, height] = wgs84.to_geodetic(placed);
+                if id.z >= 8 {
+                    worst[1] = worst[1].max(slack);
+                    let n = undulation_exact(q.x, q.y);
+                    worst[2] = worst[2].max((height - q.z - n).abs());
+                }
+            }
+            let enu = frame::at_tile(&d, id).unwrap();
+            // A tile wholly over the data is the server's `.glb?frame=enu` mesh, then skirts.
+            if surface.1 < faces {
+                cut += 1;
+                return;
+            }
+            whole += 1;
+            let served = render::mesh_in_frame(&d, id, &s.mesh, Some(&enu)).unwrap();
+            for (a, b) in served.positions.iter().zip(&stored[..surface.0]) {
+                assert!(a.distance(*b) <= slack, "{uri}: {a} against {b}");
+            }
+            assert_eq!(served.faces, stored_faces[..surface.1], "{uri}");
+            assert!(stored_faces.len() > surface.1, "{uri}: no skirts");
+        };
+        for top in root["children"].as_array().unwrap() {
+            walk(top, glam::DMat4::IDENTITY, root_error, &mut check);
+        }
+        // Every vertex read back and placed by the composed transforms lies where its
+        // longitude, latitude and height put it, within its f32 slack (at most 0.02 m on the
+        // deepest tiles); and from zoom 8, within the 7.5′ lattice's interpolation of the
+        // geoid (0.15 m) of the full sum, plus that slack.
+        assert!(worst[0] <= 1.0 && worst[1] < 0.02, "{worst:?}");
+        assert!(worst[2] > 0.0 && worst[2] < 0.16 + 0.02, "{worst:?}");
+        // The coarse tiles span far past the data and were cut; the deepest hold some wholly
+        // over it.
+        assert!(cut > 0 && whole > 0, "{cut} cut, {whole} whole");
+        // Every tile over the data, once; the world's other zoom-0 tile (0/0/0, all fill)
+        // has no file and no node.
+        let [west, south, east, north] = d.metadata().bounds;
+        let exported: std::collections::BTreeSet<TileId> = d
+            .container
+            .tiles()
+            .map(|(id, _)| id)
+            .filter(|id| {
+                let g = d
+                    .tiling
+                    .tile_geo(zerotile_codec::geo::TileId::new(id.z, id.x, id.y));
+                let g = g.unwrap();
+                g.west <= east && g.east >= west && g.south <= north && g.north >= south
+            })
+            .collect();
+        assert_eq!(seen, exported);
+        assert_eq!(d.container.tiles().count(), exported.len() + 1);
+        assert_eq!(done.tiles, exported.len() as u64);
+        assert!(exported.iter().any(|t| t.z >= 9), "{exported:?}");
         let _ = std::fs::remove_dir_all(&dir);
     }
 
