@@ -326,7 +326,14 @@ pub fn build(job: &Ingest, map: Heightmap) -> Result<(PathBuf, Metadata)> {
             )
         })?;
         if !matches!(georef.crs, Crs::Geographic | Crs::WebMercator) {
+            let npz = raster::extension(&job.input) == "npz";
             let what = match georef.crs {
+                // An .npz names no CRS: its bounds are degrees when they can be.
+                Crs::Unknown if npz => "not known (an .npz's bounds are taken as degrees when \
+                                        its cell centres lie within -180..180° or 0..360° of \
+                                        longitude and its rows within ±90° of latitude, and \
+                                        these do not)"
+                    .to_string(),
                 Crs::Unknown => "not known (an ESRI ASCII grid's is read from the .prj beside \
                                  it, when that names WGS 84 or Web Mercator)"
                     .to_string(),
@@ -1056,6 +1063,28 @@ mod tests {
                 "(use --scheme local); an .npz is placed by scalar xmin, ymin, ymax, dx and dy \
                  beside the array (xmax optional), agreeing with its shape"
             ),
+            "{e}"
+        );
+    }
+
+    /// An .npz whose bounds are not degrees is told so, not pointed at an ASCII grid's .prj
+    /// (which it was: QA's grid from -180.5° read "an ESRI ASCII grid's is read from the
+    /// .prj").
+    #[test]
+    fn an_npz_whose_bounds_are_not_degrees_is_told_why() {
+        use zerotile_codec::raster::{Crs, Georef};
+        let data = scratch("npz-not-degrees");
+        let georef = Georef::north_up(Crs::Unknown, -180.5, 10.0, 1.0, 1.0);
+        let map = Heightmap::new(Grid::new(3, 3, vec![1.0; 9]).unwrap(), None, Some(georef));
+        let j = Ingest {
+            input: "west.npz".into(),
+            ..job("w", "geodetic", &data)
+        };
+        let e = build(&j, map).unwrap_err().to_string();
+        assert!(
+            e.contains("west.npz: its CRS is not known (an .npz's bounds are taken as degrees")
+                && e.contains("and these do not)")
+                && !e.contains(".prj"),
             "{e}"
         );
     }
