@@ -540,8 +540,7 @@ fn chord_dip(faces: &[[u32; 3]], positions: &[glam::DVec3]) -> f64 {
 /// quantized-mesh skirts (5 × the level's error), and never past the relief, which no gap
 /// exceeds.
 fn skirt_depth(d: &Dataset, t: f64) -> f64 {
-    let [lo, hi] = d.metadata().height_range;
-    (5.0 * t).min((hi - lo).max(1.0))
+    (5.0 * t).min(threshold::relief(d))
 }
 
 /// Tile `id` as `serve` sends `.glb?frame=enu` at threshold `t`, cut to the data
@@ -561,10 +560,7 @@ fn enu_glb(
     let skirts = (!m.faces.is_empty()).then(|| skirts::add_skirts(&mut m, skirt_depth(d, t)));
     render::into_enu(d, id, &mut m, &enu)?;
     let dip = chord_dip(m.faces.get(..surface).unwrap_or_default(), &m.positions);
-    let content = (!m.faces.is_empty()).then(|| {
-        let b = Aabb::from_points(&m.positions);
-        [b.min, b.max]
-    });
+    let content = Aabb::from_points(&m.positions);
     let node = tileset::Node {
         id,
         frame: enu.to_ecef_matrix(),

@@ -29,6 +29,7 @@ use anyhow::{Context, Result};
 use glam::{DMat4, DVec3};
 use serde_json::{json, Value};
 use zerotile_codec::container::TileId;
+use zerotile_codec::mesh::Aabb;
 
 /// One exported tile.
 #[derive(Clone, Debug)]
@@ -36,8 +37,8 @@ pub struct Node {
     pub id: TileId,
     /// The tile's frame → ECEF (metres).
     pub frame: DMat4,
-    /// Least and greatest corner of its vertices in its frame; `None` when it wrote none.
-    pub content: Option<[DVec3; 2]>,
+    /// The box of its vertices in its frame; empty when it wrote none.
+    pub content: Aabb,
     /// Metres: how far the tile's surface may be from the data's.
     pub error: f64,
 }
@@ -76,14 +77,15 @@ pub fn tileset(
         .collect();
     tops.sort_by_key(|n| (n.id.y, n.id.x));
     let mut top_tiles = Vec::new();
-    let mut root_box: Option<[DVec3; 2]> = None;
+    let mut root_box = Aabb::default();
     for n in tops {
         let b = tree.boxes.get(&n.id).context("a top tile without bounds")?;
-        let ecef = moved_box(n.frame, *b);
-        root_box = Some(root_box.map_or(ecef, |r| union(r, ecef)));
+        root_box = union(root_box, moved_box(n.frame, *b));
         top_tiles.push(tree.emit(n, n.frame)?);
     }
-    let root_box = root_box.context("no tile with vertices to export")?;
+    if root_box.is_empty() {
+        anyhow::bail!("no tile with vertices to export");
+    }
     Ok(json!({
         "asset": { "version": "1.1", "tilesetVersion": version },
         "geometricError": root_error,
@@ -99,7 +101,8 @@ pub fn tileset(
 /// The nodes by tile, and each one's bounds (its vertices and its descendants').
 struct Tree<'a> {
     nodes: HashMap<TileId, &'a Node>,
-    boxes: HashMap<TileId, [DVec3; 2]>,
+    /// Never empty: a tile with none has no entry.
+    boxes: HashMap<TileId, Aabb>,
     /// The geometric error each tile is written with, before a leaf's 0.
     errors: HashMap<TileId, f64>,
     uri: &'a dyn Fn(TileId) -> String,
@@ -143,17 +146,16 @@ impl<'a> Tree<'a> {
         order.sort_by_key(|n| std::cmp::Reverse(n.id.z));
         for n in order {
             let to_local = n.frame.inverse();
-            let mut b = n.content.map(widen);
+            let mut b = widen(n.content);
             let mut error = n.error;
             for c in self.children(n.id) {
                 if let Some(&cb) = self.boxes.get(&c.id) {
-                    let moved = moved_box(to_local * c.frame, cb);
-                    b = Some(b.map_or(moved, |b| union(b, moved)));
+                    b = union(b, moved_box(to_local * c.frame, cb));
                     error = error.max(self.errors.get(&c.id).copied().unwrap_or(0.0));
                 }
             }
             self.errors.insert(n.id, error);
-            if let Some(b) = b {
+            if !b.is_empty() {
                 self.boxes.insert(n.id, b);
             }
         }
@@ -181,7 +183,7 @@ impl<'a> Tree<'a> {
             "transform".into(),
             json!(transform.to_cols_array().to_vec()),
         );
-        if n.content.is_some() {
+        if !n.content.is_empty() {
             t.insert("content".into(), json!({ "uri": (self.uri)(n.id) }));
         }
         if !kids.is_empty() {
@@ -194,33 +196,43 @@ impl<'a> Tree<'a> {
 /// A box widened by what storing its vertices as f32 may move them (half a unit in the
 /// last place of its largest coordinate, twice over) and a millimetre, so a flat tile's box
 /// keeps some thickness: CesiumJS normalises a box's half-axes.
-fn widen([lo, hi]: [DVec3; 2]) -> [DVec3; 2] {
-    let largest = lo.abs().max(hi.abs()).max_element();
+/// An empty box stays empty.
+fn widen(b: Aabb) -> Aabb {
+    if b.is_empty() {
+        return b;
+    }
+    let largest = b.min.abs().max(b.max.abs()).max_element();
     let pad = DVec3::splat(largest * f64::from(f32::EPSILON) + 1e-3);
-    [lo - pad, hi + pad]
+    Aabb {
+        min: b.min - pad,
+        max: b.max + pad,
+    }
 }
 
-fn union(a: [DVec3; 2], b: [DVec3; 2]) -> [DVec3; 2] {
-    [a[0].min(b[0]), a[1].max(b[1])]
+/// The box holding both (either may be empty).
+fn union(a: Aabb, b: Aabb) -> Aabb {
+    Aabb {
+        min: a.min.min(b.min),
+        max: a.max.max(b.max),
+    }
 }
 
 /// The box, in another frame by the rigid `m`, bounded there by its eight corners.
-fn moved_box(m: DMat4, [lo, hi]: [DVec3; 2]) -> [DVec3; 2] {
-    let mut out = [DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)];
-    for k in 0..8 {
+fn moved_box(m: DMat4, b: Aabb) -> Aabb {
+    let corners = (0..8).map(|k| {
+        let pick = |bit: i32, lo: f64, hi: f64| if k & bit == 0 { lo } else { hi };
         let corner = DVec3::new(
-            if k & 1 == 0 { lo.x } else { hi.x },
-            if k & 2 == 0 { lo.y } else { hi.y },
-            if k & 4 == 0 { lo.z } else { hi.z },
+            pick(1, b.min.x, b.max.x),
+            pick(2, b.min.y, b.max.y),
+            pick(4, b.min.z, b.max.z),
         );
-        let p = m.transform_point3(corner);
-        out = [out[0].min(p), out[1].max(p)];
-    }
-    out
+        m.transform_point3(corner)
+    });
+    corners.fold(Aabb::default(), Aabb::grow)
 }
 
 /// 3D Tiles' `box`: the centre, then the three half-axes.
-fn box_json([lo, hi]: [DVec3; 2]) -> Vec<f64> {
+fn box_json(Aabb { min: lo, max: hi }: Aabb) -> Vec<f64> {
     let c = (lo + hi) / 2.0;
     let h = (hi - lo) / 2.0;
     vec![c.x, c.y, c.z, h.x, 0.0, 0.0, 0.0, h.y, 0.0, 0.0, 0.0, h.z]

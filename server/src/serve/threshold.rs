@@ -103,9 +103,13 @@ pub fn mesh_tolerance(t: f64) -> f64 {
 /// budget gives the same two-triangle mesh. For a local grid the error is in sample spacings,
 /// read as metres (a grid without georeference has no other scale).
 pub fn default_threshold(d: &Dataset, z: u8) -> f64 {
+    d.tiling.level_geometric_error(z).min(relief(d))
+}
+
+/// The dataset's height range (at least a metre): no mesh of it errs by more.
+pub fn relief(d: &Dataset) -> f64 {
     let [lo, hi] = d.metadata().height_range;
-    let relief = (hi - lo).max(1.0);
-    d.tiling.level_geometric_error(z).min(relief)
+    (hi - lo).max(1.0)
 }
 
 /// The threshold a request asks for: `threshold`, `ratio`, or `eye`+`target`+`fov`
